@@ -1,0 +1,327 @@
+"""The multi-robot social-navigation environment: state, params, reset and step.
+
+One environment is written for one episode; batch it with ``jax.vmap`` from outside::
+
+    env, params = sgjax.make("doorway", num_agents=4)
+    keys = jax.random.split(jax.random.key(0), 1024)
+    obs, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+    step = jax.jit(jax.vmap(env.step, in_axes=(0, 0, 0, None)))
+
+Robots are ``[R]`` arrays padded to ``env.max_agents``; ``params.num_agents`` of them take part in
+an episode (``present``). A robot that reaches its goal is terminated, absorbing (frozen, reward 0)
+and leaves the world (nobody collides with it or plans around it).
+
+Actions (static ``action_mode``):
+  * ``"go_stop"``: ``[R]`` ints, 0 = GO (follow the local planner), any other value = STOP
+    (brake at the robot's deceleration limit);
+  * ``"continuous"``: ``[R, d]`` floats in [-1, 1], ``d = 2`` ``(forward, turn)`` or ``d = 3``
+    ``(forward, lateral, turn)`` when the team has an omnidirectional robot
+    (see :func:`sgjax.dynamics.decode_continuous`).
+
+Default observation ``[R, 10]``: world pose ``(x, y, cos h, sin h)``, body velocity
+``(v_forward, v_lateral, omega)``, goal in the robot frame ``(gx, gy)`` and goal distance.
+Default reward: ``progress`` x metres gained toward the goal + ``success`` once on arrival +
+``collision`` per collision onset (robot-robot or robot-wall).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import gymnasium
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+from jax import Array
+
+from sgjax.contacts import clamp_to_walls, separate_robots
+from sgjax.dynamics.limits import RobotParams
+from sgjax.dynamics.models import Kinematics, decode_continuous, integrate
+from sgjax.geometry import safe_norm
+from sgjax.maps.arrays import MapArrays
+from sgjax.maps.sampling import Route, build_routes, sample_starts_goals
+from sgjax.planner import PlannerConfig, PlannerParams, carrot_point, plan, route_progress
+
+ACTION_MODES = ("go_stop", "continuous")
+GO, STOP = 0, 1
+OBS_SIZE = 10
+
+
+@struct.dataclass
+class RobotState:
+    """Robots, each field ``[R]``. Public: ``position``, ``heading``, ``velocity``, ``active``."""
+
+    x: Array  # m, world
+    y: Array  # m, world
+    kin: Kinematics
+    present: Array  # bool: takes part in this episode
+    succeeded: Array  # bool: reached its goal (absorbing)
+
+    @property
+    def position(self) -> Array:
+        """World position ``[R, 2]`` (m)."""
+        return jnp.stack([self.x, self.y], axis=-1)
+
+    @property
+    def heading(self) -> Array:
+        """Heading ``[R]`` (rad, in (-pi, pi])."""
+        return self.kin.heading
+
+    @property
+    def velocity(self) -> Array:
+        """World-frame velocity ``[R, 2]`` (m/s)."""
+        c, s = jnp.cos(self.kin.heading), jnp.sin(self.kin.heading)
+        vf, vl = self.kin.v_forward, self.kin.v_lateral
+        return jnp.stack([vf * c - vl * s, vf * s + vl * c], axis=-1)
+
+    @property
+    def active(self) -> Array:
+        """``[R]`` bool: in the episode and not yet finished."""
+        return self.present & ~self.succeeded
+
+
+@struct.dataclass
+class CollisionCounts:
+    """Collision onsets per robot since the episode began, ``[R]`` int32."""
+
+    robot: Array
+    wall: Array
+
+
+@struct.dataclass
+class EnvState:
+    robots: RobotState
+    route: Route
+    progress: Array  # [R] m along the route
+    goal_distance: Array  # [R] m, straight line, at the end of the last step
+    touching_robot: Array  # [R] bool, at the last step (for onsets)
+    touching_wall: Array  # [R] bool
+    collisions: CollisionCounts
+    time: Array  # int32 steps since reset
+
+
+@struct.dataclass
+class RewardWeights:
+    progress: Array | float = 1.0  # per metre of goal distance gained
+    success: Array | float = 100.0  # once, on arrival
+    collision: Array | float = -10.0  # per collision onset
+
+
+@struct.dataclass
+class EnvParams:
+    """Everything physical; a pytree, so ``vmap`` over it is a sweep."""
+
+    robots: RobotParams
+    map: MapArrays
+    planner: PlannerParams
+    reward: RewardWeights
+    num_agents: Array  # int32 scalar: robots that take part in an episode
+    dt: Array  # s per step
+    max_steps: Array  # int32: truncation after this many steps
+    goal_tolerance: Array  # m
+
+
+@dataclasses.dataclass(frozen=True)
+class EnvConfig:
+    """Static settings: they fix shapes or control flow, so changing them recompiles."""
+
+    scenario: str
+    max_agents: int
+    action_mode: str = "go_stop"
+    action_dim: int = 2
+    substeps: int = 1
+    planner: PlannerConfig = dataclasses.field(default_factory=PlannerConfig)
+
+
+class SocialNavEnv:
+    """A scenario's environment. Holds only static configuration; all arrays live in params."""
+
+    def __init__(self, config: EnvConfig, default_params: EnvParams):
+        if config.action_mode not in ACTION_MODES:
+            raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {config.action_mode!r}")
+        self.config = config
+        self._default_params = default_params
+
+    def __repr__(self) -> str:
+        c = self.config
+        return (f"SocialNavEnv(scenario={c.scenario!r}, max_agents={c.max_agents}, "
+                f"action_mode={c.action_mode!r}, substeps={c.substeps})")
+
+    @property
+    def max_agents(self) -> int:
+        return self.config.max_agents
+
+    @property
+    def default_params(self) -> EnvParams:
+        return self._default_params
+
+    def action_space(self, params: EnvParams | None = None) -> gymnasium.spaces.Space:
+        """One robot's action space."""
+        if self.config.action_mode == "go_stop":
+            return gymnasium.spaces.Discrete(2)
+        return gymnasium.spaces.Box(-1.0, 1.0, (self.config.action_dim,), np.float32)
+
+    def observation_space(self, params: EnvParams | None = None) -> gymnasium.spaces.Box:
+        """One robot's observation space."""
+        return gymnasium.spaces.Box(-np.inf, np.inf, (OBS_SIZE,), np.float32)
+
+    # ------------------------------------------------------------------ reset
+    def reset(self, key: Array, params: EnvParams) -> tuple[Array, EnvState]:
+        """Sample a scenario: starts, goals and routes for ``params.num_agents`` robots."""
+        num_robots = self.max_agents
+        wanted = jnp.arange(num_robots) < params.num_agents
+        start, goal, placed = sample_starts_goals(key, params.map, params.robots.radius, wanted)
+        route = build_routes(params.map, start, goal)
+        x, y = route.x[:, 0], route.y[:, 0]
+        heading = jnp.arctan2(route.y[:, 1] - y, route.x[:, 1] - x)
+        zeros = jnp.zeros(num_robots, jnp.float32)
+        robots = RobotState(
+            x=x, y=y,
+            kin=Kinematics(heading=heading, v_forward=zeros, v_lateral=zeros, omega=zeros,
+                           steering=zeros),
+            present=placed, succeeded=jnp.zeros(num_robots, bool),
+        )
+        no = jnp.zeros(num_robots, bool)
+        state = EnvState(
+            robots=robots, route=route, progress=zeros,
+            goal_distance=safe_norm(route.goal_x - x, route.goal_y - y),
+            touching_robot=no, touching_wall=no,
+            collisions=CollisionCounts(jnp.zeros(num_robots, jnp.int32),
+                                       jnp.zeros(num_robots, jnp.int32)),
+            time=jnp.zeros((), jnp.int32),
+        )
+        return self.observe(state, params), state
+
+    # ------------------------------------------------------------------ step
+    def step(
+        self, key: Array, state: EnvState, actions: Array, params: EnvParams
+    ) -> tuple[Array, EnvState, Array, Array, Array, dict]:
+        """Step, and reset once every present robot is done.
+
+        Returns ``obs [R, D], state, reward [R], terminated [R], truncated [R], info``. When the
+        episode ends, ``obs``/``state`` are the new episode's, and ``info["final_observation"]``,
+        ``info["final_robots"]`` and ``info["final_collisions"]`` hold the ended episode's.
+        """
+        key_step, key_reset = jax.random.split(key)
+        obs, next_state, reward, terminated, truncated, info = self.step_env(
+            key_step, state, actions, params
+        )
+        episode_done = jnp.all(~next_state.robots.present | terminated | truncated)
+        reset_obs, reset_state = self.reset(key_reset, params)
+        info["episode_done"] = episode_done
+        info["final_observation"] = obs
+        info["final_robots"] = next_state.robots
+        info["final_collisions"] = next_state.collisions
+        obs = jnp.where(episode_done, reset_obs, obs)
+        next_state = jax.tree.map(
+            lambda fresh, old: jnp.where(episode_done, fresh, old), reset_state, next_state
+        )
+        return obs, next_state, reward, terminated, truncated, info
+
+    def step_env(
+        self, key: Array, state: EnvState, actions: Array, params: EnvParams
+    ) -> tuple[Array, EnvState, Array, Array, Array, dict]:
+        """One step without auto-reset (same returns as :meth:`step`)."""
+        del key  # the step is deterministic; the key is kept for the API and later noise terms
+        cfg, rp = self.config, params.robots
+        robots = state.robots
+        acting = robots.active
+        forward, lateral, turn = self._commands(state, actions, params)
+
+        dt_sub = params.dt / cfg.substeps
+        x, y, kin = robots.x, robots.y, robots.kin
+        hit_robot = jnp.zeros(self.max_agents, bool)
+        hit_wall = jnp.zeros(self.max_agents, bool)
+        for _ in range(cfg.substeps):
+            new_kin, dx, dy = integrate(kin, forward, lateral, turn, rp, dt_sub)
+            dx, dy = jnp.where(acting, dx, 0.0), jnp.where(acting, dy, 0.0)
+            push_x, push_y, overlap = separate_robots(x + dx, y + dy, rp.radius, acting)
+            dx, dy, wall = clamp_to_walls(x, y, dx + push_x, dy + push_y, rp.radius, params.map)
+            new_kin = new_kin.replace(
+                v_forward=jnp.where(wall, 0.0, new_kin.v_forward),
+                v_lateral=jnp.where(wall, 0.0, new_kin.v_lateral),
+            )
+            kin = jax.tree.map(lambda new, old: jnp.where(acting, new, old), new_kin, kin)
+            x, y = x + dx, y + dy
+            hit_robot, hit_wall = hit_robot | overlap, hit_wall | (wall & acting)
+
+        route = state.route
+        goal_distance = safe_norm(route.goal_x - x, route.goal_y - y)
+        arrived = acting & (goal_distance < params.goal_tolerance)
+        succeeded = robots.succeeded | arrived
+        progress = jnp.where(acting, route_progress(route, x, y, state.progress), state.progress)
+        robot_onset = hit_robot & ~state.touching_robot
+        wall_onset = hit_wall & ~state.touching_wall
+        collisions = CollisionCounts(
+            robot=state.collisions.robot + robot_onset.astype(jnp.int32),
+            wall=state.collisions.wall + wall_onset.astype(jnp.int32),
+        )
+        w = params.reward
+        reward = (
+            w.progress * (state.goal_distance - goal_distance)
+            + w.success * arrived
+            + w.collision * (robot_onset | wall_onset)
+        )
+        reward = jnp.where(acting, reward, 0.0)
+        time = state.time + 1
+        terminated = robots.present & succeeded
+        truncated = robots.present & ~succeeded & (time >= params.max_steps)
+
+        next_state = EnvState(
+            robots=robots.replace(x=x, y=y, kin=kin, succeeded=succeeded),
+            route=route,
+            progress=progress,
+            goal_distance=jnp.where(acting, goal_distance, state.goal_distance),
+            touching_robot=hit_robot,
+            touching_wall=hit_wall,
+            collisions=collisions,
+            time=time,
+        )
+        info = {
+            "acting": acting,
+            "collision_robot": hit_robot,
+            "collision_wall": hit_wall,
+            "arrived": arrived,
+        }
+        return self.observe(next_state, params), next_state, reward, terminated, truncated, info
+
+    def _commands(
+        self, state: EnvState, actions: Array, params: EnvParams
+    ) -> tuple[Array, Array, Array]:
+        """Decode actions into ``(forward, lateral, turn)`` commands ``[R]``."""
+        cfg, rp, robots = self.config, params.robots, state.robots
+        actions = jnp.asarray(actions)
+        if cfg.action_mode == "continuous":
+            expected = (self.max_agents, cfg.action_dim)
+            if actions.shape != expected:
+                raise ValueError(f"actions: expected shape {expected} (robots, action dim) for "
+                                 f"continuous actions, got {actions.shape}")
+            return decode_continuous(actions, rp, cfg.action_dim)
+        if actions.shape != (self.max_agents,):
+            raise ValueError(f"actions: expected shape ({self.max_agents},) of GO(0)/STOP(1) "
+                             f"ints, got {actions.shape}")
+        if not jnp.issubdtype(actions.dtype, jnp.integer):
+            raise ValueError(f"actions: expected integers GO(0)/STOP(1), got dtype {actions.dtype}")
+        carrot_x, carrot_y = carrot_point(params.planner, state.route, state.progress)
+        forward, turn = plan(
+            cfg.planner, params.planner, rp, params.map, robots.x, robots.y, robots.heading,
+            robots.active, carrot_x, carrot_y,
+        )
+        go = actions == GO
+        # STOP: brake to rest; Ackermann robots hold their steering.
+        turn = jnp.where(go, turn, jnp.where(rp.model == 2, robots.kin.steering, 0.0))
+        return jnp.where(go, forward, 0.0), jnp.zeros_like(forward), turn
+
+    # ------------------------------------------------------------ observation
+    def observe(self, state: EnvState, params: EnvParams) -> Array:
+        """Default observation ``[R, 10]`` (zeros for robots not in the episode)."""
+        r = state.robots
+        c, s = jnp.cos(r.heading), jnp.sin(r.heading)
+        gx, gy = state.route.goal_x - r.x, state.route.goal_y - r.y
+        obs = jnp.stack(
+            [r.x, r.y, c, s, r.kin.v_forward, r.kin.v_lateral, r.kin.omega,
+             c * gx + s * gy, -s * gx + c * gy, safe_norm(gx, gy)],
+            axis=-1,
+        )
+        return jnp.where(r.present[:, None], obs, 0.0)

@@ -1,0 +1,163 @@
+"""Planar geometry on separate x / y arrays (metres).
+
+Everything here broadcasts: pass robot coordinates shaped ``[R, 1]`` and wall coordinates shaped
+``[W]`` to get ``[R, W]`` results. Components are kept as separate arrays because XLA's CPU backend
+vectorises the innermost axis, and a trailing axis of size 2 wastes it (see DESIGN.md).
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+from jax import Array
+
+_TINY = 1e-12
+
+
+def wrap_angle(angle: Array) -> Array:
+    """Wrap angles (rad) to (-pi, pi]."""
+    wrapped = jnp.mod(angle + jnp.pi, 2.0 * jnp.pi) - jnp.pi
+    return jnp.where(wrapped == -jnp.pi, jnp.pi, wrapped)
+
+
+def safe_norm(x: Array, y: Array) -> Array:
+    """Euclidean norm with a finite gradient at the origin."""
+    sq = x * x + y * y
+    safe_sq = jnp.where(sq > _TINY, sq, 1.0)
+    return jnp.where(sq > _TINY, jnp.sqrt(safe_sq), 0.0)
+
+
+def point_segment_distance(
+    px: Array, py: Array, ax: Array, ay: Array, bx: Array, by: Array
+) -> Array:
+    """Distance (m) from points ``p`` to segments ``a-b``; broadcasts over all arguments."""
+    ex, ey = bx - ax, by - ay
+    length_sq = ex * ex + ey * ey
+    t = ((px - ax) * ex + (py - ay) * ey) / jnp.maximum(length_sq, _TINY)
+    t = jnp.clip(t, 0.0, 1.0)
+    return safe_norm(px - (ax + t * ex), py - (ay + t * ey))
+
+
+def _first_circle_hit(
+    mx: Array, my: Array, dx: Array, dy: Array, radius: Array
+) -> Array:
+    """Fraction t in [0, 1] at which ``m + t d`` first reaches distance ``radius`` from the origin.
+
+    Returns 0 when the motion starts inside the circle and heads further in, and ``inf`` when the
+    circle is not reached within the step.
+    """
+    a = dx * dx + dy * dy
+    b = mx * dx + my * dy
+    c = mx * mx + my * my - radius * radius
+    disc = b * b - a * c
+    ok = (b < 0.0) & (disc >= 0.0) & (a > _TINY)
+    safe_disc = jnp.where(ok, disc, 0.0)
+    root = (-b - jnp.sqrt(jnp.where(ok, safe_disc, 1.0))) / jnp.where(ok, a, 1.0)
+    t = jnp.where(c <= 0.0, 0.0, root)
+    return jnp.where(ok & (t <= 1.0), jnp.maximum(t, 0.0), jnp.inf)
+
+
+def swept_disc_segment_toi(
+    px: Array,
+    py: Array,
+    dx: Array,
+    dy: Array,
+    radius: Array,
+    ax: Array,
+    ay: Array,
+    bx: Array,
+    by: Array,
+) -> Array:
+    """Time of impact of a disc moving from ``p`` by ``d`` against segments ``a-b``.
+
+    The disc (radius ``radius``) touches a segment when its centre reaches the segment's capsule
+    (the segment inflated by ``radius``). Returns the fraction of the motion in ``[0, 1]`` at the
+    first touch, or ``inf`` when the disc does not touch the segment during this motion. A disc that
+    starts inside a capsule gets 0 if it moves further in, and ``inf`` if it moves out, so a body
+    can always back away from a wall it touches. Broadcasts over all arguments.
+    """
+    ex, ey = bx - ax, by - ay
+    length = safe_norm(ex, ey)
+    inv_len = 1.0 / jnp.maximum(length, _TINY)
+    ux, uy = ex * inv_len, ey * inv_len
+    nx, ny = -uy, ux
+    # Straight sides of the capsule.
+    s0 = (px - ax) * nx + (py - ay) * ny
+    sd = dx * nx + dy * ny
+    side = jnp.where(s0 >= 0.0, 1.0, -1.0)
+    approach = -side * sd  # > 0 when moving toward the segment's line
+    gap = jnp.abs(s0) - radius
+    safe_approach = jnp.where(approach > _TINY, approach, 1.0)
+    t_side = jnp.where(gap <= 0.0, 0.0, gap / safe_approach)
+    along = (px + t_side * dx - ax) * ux + (py + t_side * dy - ay) * uy
+    side_hit = (approach > _TINY) & (t_side <= 1.0) & (along >= 0.0) & (along <= length)
+    t_side = jnp.where(side_hit, t_side, jnp.inf)
+    # Rounded ends of the capsule.
+    t_a = _first_circle_hit(px - ax, py - ay, dx, dy, radius)
+    t_b = _first_circle_hit(px - bx, py - by, dx, dy, radius)
+    return jnp.minimum(t_side, jnp.minimum(t_a, t_b))
+
+
+def ray_segment_distance(
+    px: Array,
+    py: Array,
+    cos_a: Array,
+    sin_a: Array,
+    ax: Array,
+    ay: Array,
+    bx: Array,
+    by: Array,
+) -> Array:
+    """Distance (m) along rays from ``p`` with unit direction ``(cos_a, sin_a)`` to segments.
+
+    Returns ``inf`` where the ray misses the segment. Broadcasts over all arguments.
+    """
+    ex, ey = bx - ax, by - ay
+    denom = cos_a * ey - sin_a * ex
+    qx, qy = ax - px, ay - py
+    ok = jnp.abs(denom) > _TINY
+    safe = jnp.where(ok, denom, 1.0)
+    t = (qx * ey - qy * ex) / safe
+    u = (qx * sin_a - qy * cos_a) / safe
+    hit = ok & (t >= 0.0) & (u >= 0.0) & (u <= 1.0)
+    return jnp.where(hit, t, jnp.inf)
+
+
+def ray_circle_distance(
+    px: Array, py: Array, cos_a: Array, sin_a: Array, cx: Array, cy: Array, radius: Array
+) -> Array:
+    """Distance (m) along unit rays from ``p`` to the boundary of circles; ``inf`` on a miss."""
+    mx, my = px - cx, py - cy
+    b = mx * cos_a + my * sin_a
+    c = mx * mx + my * my - radius * radius
+    disc = b * b - c
+    ok = disc >= 0.0
+    root = jnp.sqrt(jnp.where(ok, disc, 0.0))
+    t_near = -b - root
+    t = jnp.where(c <= 0.0, 0.0, t_near)
+    return jnp.where(ok & (t >= 0.0), t, jnp.inf)
+
+
+def segments_intersect(
+    p1: tuple[float, float], p2: tuple[float, float], q1: tuple[float, float], q2: tuple[float, float]
+) -> bool:
+    """Whether closed segments p1-p2 and q1-q2 intersect (host-side helper for map validation)."""
+
+    def orient(a: tuple[float, float], b: tuple[float, float], c: tuple[float, float]) -> float:
+        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+    def on_segment(a: tuple[float, float], b: tuple[float, float], c: tuple[float, float]) -> bool:
+        return min(a[0], b[0]) - 1e-9 <= c[0] <= max(a[0], b[0]) + 1e-9 and min(
+            a[1], b[1]
+        ) - 1e-9 <= c[1] <= max(a[1], b[1]) + 1e-9
+
+    d1, d2 = orient(q1, q2, p1), orient(q1, q2, p2)
+    d3, d4 = orient(p1, p2, q1), orient(p1, p2, q2)
+    if ((d1 > 0) != (d2 > 0)) and ((d3 > 0) != (d4 > 0)) and d1 * d2 != 0 and d3 * d4 != 0:
+        return True
+    eps = 1e-12
+    return (
+        (abs(d1) < eps and on_segment(q1, q2, p1))
+        or (abs(d2) < eps and on_segment(q1, q2, p2))
+        or (abs(d3) < eps and on_segment(p1, p2, q1))
+        or (abs(d4) < eps and on_segment(p1, p2, q2))
+    )
