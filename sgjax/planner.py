@@ -10,12 +10,15 @@ Per robot and step:
      limited to ``1 / min_turn_radius``) are sampled at ``arc_lengths`` (m, each arc cut at a
      quarter turn). An arc is free up to the last sample whose disc (own radius +
      ``obstacle_margin``) clears every wall and every other robot's disc. The arc whose free end is
-     closest to the carrot wins, with ``clearance_weight`` per metre of clearance (up to 1 m) as a
-     tie-breaker;
+     closest to the carrot wins, with ``clearance_weight`` per metre of wall clearance (up to 1 m)
+     as a tie-breaker. Walls come from the map's per-cell lists (``MapArrays.cell_walls``), which
+     hold every wall within ``MapArrays.reach`` of the cell: enough for the longest arc plus the
+     inflated radius given to ``make``;
   4. the speed is the largest from which the robot can stop within the arc's free length:
      ``min(max_speed, sqrt(2 max_decel (free - stop_margin)))``, and the yaw rate is speed x
      curvature (steering ``atan(wheelbase x curvature)`` for Ackermann robots).
-Cost: ``R * num_arcs * len(arc_lengths) * (W + R)`` distance evaluations per step.
+Cost: ``R * num_arcs * len(arc_lengths) * (Kw + R)`` distance evaluations per step, with ``Kw``
+the longest per-cell wall list.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from __future__ import annotations
 import dataclasses
 
 import jax.numpy as jnp
+import numpy as np
 from flax import struct
 from jax import Array
 
@@ -36,8 +40,18 @@ from sgjax.maps.sampling import Route
 class PlannerConfig:
     """Static planner settings (they fix array shapes, so changing them recompiles)."""
 
-    num_arcs: int = 21
-    arc_lengths: tuple[float, ...] = (0.25, 0.5, 0.8, 1.2, 1.6)
+    num_arcs: int = 11
+    arc_lengths: tuple[float, ...] = (0.3, 0.6, 1.0, 1.5)
+    max_curvature: float = 2.0  # 1/m
+
+    def arcs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Arc curvatures ``[K]`` (1/m), and sample arc lengths and robot-frame points
+        ``[K, M]`` (m); every arc is cut at a quarter turn."""
+        curv = np.linspace(-self.max_curvature, self.max_curvature, self.num_arcs)
+        quarter = np.pi / (2.0 * np.maximum(np.abs(curv), 1e-9))
+        s = np.minimum(np.asarray(self.arc_lengths)[None, :], quarter[:, None])
+        theta = curv[:, None] * s
+        return curv, s, s * np.sinc(theta / np.pi), s * 0.5 * theta * np.sinc(theta / (2 * np.pi)) ** 2
 
     def __post_init__(self) -> None:
         if self.num_arcs < 3 or self.num_arcs % 2 == 0:
@@ -47,6 +61,8 @@ class PlannerConfig:
             lengths[0] <= 0
         ):
             raise ValueError(f"planner arc_lengths must be positive and increasing, got {lengths}")
+        if not self.max_curvature > 0:
+            raise ValueError(f"planner max_curvature must be positive, got {self.max_curvature}")
 
 
 @struct.dataclass
@@ -55,7 +71,6 @@ class PlannerParams:
 
     carrot_distance: Array | float = 1.5  # m
     turn_in_place_angle: Array | float = jnp.pi / 6  # rad
-    max_curvature: Array | float = 2.0  # 1/m
     obstacle_margin: Array | float = 0.1  # m
     stop_margin: Array | float = 0.05  # m
     clearance_weight: Array | float = 0.5  # cost per m of clearance
@@ -81,14 +96,15 @@ def route_progress(route: Route, x: Array, y: Array, progress: Array) -> Array:
 def point_along_route(route: Route, s: Array) -> tuple[Array, Array]:
     """World point at arc length ``s`` ``[R]`` (clipped to the route's ends)."""
     s = jnp.clip(s, 0.0, route.total_length)
-    seg = jnp.sum(route.cum_length[:, 1:] < s[:, None], axis=1)
-    seg = jnp.clip(seg, 0, route.x.shape[1] - 2)[:, None]
-    s0 = jnp.take_along_axis(route.cum_length, seg, axis=1)[:, 0]
-    s1 = jnp.take_along_axis(route.cum_length, seg + 1, axis=1)[:, 0]
-    frac = jnp.clip((s - s0) / jnp.maximum(s1 - s0, 1e-9), 0.0, 1.0)
-    x0, x1 = (jnp.take_along_axis(route.x, seg + k, axis=1)[:, 0] for k in (0, 1))
-    y0, y1 = (jnp.take_along_axis(route.y, seg + k, axis=1)[:, 0] for k in (0, 1))
-    return x0 + frac * (x1 - x0), y0 + frac * (y1 - y0)
+    s0, s1 = route.cum_length[:, :-1], route.cum_length[:, 1:]
+    # The segment holding s: s0 <= s < s1 (half-open, so exactly one), or the last segment of
+    # positive length when s is the route's end. Padding segments have zero length.
+    at_end = s1 >= route.total_length[:, None]
+    on = (s0 <= s[:, None]) & ((s[:, None] < s1) | at_end) & (s1 > s0)
+    frac = jnp.clip((s[:, None] - s0) / jnp.maximum(s1 - s0, 1e-9), 0.0, 1.0)
+    px = route.x[:, :-1] + frac * (route.x[:, 1:] - route.x[:, :-1])
+    py = route.y[:, :-1] + frac * (route.y[:, 1:] - route.y[:, :-1])
+    return jnp.sum(jnp.where(on, px, 0.0), axis=1), jnp.sum(jnp.where(on, py, 0.0), axis=1)
 
 
 def plan(
@@ -115,54 +131,58 @@ def plan(
     local_y = -sin_h * rel_x + cos_h * rel_y
     bearing = jnp.arctan2(local_y, local_x)
 
-    # Arc samples in each robot's frame: [R, K, M].
-    c_max = jnp.where(ackermann, jnp.minimum(pp.max_curvature, 1.0 / robots.min_turn_radius),
-                      pp.max_curvature)
-    unit = jnp.linspace(-1.0, 1.0, config.num_arcs)
-    curv = c_max[:, None] * unit[None, :]  # [R, K]
-    lengths = jnp.asarray(config.arc_lengths)
-    quarter = jnp.pi / (2.0 * jnp.maximum(jnp.abs(curv), 1e-6))
-    s = jnp.minimum(lengths[None, None, :], quarter[:, :, None])  # [R, K, M]
-    theta = curv[:, :, None] * s
-    ax_local = s * jnp.sinc(theta / jnp.pi)
-    ay_local = s * 0.5 * theta * jnp.square(jnp.sinc(theta / (2.0 * jnp.pi)))
-    ch, sh = cos_h[:, None, None], sin_h[:, None, None]
-    px = x[:, None, None] + ch * ax_local - sh * ay_local
-    py = y[:, None, None] + sh * ax_local + ch * ay_local
+    # Arc samples: constants in the robot frame, flattened to S = K * M so that the innermost
+    # axis is long (XLA's CPU backend vectorises the innermost axis), placed in the world [R, S].
+    curv_k, s_km, ax_km, ay_km = (jnp.asarray(a, jnp.float32) for a in config.arcs())
+    num_arcs, num_samples = s_km.shape
+    ax_s, ay_s = ax_km.reshape(-1), ay_km.reshape(-1)
+    px = x[:, None] + cos_h[:, None] * ax_s - sin_h[:, None] * ay_s
+    py = y[:, None] + sin_h[:, None] * ax_s + cos_h[:, None] * ay_s
+    # Ackermann robots may only use arcs within their turning limit.
+    allowed = ~ackermann[:, None] | (jnp.abs(curv_k)[None, :] <= 1.0 / robots.min_turn_radius[:, None])
 
-    # Clearance of every sample from walls and other robots: [R, K, M].
-    inflate = (robots.radius + pp.obstacle_margin)[:, None, None]
-    wall_d = point_segment_distance(
-        px[..., None], py[..., None], m.wall_x1, m.wall_y1, m.wall_x2, m.wall_y2
-    )
-    wall_d = jnp.where(m.wall_valid, wall_d, jnp.inf)
-    clearance = jnp.min(wall_d, axis=-1) - inflate
+    # Clearance of every sample from the walls listed for the robot's grid cell ([R, Kw, S]
+    # squared distances, reduced over Kw), and whether another robot's disc blocks it.
+    inflate = (robots.radius + pp.obstacle_margin)[:, None]
+    near = m.cell_walls[m.cell_of(x, y)]  # [R, Kw]
+    wx1, wy1, wx2, wy2 = (a[near][:, :, None] for a in (m.wall_x1, m.wall_y1, m.wall_x2, m.wall_y2))
+    ex, ey = wx2 - wx1, wy2 - wy1
+    inv_len_sq = 1.0 / jnp.maximum(ex * ex + ey * ey, 1e-12)
+    qx, qy = px[:, None, :] - wx1, py[:, None, :] - wy1
+    t = jnp.clip((qx * ex + qy * ey) * inv_len_sq, 0.0, 1.0)
+    d_sq = jnp.square(qx - t * ex) + jnp.square(qy - t * ey)
+    d_sq = jnp.where(m.wall_valid[near][:, :, None], d_sq, jnp.inf)
+    wall_clearance = jnp.sqrt(jnp.min(d_sq, axis=1)) - inflate  # [R, S]
     num_robots = x.shape[0]
     other = in_world[None, :] & ~jnp.eye(num_robots, dtype=bool)  # [R, R]
-    body_d = jnp.sqrt(
-        jnp.square(px[..., None] - x[None, None, None, :])
-        + jnp.square(py[..., None] - y[None, None, None, :])
-    ) - robots.radius[None, None, None, :]
-    body_d = jnp.where(other[:, None, None, :], body_d, jnp.inf)
-    clearance = jnp.minimum(clearance, jnp.min(body_d, axis=-1) - inflate)
-
-    blocked = clearance < 0.0
-    first_blocked = jnp.argmax(blocked, axis=-1)  # [R, K]; 0 if none blocked
-    any_blocked = jnp.any(blocked, axis=-1)
-    num_samples = len(config.arc_lengths)
-    free_index = jnp.where(any_blocked, first_blocked - 1, num_samples - 1)  # -1: nothing free
-    safe_index = jnp.maximum(free_index, 0)[..., None]
-    free_len = jnp.where(free_index >= 0, jnp.take_along_axis(s, safe_index, -1)[..., 0], 0.0)
-    end_x = jnp.where(free_index >= 0, jnp.take_along_axis(ax_local, safe_index, -1)[..., 0], 0.0)
-    end_y = jnp.where(free_index >= 0, jnp.take_along_axis(ay_local, safe_index, -1)[..., 0], 0.0)
-    sample_index = jnp.arange(num_samples)
-    free_clear = jnp.min(jnp.where(sample_index <= free_index[..., None], clearance, jnp.inf), -1)
-    free_clear = jnp.where(free_index >= 0, jnp.minimum(free_clear, 1.0), 0.0)
+    body_sq = jnp.square(px[:, None, :] - x[None, :, None]) + jnp.square(
+        py[:, None, :] - y[None, :, None])  # [R, R, S]
+    reach_sq = jnp.square(inflate[:, :, None] + robots.radius[None, :, None])
+    body_blocked = jnp.any(other[:, :, None] & (body_sq < reach_sq), axis=1)
+    blocked = ((wall_clearance < 0.0) | body_blocked).reshape(num_robots, num_arcs, num_samples)
+    wall_clearance = wall_clearance.reshape(num_robots, num_arcs, num_samples)
+    # Walk each arc's samples in order ([R, K] slices: no argmax, gathers or short reductions).
+    still_free = allowed
+    free_len = jnp.zeros(allowed.shape, jnp.float32)
+    end_x = jnp.zeros_like(free_len)
+    end_y = jnp.zeros_like(free_len)
+    free_clear = jnp.full(free_len.shape, 1.0)  # wall clearance along the free part, capped 1 m
+    for k in range(num_samples):
+        still_free = still_free & ~blocked[..., k]
+        free_len = jnp.where(still_free, s_km[:, k], free_len)
+        end_x = jnp.where(still_free, ax_km[:, k], end_x)
+        end_y = jnp.where(still_free, ay_km[:, k], end_y)
+        free_clear = jnp.where(still_free, jnp.minimum(free_clear, wall_clearance[..., k]),
+                               free_clear)
+    free_clear = jnp.where(free_len > 0.0, free_clear, 0.0)
     to_carrot = jnp.sqrt(jnp.square(end_x - local_x[:, None]) + jnp.square(end_y - local_y[:, None]))
-    cost = to_carrot - pp.clearance_weight * free_clear
-    best = jnp.argmin(cost, axis=1)[:, None]
-    best_curv = jnp.take_along_axis(curv, best, 1)[:, 0]
-    best_free = jnp.take_along_axis(free_len, best, 1)[:, 0]
+    cost = jnp.where(allowed, to_carrot - pp.clearance_weight * free_clear, jnp.inf)
+    lowest = jnp.min(cost, axis=1, keepdims=True)
+    arc_index = jnp.arange(config.num_arcs)
+    best = jnp.min(jnp.where(cost <= lowest, arc_index, config.num_arcs), axis=1)  # first minimum
+    is_best = arc_index[None, :] == best[:, None]
+    best_curv = jnp.sum(jnp.where(is_best, curv_k[None, :], 0.0), axis=1)
+    best_free = jnp.sum(jnp.where(is_best, free_len, 0.0), axis=1)
 
     stop_speed = jnp.sqrt(2.0 * robots.max_decel * jnp.maximum(best_free - pp.stop_margin, 0.0))
     speed = jnp.minimum(robots.max_speed, stop_speed)

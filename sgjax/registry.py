@@ -26,9 +26,10 @@ DEFAULTS: dict[str, Any] = {
     "substeps": None,  # integration sub-steps per step; default: the fewest that are safe
     "time_limit": 75.0,  # s before truncation (SocialGym: 3000 steps x 0.025 s)
     "goal_tolerance": 0.5,  # m (SocialGym's success radius)
-    "num_arcs": 21,  # local planner arcs (SocialGym sampled 41)
+    "num_arcs": 11,  # local planner arcs (SocialGym sampled 41; see bench/ for the cost)
 }
 CAPACITY_TRIALS = 64
+PLANNER_SLACK = 0.2  # m: how much obstacle_margin may grow after make() with walls still seen
 
 
 def registered() -> list[str]:
@@ -67,18 +68,21 @@ def make(scenario: str, **overrides: Any) -> tuple[SocialNavEnv, EnvParams]:
     presets: list[RobotPreset] = [p for _, p in slots]
     substeps = _substeps(opts["substeps"], presets, dt)
 
-    spec = load(scenario, clearance=max(p.radius for p in presets))
-    map_arrays = compile_map(spec)
+    largest = max(p.radius for p in presets)
+    spec = load(scenario, clearance=largest)
+    planner_config = PlannerConfig(num_arcs=_positive_int("num_arcs", opts["num_arcs"]))
+    planner_params = PlannerParams()
+    reach = max(planner_config.arc_lengths) + largest + planner_params.obstacle_margin + PLANNER_SLACK
+    map_arrays = compile_map(spec, reach=reach)
     action_dim = 3 if any(p.model == "omnidirectional" for p in presets) else 2
     config = EnvConfig(
         scenario=spec.name, max_agents=max_agents, action_mode=opts["action_mode"],
-        action_dim=action_dim, substeps=substeps,
-        planner=PlannerConfig(num_arcs=_positive_int("num_arcs", opts["num_arcs"])),
+        action_dim=action_dim, substeps=substeps, planner=planner_config,
     )
     params = EnvParams(
         robots=robot_params(presets),
         map=map_arrays,
-        planner=PlannerParams(),
+        planner=planner_params,
         reward=RewardWeights(),
         num_agents=jnp.asarray(num_agents, jnp.int32),
         dt=jnp.asarray(dt, jnp.float32),

@@ -17,11 +17,13 @@ _FAR = 1.0e6  # m: where the padding wall of a wall-less map lives
 class MapArrays:
     """Map data as arrays (a pytree, so it can live in ``EnvParams``).
 
-    Walls ``[W]`` per endpoint coordinate (a wall-less map carries one masked padding wall);
+    Walls ``[W + 1]`` per endpoint coordinate (the last is a masked padding wall far away);
     nodes ``[N]``; ``next_hop [N, N]`` (row of the next node on the shortest path, -1 if none);
     ``path_length [N, N]`` shortest-path length in metres; ``group_starts`` / ``group_goals``
     ``[G, N]`` membership masks; ``node_gap [N, N]`` centre distance between nodes (m).
     ``max_route_nodes`` (static) bounds the node count of any shortest start-goal path.
+    ``cell_walls`` lists, for each cell of a ``grid_shape`` grid of ``cell_size`` m squares from
+    ``grid_origin``, the walls within ``reach`` m of the cell (what the planner checks).
     """
 
     wall_x1: Array
@@ -36,7 +38,19 @@ class MapArrays:
     group_starts: Array
     group_goals: Array
     node_gap: Array
+    cell_walls: Array  # [C, Kw] int32: walls within reach of each grid cell (padded, masked)
+    grid_origin: Array  # [2] m: lower-left corner of the wall grid
     max_route_nodes: int = struct.field(pytree_node=False, default=2)
+    grid_shape: tuple[int, int] = struct.field(pytree_node=False, default=(1, 1))
+    cell_size: float = struct.field(pytree_node=False, default=1.0)
+    reach: float = struct.field(pytree_node=False, default=0.0)
+
+    def cell_of(self, x: Array, y: Array) -> Array:
+        """Flat grid-cell index of points (clipped to the grid)."""
+        nx, ny = self.grid_shape
+        ix = jnp.clip(jnp.floor((x - self.grid_origin[0]) / self.cell_size), 0, nx - 1)
+        iy = jnp.clip(jnp.floor((y - self.grid_origin[1]) / self.cell_size), 0, ny - 1)
+        return (iy * nx + ix).astype(jnp.int32)
 
     @property
     def walls(self) -> Array:
@@ -50,13 +64,46 @@ def spawn_groups(spec: MapSpec) -> list[tuple[tuple[int, ...], tuple[int, ...]]]
     return list(spec.groups) + [((r[0],), (r[-1],)) for r in spec.routes]
 
 
-def compile_map(spec: MapSpec) -> MapArrays:
-    """Compile a :class:`MapSpec` into :class:`MapArrays` (float32 / int32)."""
-    walls = spec.walls
-    valid = np.ones(walls.shape[0], dtype=bool)
-    if walls.shape[0] == 0:
-        walls = np.array([[_FAR, _FAR, _FAR + 1.0, _FAR]])
-        valid = np.zeros(1, dtype=bool)
+def wall_grid(
+    walls: np.ndarray, valid: np.ndarray, lo: np.ndarray, hi: np.ndarray, reach: float,
+    cell_size: float,
+) -> tuple[np.ndarray, np.ndarray, tuple[int, int]]:
+    """For every cell of a grid over ``[lo, hi]``, the walls closer than ``reach`` to any point of
+    the cell. Padding entries point at the last wall slot, which must be masked if unused.
+
+    Returns ``(cell_walls [C, Kw], origin [2], (nx, ny))``.
+    """
+    nx = max(1, int(np.ceil((hi[0] - lo[0]) / cell_size)))
+    ny = max(1, int(np.ceil((hi[1] - lo[1]) / cell_size)))
+    iy, ix = np.mgrid[0:ny, 0:nx]
+    centre = np.stack([lo[0] + (ix.ravel() + 0.5) * cell_size,
+                       lo[1] + (iy.ravel() + 0.5) * cell_size], axis=-1)  # [C, 2]
+    a, b = walls[None, :, :2], walls[None, :, 2:]
+    e = b - a
+    t = np.clip(np.sum((centre[:, None] - a) * e, -1) / np.maximum(np.sum(e * e, -1), 1e-12), 0, 1)
+    dist = np.linalg.norm(centre[:, None] - (a + t[..., None] * e), axis=-1)  # [C, W]
+    near = (dist <= reach + cell_size * np.sqrt(0.5)) & valid[None, :]
+    width = max(1, int(near.sum(axis=1).max()))
+    cell_walls = np.full((near.shape[0], width), walls.shape[0] - 1, dtype=np.int32)
+    for c in range(near.shape[0]):
+        idx = np.flatnonzero(near[c])
+        cell_walls[c, : idx.size] = idx
+    return cell_walls, lo, (nx, ny)
+
+
+def compile_map(spec: MapSpec, reach: float = 2.5, cell_size: float = 1.0) -> MapArrays:
+    """Compile a :class:`MapSpec` into :class:`MapArrays` (float32 / int32).
+
+    ``reach`` (m) is how far from a point the local planner looks for walls (its longest arc plus
+    the largest inflated robot radius); it sizes the per-cell wall lists.
+    """
+    # One masked padding wall far away at the end: wall lists point at it for their empty slots.
+    walls = np.concatenate([spec.walls, [[_FAR, _FAR, _FAR + 1.0, _FAR]]], axis=0)
+    valid = np.arange(walls.shape[0]) < spec.walls.shape[0]
+    points = np.concatenate([spec.walls[:, :2], spec.walls[:, 2:], spec.node_positions], axis=0)
+    lo = np.minimum(points.min(axis=0), spec.bounds[:2]) - reach
+    hi = np.maximum(points.max(axis=0), spec.bounds[2:]) + reach
+    cell_walls, origin, grid_shape = wall_grid(walls, valid, lo, hi, reach, cell_size)
     dist, next_hop = all_pairs_shortest_paths(spec.node_positions, spec.edges)
     groups = spawn_groups(spec)
     starts = np.zeros((len(groups), spec.num_nodes), dtype=bool)
@@ -85,5 +132,10 @@ def compile_map(spec: MapSpec) -> MapArrays:
         group_starts=jnp.asarray(starts),
         group_goals=jnp.asarray(goals),
         node_gap=jnp.asarray(gap, f32),
+        cell_walls=jnp.asarray(cell_walls, jnp.int32),
+        grid_origin=jnp.asarray(origin, f32),
         max_route_nodes=longest,
+        grid_shape=grid_shape,
+        cell_size=float(cell_size),
+        reach=float(reach),
     )

@@ -1,0 +1,194 @@
+"""Throughput of sgjax's batched step against peer simulators, measured in one run.
+
+Prints one table: agent-steps/s, env-steps/s, compile time and peak memory for each simulator,
+action mode, robot count and number of environments. The whole step is timed (dynamics,
+contacts, planner for GO/STOP, observations, rewards, auto-reset), run as ``jit(scan(vmap(step)))``
+with random actions drawn inside the scan.
+
+Peers (skipped with a note when not installed): JaxMARL ``MPE_simple_spread_v3`` (pip jaxmarl)
+with N agents and N landmarks, stepped the same way; VMAS ``navigation`` on the CPU (pip vmas,
+after ``pip install torch==2.13.0``), stepped in its own batched torch loop.
+
+Peak memory: for JAX, XLA's compiled memory analysis (arguments + outputs + temporaries) of the
+timed function; for VMAS, the growth of the process's peak RSS (a coarse upper bound).
+
+    python bench/throughput.py                      # the full table of the issue
+    python bench/throughput.py --num-envs 64 1024 --robots 4 --peers none
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import time
+from collections.abc import Callable
+
+import jax
+import jax.numpy as jnp
+
+import sgjax
+
+DEFAULT_ENVS = (1, 64, 1024, 4096, 16384)
+DEFAULT_ROBOTS = (4, 10)
+
+
+def _scan_rollout(step_fn: Callable, sample_fn: Callable, steps: int) -> Callable:
+    def rollout(state, key):
+        def body(carry, k):
+            k_act, k_step = jax.random.split(k)
+            return step_fn(k_step, carry, sample_fn(k_act)), None
+
+        state, _ = jax.lax.scan(body, state, jax.random.split(key, steps))
+        return state
+
+    return jax.jit(rollout)
+
+
+def _time_jax(rollout: Callable, state, steps: int, repeats: int) -> tuple[float, float, int]:
+    """Returns (compile seconds, best seconds per step, peak bytes)."""
+    key = jax.random.key(1)
+    t0 = time.perf_counter()
+    compiled = rollout.lower(state, key).compile()
+    compile_s = time.perf_counter() - t0
+    mem = compiled.memory_analysis()
+    peak = 0
+    if mem is not None:
+        peak = (mem.argument_size_in_bytes + mem.output_size_in_bytes
+                + mem.temp_size_in_bytes)
+    jax.block_until_ready(compiled(state, key))  # warm-up
+    best = float("inf")
+    for r in range(repeats):
+        t0 = time.perf_counter()
+        jax.block_until_ready(compiled(state, jax.random.key(2 + r)))
+        best = min(best, time.perf_counter() - t0)
+    return compile_s, best / steps, peak
+
+
+def bench_sgjax(mode: str, robots: int, num_envs: int, steps: int, repeats: int, scenario: str):
+    env, params = sgjax.make(scenario, num_agents=robots, action_mode=mode)
+    keys = jax.random.split(jax.random.key(0), num_envs)
+    _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+    vstep = jax.vmap(env.step, in_axes=(0, 0, 0, None))
+
+    def step_fn(key, st, actions):
+        return vstep(jax.random.split(key, num_envs), st, actions, params)[1]
+
+    if mode == "go_stop":
+        def sample(k):  # mostly GO, like a policy that sometimes yields
+            return (jax.random.uniform(k, (num_envs, robots)) < 0.2).astype(jnp.int32)
+    else:
+        dim = env.config.action_dim
+
+        def sample(k):
+            return jax.random.uniform(k, (num_envs, robots, dim), minval=-1.0, maxval=1.0)
+
+    return _time_jax(_scan_rollout(step_fn, sample, steps), state, steps, repeats)
+
+
+def bench_jaxmarl(robots: int, num_envs: int, steps: int, repeats: int):
+    from jaxmarl import make as jaxmarl_make
+
+    env = jaxmarl_make("MPE_simple_spread_v3", num_agents=robots, num_landmarks=robots)
+    keys = jax.random.split(jax.random.key(0), num_envs)
+    _, state = jax.vmap(env.reset)(keys)
+    agents = env.agents
+    num_actions = env.action_space(agents[0]).n
+    vstep = jax.vmap(env.step)
+
+    def step_fn(key, st, actions):
+        acts = {a: actions[:, i] for i, a in enumerate(agents)}
+        return vstep(jax.random.split(key, num_envs), st, acts)[1]
+
+    def sample(k):
+        return jax.random.randint(k, (num_envs, robots), 0, num_actions)
+
+    return _time_jax(_scan_rollout(step_fn, sample, steps), state, steps, repeats)
+
+
+def bench_vmas(robots: int, num_envs: int, steps: int, repeats: int):
+    import torch
+    import vmas
+
+    torch.set_num_threads(max(1, torch.get_num_threads()))
+    rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    t0 = time.perf_counter()
+    env = vmas.make_env("navigation", num_envs=num_envs, device="cpu", continuous_actions=True,
+                        n_agents=robots, seed=0)
+    env.reset()
+    setup_s = time.perf_counter() - t0
+
+    def run(n: int) -> float:
+        t = time.perf_counter()
+        for _ in range(n):
+            actions = [torch.rand(num_envs, 2) * 2.0 - 1.0 for _ in range(robots)]
+            _, _, dones, _ = env.step(actions)
+            if bool(dones.any()):
+                for i in torch.nonzero(dones).flatten().tolist():
+                    env.reset_at(i)
+        return time.perf_counter() - t
+
+    run(2)
+    best = min(run(steps) for _ in range(repeats))
+    rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return setup_s, best / steps, max(0, rss1 - rss0) * 1024
+
+
+def _steps_for(num_envs: int, robots: int, budget: int) -> int:
+    return int(max(10, min(200, budget // max(1, num_envs * robots))))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--num-envs", type=int, nargs="+", default=list(DEFAULT_ENVS))
+    parser.add_argument("--robots", type=int, nargs="+", default=list(DEFAULT_ROBOTS))
+    parser.add_argument("--modes", nargs="+", default=["go_stop", "continuous"])
+    parser.add_argument("--peers", nargs="+", default=["jaxmarl", "vmas"],
+                        help="peer simulators to run: jaxmarl, vmas, or none")
+    parser.add_argument("--scenario", default="doorway")
+    parser.add_argument("--budget", type=int, default=4_000_000,
+                        help="agent-steps per timed repeat (sets the scan length)")
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+
+    print(f"jax {jax.__version__} on {jax.devices()[0].platform} "
+          f"({len(jax.devices())} device(s)); scenario {args.scenario}")
+    header = (f"{'simulator':<28}{'robots':>7}{'envs':>8}{'agent-steps/s':>15}"
+              f"{'env-steps/s':>13}{'compile s':>11}{'peak MB':>10}")
+    print(header)
+    print("-" * len(header))
+    best: dict[tuple[str, int], float] = {}
+
+    def report(name: str, robots: int, envs: int, result) -> None:
+        compile_s, per_step, peak = result
+        agent_sps = envs * robots / per_step
+        best[(name, robots)] = max(best.get((name, robots), 0.0), agent_sps)
+        print(f"{name:<28}{robots:>7}{envs:>8}{agent_sps:>15,.0f}{envs / per_step:>13,.0f}"
+              f"{compile_s:>11.2f}{peak / 2**20:>10.1f}", flush=True)
+
+    for robots in args.robots:
+        for envs in args.num_envs:
+            steps = _steps_for(envs, robots, args.budget)
+            for mode in args.modes:
+                report(f"sgjax {mode}", robots, envs,
+                       bench_sgjax(mode, robots, envs, steps, args.repeats, args.scenario))
+            for peer in args.peers:
+                try:
+                    if peer == "jaxmarl":
+                        result = bench_jaxmarl(robots, envs, steps, args.repeats)
+                        report("jaxmarl simple_spread_v3", robots, envs, result)
+                    elif peer == "vmas":
+                        vsteps = max(5, min(steps, 50))
+                        report("vmas navigation (torch cpu)", robots, envs,
+                               bench_vmas(robots, envs, vsteps, args.repeats))
+                except ImportError as err:
+                    print(f"{peer}: skipped ({err})")
+    print("\nbest agent-steps/s over batch sizes, and ratio to each peer:")
+    for (name, robots), sps in sorted(best.items(), key=lambda kv: (kv[0][1], kv[0][0])):
+        ratios = [f"{sps / best[(p, robots)]:.1f}x {p.split()[0]}"
+                  for p in ("jaxmarl simple_spread_v3", "vmas navigation (torch cpu)")
+                  if (p, robots) in best and not name.startswith(p.split()[0])]
+        print(f"  {name:<28} {robots:>3} robots {sps:>14,.0f}   " + ", ".join(ratios))
+
+
+if __name__ == "__main__":
+    main()
