@@ -12,9 +12,10 @@ WALL_SKIN = 1e-3  # m: robots stop this far short of the contact point with a wa
 
 
 def separate_robots(
-    x: Array, y: Array, radius: Array, in_world: Array
+    x: Array, y: Array, radius: Array, in_world: Array, share: float = 0.5
 ) -> tuple[Array, Array, Array]:
-    """Push overlapping robots apart along their centre line, each by half the overlap.
+    """Push overlapping robots apart along their centre line, each by ``share`` of the overlap
+    (0.5 resolves a free pair exactly; 1.0 resolves a pair whose partner is pinned).
 
     ``x, y, radius, in_world`` are ``[R]``; robots not ``in_world`` neither push nor get pushed.
     Returns the push ``(px, py)`` ``[R]`` (m) and a per-robot overlap flag ``[R]``.
@@ -32,8 +33,8 @@ def separate_robots(
     close = dist < 1e-6
     ux = jnp.where(close, fallback, dx / jnp.where(close, 1.0, dist))
     uy = jnp.where(close, 0.0, dy / jnp.where(close, 1.0, dist))
-    half = jnp.where(touching, 0.5 * overlap, 0.0)
-    return jnp.sum(half * ux, axis=1), jnp.sum(half * uy, axis=1), jnp.any(touching, axis=1)
+    push = jnp.where(touching, share * overlap, 0.0)
+    return jnp.sum(push * ux, axis=1), jnp.sum(push * uy, axis=1), jnp.any(touching, axis=1)
 
 
 def clamp_to_walls(
@@ -43,6 +44,8 @@ def clamp_to_walls(
 
     Returns the allowed displacement and a per-robot wall-contact flag. The robot stops
     ``WALL_SKIN`` short of the contact, so no step size or speed puts a robot inside a wall.
+    Every wall is tested (broadcast against constants: faster on the CPU than gathering the
+    per-cell lists the planner uses).
     """
     toi = swept_disc_segment_toi(
         x[:, None], y[:, None], dx[:, None], dy[:, None], radius[:, None],

@@ -37,7 +37,7 @@ from jax import Array
 
 from sgjax.contacts import clamp_to_walls, separate_robots
 from sgjax.dynamics.limits import RobotParams
-from sgjax.dynamics.models import Kinematics, decode_continuous, integrate
+from sgjax.dynamics.models import Kinematics, decode_continuous, integrate, stop_on_contact
 from sgjax.geometry import safe_norm
 from sgjax.maps.arrays import MapArrays
 from sgjax.maps.sampling import Route, build_routes, sample_starts_goals
@@ -131,6 +131,7 @@ class EnvConfig:
     action_mode: str = "go_stop"
     action_dim: int = 2
     substeps: int = 1
+    contact_passes: int = 3  # robot-robot separation passes per sub-step
     planner: PlannerConfig = dataclasses.field(default_factory=PlannerConfig)
 
 
@@ -169,10 +170,22 @@ class SocialNavEnv:
     # ------------------------------------------------------------------ reset
     def reset(self, key: Array, params: EnvParams) -> tuple[Array, EnvState]:
         """Sample a scenario: starts, goals and routes for ``params.num_agents`` robots."""
-        num_robots = self.max_agents
-        wanted = jnp.arange(num_robots) < params.num_agents
+        wanted = jnp.arange(self.max_agents) < params.num_agents
         start, goal, placed = sample_starts_goals(key, params.map, params.robots.radius, wanted)
-        route = build_routes(params.map, start, goal)
+        return self.reset_to(start, goal, placed, params)
+
+    def reset_to(
+        self, start: Array, goal: Array, present: Array, params: EnvParams
+    ) -> tuple[Array, EnvState]:
+        """Start an episode on given routes: node rows ``start, goal [R]`` (int) and which robots
+        take part (``present [R]`` bool). Robots start at rest facing their first waypoint."""
+        num_robots = self.max_agents
+        for name, value in (("start", start), ("goal", goal), ("present", present)):
+            if jnp.shape(value) != (num_robots,):
+                raise ValueError(f"reset_to: {name} must have shape ({num_robots},), "
+                                 f"got {jnp.shape(value)}")
+        route = build_routes(params.map, jnp.asarray(start, jnp.int32),
+                             jnp.asarray(goal, jnp.int32))
         x, y = route.x[:, 0], route.y[:, 0]
         heading = jnp.arctan2(route.y[:, 1] - y, route.x[:, 1] - x)
         zeros = jnp.zeros(num_robots, jnp.float32)
@@ -180,7 +193,7 @@ class SocialNavEnv:
             x=x, y=y,
             kin=Kinematics(heading=heading, v_forward=zeros, v_lateral=zeros, omega=zeros,
                            steering=zeros),
-            present=placed, succeeded=jnp.zeros(num_robots, bool),
+            present=jnp.asarray(present, bool), succeeded=jnp.zeros(num_robots, bool),
         )
         no = jnp.zeros(num_robots, bool)
         state = EnvState(
@@ -238,12 +251,17 @@ class SocialNavEnv:
             dx, dy = jnp.where(acting, dx, 0.0), jnp.where(acting, dy, 0.0)
             push_x, push_y, overlap = separate_robots(x + dx, y + dy, rp.radius, acting)
             dx, dy, wall = clamp_to_walls(x, y, dx + push_x, dy + push_y, rp.radius, params.map)
-            new_kin = new_kin.replace(
-                v_forward=jnp.where(wall, 0.0, new_kin.v_forward),
-                v_lateral=jnp.where(wall, 0.0, new_kin.v_lateral),
-            )
-            kin = jax.tree.map(lambda new, old: jnp.where(acting, new, old), new_kin, kin)
             x, y = x + dx, y + dy
+            # Relaxation: a robot pinned against a wall cannot take its half of a push, so what
+            # is left is resolved by pushing each robot the full remaining overlap (a free pair
+            # may end up separated by at most that small remainder).
+            for _ in range(cfg.contact_passes - 1):
+                push_x, push_y, _ = separate_robots(x, y, rp.radius, acting)
+                push_x, push_y, pinned = clamp_to_walls(x, y, push_x, push_y, rp.radius,
+                                                        params.map)
+                x, y, wall = x + push_x, y + push_y, wall | pinned
+            new_kin = stop_on_contact(new_kin, wall, rp)
+            kin = jax.tree.map(lambda new, old: jnp.where(acting, new, old), new_kin, kin)
             hit_robot, hit_wall = hit_robot | overlap, hit_wall | (wall & acting)
 
         route = state.route

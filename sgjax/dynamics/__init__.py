@@ -10,7 +10,13 @@ from sgjax.dynamics.limits import (
     resolve_robots,
     robot_params,
 )
-from sgjax.dynamics.models import Kinematics, clip_command, decode_continuous, integrate
+from sgjax.dynamics.models import (
+    Kinematics,
+    clip_command,
+    decode_continuous,
+    integrate,
+    stop_on_contact,
+)
 
 __all__ = [
     "ACKERMANN",
@@ -25,4 +31,5 @@ __all__ = [
     "integrate",
     "resolve_robots",
     "robot_params",
+    "stop_on_contact",
 ]

@@ -93,6 +93,15 @@ def integrate(
     return new, dx, dy
 
 
+def stop_on_contact(kin: Kinematics, hit: Array, p: RobotParams) -> Kinematics:
+    """A robot that hit a wall stops at once (linear speeds zero). Diff-drive and omni robots
+    keep their yaw rate; an Ackermann robot's yaw rate follows its (zero) speed."""
+    v_forward = jnp.where(hit, 0.0, kin.v_forward)
+    omega = jnp.where(hit & (p.model == ACKERMANN), 0.0, kin.omega)
+    return kin.replace(v_forward=v_forward, v_lateral=jnp.where(hit, 0.0, kin.v_lateral),
+                       omega=omega)
+
+
 def decode_continuous(action: Array, p: RobotParams, action_dim: int) -> tuple[Array, Array, Array]:
     """Map normalised actions ``[R, action_dim]`` in [-1, 1] to ``(forward, lateral, turn)``.
 

@@ -1,0 +1,5 @@
+"""Shared test settings: headless matplotlib, deterministic float32 JAX."""
+
+import matplotlib
+
+matplotlib.use("Agg")
