@@ -324,7 +324,7 @@ class SocialNavEnv:
         carrot_x, carrot_y = carrot_point(params.planner, state.route, state.progress)
         forward, turn = plan(
             cfg.planner, params.planner, rp, params.map, robots.x, robots.y, robots.heading,
-            robots.active, carrot_x, carrot_y,
+            robots.kin.v_forward, params.dt, robots.active, carrot_x, carrot_y,
         )
         go = actions == GO
         # STOP: brake to rest; Ackermann robots hold their steering.

@@ -3,8 +3,9 @@
 Per robot and step:
   1. the carrot is the point ``carrot_distance`` (1.5 m, SocialGym's value) further along the route
      than the robot's progress (its projection on the route, never moving backwards);
-  2. if the carrot's bearing exceeds ``turn_in_place_angle`` (30 degrees) the robot stops and turns
-     toward it with time-optimal yaw control (Ackermann robots cannot, and keep to arcs);
+  2. if the carrot's bearing exceeds ``turn_in_place_angle`` (30 degrees) the robot halts (below
+     ``halt_speed``) and then turns toward it with time-optimal yaw control (Ackermann robots
+     cannot, and keep to arcs);
   3. otherwise ``num_arcs`` constant-curvature arcs with curvature in
      ``[-max_curvature, max_curvature]`` (SocialGym: 41 arcs in [-2, 2] 1/m; Ackermann robots are
      limited to ``1 / min_turn_radius``) are sampled at ``arc_lengths`` (m, each arc cut at a
@@ -15,8 +16,8 @@ Per robot and step:
      hold every wall within ``MapArrays.reach`` of the cell: enough for the longest arc plus the
      inflated radius given to ``make``;
   4. the speed is the largest from which the robot can stop within the arc's free length:
-     ``min(max_speed, sqrt(2 max_decel (free - stop_margin)))``, and the yaw rate is speed x
-     curvature (steering ``atan(wheelbase x curvature)`` for Ackermann robots).
+     ``min(max_speed, sqrt(2 max_decel (free - stop_margin)))``, and the yaw rate is the speed the
+     robot reaches this step x curvature (steering ``atan(wheelbase x curvature)`` for Ackermann).
 Cost: ``R * num_arcs * len(arc_lengths) * (Kw + R)`` distance evaluations per step, with ``Kw``
 the longest per-cell wall list.
 """
@@ -73,6 +74,7 @@ class PlannerParams:
     turn_in_place_angle: Array | float = jnp.pi / 6  # rad
     obstacle_margin: Array | float = 0.1  # m
     stop_margin: Array | float = 0.05  # m
+    halt_speed: Array | float = 0.1  # m/s: turn in place only below this speed
     clearance_weight: Array | float = 0.5  # cost per m of clearance
 
 
@@ -115,11 +117,15 @@ def plan(
     x: Array,
     y: Array,
     heading: Array,
+    v_forward: Array,
+    dt: Array,
     in_world: Array,
     carrot_x: Array,
     carrot_y: Array,
 ) -> tuple[Array, Array]:
     """GO commands ``(forward m/s, turn)`` ``[R]`` toward the carrots, avoiding walls and robots.
+
+    ``v_forward [R]`` is each robot's current forward speed (m/s) and ``dt`` the step (s).
 
     ``turn`` is a yaw rate (rad/s), or a steering angle (rad) for Ackermann robots.
     ``in_world [R]`` masks which robots are obstacles.
@@ -186,9 +192,14 @@ def plan(
 
     stop_speed = jnp.sqrt(2.0 * robots.max_decel * jnp.maximum(best_free - pp.stop_margin, 0.0))
     speed = jnp.minimum(robots.max_speed, stop_speed)
-    arc_turn = jnp.where(ackermann, jnp.arctan(robots.wheelbase * best_curv), speed * best_curv)
+    # Yaw rate for the speed the robot will actually reach this step (acceleration-limited), so
+    # the driven curvature is the one that was checked.
+    reached = v_forward + jnp.clip(speed - v_forward, -robots.max_decel * dt, robots.max_accel * dt)
+    arc_turn = jnp.where(ackermann, jnp.arctan(robots.wheelbase * best_curv), reached * best_curv)
 
-    # Turn in place (time-optimal: the fastest yaw rate that can still stop at the bearing).
+    # Turn in place (time-optimal: the fastest yaw rate that can still stop at the bearing),
+    # after halting first, as SocialGym's TurnInPlace does: rotating while braking from speed
+    # would swing the robot along an unchecked arc.
     turn_rate = jnp.sign(bearing) * jnp.minimum(
         robots.max_omega, jnp.sqrt(2.0 * robots.max_alpha * jnp.abs(bearing))
     )
@@ -196,8 +207,9 @@ def plan(
     # Blocked ahead on every arc: rotate toward the carrot rather than wait forever.
     stuck = ~ackermann & (best_free <= 0.0)
     rotate = turn_in_place | stuck
+    halted = jnp.abs(v_forward) <= pp.halt_speed
     forward = jnp.where(rotate, 0.0, speed)
-    turn = jnp.where(rotate, turn_rate, arc_turn)
+    turn = jnp.where(rotate, jnp.where(halted, turn_rate, 0.0), arc_turn)
     return forward, turn
 
 
