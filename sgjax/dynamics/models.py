@@ -107,12 +107,13 @@ def decode_continuous(action: Array, p: RobotParams, action_dim: int) -> tuple[A
 
     ``action_dim`` 2 is ``(forward, turn)``; 3 is ``(forward, lateral, turn)``. ``forward`` scales
     by ``max_speed`` when positive and ``max_reverse_speed`` when negative; ``lateral`` by
-    ``max_speed``; ``turn`` by ``max_omega`` (steering limit for Ackermann). Values outside
+    ``max_speed`` (omnidirectional robots only; others ignore it); ``turn`` by ``max_omega`` (steering limit for Ackermann). Values outside
     [-1, 1] are clipped to the box.
     """
     a = jnp.clip(action, -1.0, 1.0)
     f = a[:, 0]
     forward = jnp.where(f >= 0.0, f * p.max_speed, f * p.max_reverse_speed)
-    lateral = a[:, 1] * p.max_speed if action_dim == 3 else jnp.zeros_like(f)
+    omni = p.model == OMNIDIRECTIONAL
+    lateral = jnp.where(omni, a[:, 1] * p.max_speed, 0.0) if action_dim == 3 else jnp.zeros_like(f)
     turn_limit = jnp.where(p.model == ACKERMANN, p.max_steering, p.max_omega)
     return forward, lateral, a[:, -1] * turn_limit
