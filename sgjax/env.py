@@ -140,7 +140,8 @@ class SocialNavEnv:
 
     def __init__(self, config: EnvConfig, default_params: EnvParams):
         if config.action_mode not in ACTION_MODES:
-            raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {config.action_mode!r}")
+            raise ValueError(f"action_mode must be one of {ACTION_MODES}, "
+                             f"got {config.action_mode!r}")
         self.config = config
         self._default_params = default_params
 
@@ -214,7 +215,8 @@ class SocialNavEnv:
 
         Returns ``obs [R, D], state, reward [R], terminated [R], truncated [R], info``. When the
         episode ends, ``obs``/``state`` are the new episode's, and ``info["final_observation"]``,
-        ``info["final_robots"]`` and ``info["final_collisions"]`` hold the ended episode's.
+        ``info["final_robots"]``, ``info["final_collisions"]`` and ``info["final_time"]`` (steps)
+        hold the ended episode's; ``info["episode_done"]`` says whether it ended.
         """
         key_step, key_reset = jax.random.split(key)
         obs, next_state, reward, terminated, truncated, info = self.step_env(
@@ -226,6 +228,7 @@ class SocialNavEnv:
         info["final_observation"] = obs
         info["final_robots"] = next_state.robots
         info["final_collisions"] = next_state.collisions
+        info["final_time"] = next_state.time
         obs = jnp.where(episode_done, reset_obs, obs)
         next_state = jax.tree.map(
             lambda fresh, old: jnp.where(episode_done, fresh, old), reset_state, next_state

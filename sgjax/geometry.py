@@ -138,7 +138,10 @@ def ray_circle_distance(
 
 
 def segments_intersect(
-    p1: tuple[float, float], p2: tuple[float, float], q1: tuple[float, float], q2: tuple[float, float]
+    p1: tuple[float, float],
+    p2: tuple[float, float],
+    q1: tuple[float, float],
+    q2: tuple[float, float],
 ) -> bool:
     """Whether closed segments p1-p2 and q1-q2 intersect (host-side helper for map validation)."""
 

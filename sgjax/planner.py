@@ -32,7 +32,6 @@ from flax import struct
 from jax import Array
 
 from sgjax.dynamics.limits import ACKERMANN, RobotParams
-from sgjax.geometry import point_segment_distance
 from sgjax.maps.arrays import MapArrays
 from sgjax.maps.sampling import Route
 
@@ -52,7 +51,9 @@ class PlannerConfig:
         quarter = np.pi / (2.0 * np.maximum(np.abs(curv), 1e-9))
         s = np.minimum(np.asarray(self.arc_lengths)[None, :], quarter[:, None])
         theta = curv[:, None] * s
-        return curv, s, s * np.sinc(theta / np.pi), s * 0.5 * theta * np.sinc(theta / (2 * np.pi)) ** 2
+        local_x = s * np.sinc(theta / np.pi)
+        local_y = s * 0.5 * theta * np.sinc(theta / (2 * np.pi)) ** 2
+        return curv, s, local_x, local_y
 
     def __post_init__(self) -> None:
         if self.num_arcs < 3 or self.num_arcs % 2 == 0:
@@ -145,7 +146,8 @@ def plan(
     px = x[:, None] + cos_h[:, None] * ax_s - sin_h[:, None] * ay_s
     py = y[:, None] + sin_h[:, None] * ax_s + cos_h[:, None] * ay_s
     # Ackermann robots may only use arcs within their turning limit.
-    allowed = ~ackermann[:, None] | (jnp.abs(curv_k)[None, :] <= 1.0 / robots.min_turn_radius[:, None])
+    allowed = ~ackermann[:, None] | (
+        jnp.abs(curv_k)[None, :] <= 1.0 / robots.min_turn_radius[:, None])
 
     # Clearance of every sample from the walls listed for the robot's grid cell ([R, Kw, S]
     # squared distances, reduced over Kw), and whether another robot's disc blocks it.
@@ -181,7 +183,8 @@ def plan(
         free_clear = jnp.where(still_free, jnp.minimum(free_clear, wall_clearance[..., k]),
                                free_clear)
     free_clear = jnp.where(free_len > 0.0, free_clear, 0.0)
-    to_carrot = jnp.sqrt(jnp.square(end_x - local_x[:, None]) + jnp.square(end_y - local_y[:, None]))
+    to_carrot = jnp.sqrt(
+        jnp.square(end_x - local_x[:, None]) + jnp.square(end_y - local_y[:, None]))
     cost = jnp.where(allowed, to_carrot - pp.clearance_weight * free_clear, jnp.inf)
     lowest = jnp.min(cost, axis=1, keepdims=True)
     arc_index = jnp.arange(config.num_arcs)

@@ -72,7 +72,8 @@ def make(scenario: str, **overrides: Any) -> tuple[SocialNavEnv, EnvParams]:
     spec = load(scenario, clearance=largest)
     planner_config = PlannerConfig(num_arcs=_positive_int("num_arcs", opts["num_arcs"]))
     planner_params = PlannerParams()
-    reach = max(planner_config.arc_lengths) + largest + planner_params.obstacle_margin + PLANNER_SLACK
+    reach = (max(planner_config.arc_lengths) + largest + planner_params.obstacle_margin
+             + PLANNER_SLACK)
     map_arrays = compile_map(spec, reach=reach)
     action_dim = 3 if any(p.model == "omnidirectional" for p in presets) else 2
     config = EnvConfig(

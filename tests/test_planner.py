@@ -14,7 +14,8 @@ from sgjax.planner import point_along_route, route_progress
 
 def all_routes(scenario):
     spec = sgjax.maps.load(scenario)
-    pairs = {(s, g) for starts, goals in spawn_groups(spec) for s in starts for g in goals if s != g}
+    pairs = {(s, g) for starts, goals in spawn_groups(spec)
+             for s in starts for g in goals if s != g}
     return np.array(sorted(pairs), dtype=np.int32)
 
 

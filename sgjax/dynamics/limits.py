@@ -59,7 +59,8 @@ class RobotPreset:
     def validate(self, name: str) -> None:
         """Raise ``ValueError`` naming the preset and field of an impossible robot."""
         if self.model not in MODEL_NAMES:
-            raise ValueError(f"robot {name!r}: model {self.model!r} is not one of {list(MODEL_NAMES)}")
+            raise ValueError(f"robot {name!r}: model {self.model!r} is not one of "
+                             f"{list(MODEL_NAMES)}")
         positive = ["radius", "max_speed", "max_accel", "max_decel", "max_omega", "max_alpha"]
         if self.model == "ackermann":
             positive += ["wheelbase", "min_turn_radius", "max_steer_rate"]
@@ -84,7 +85,8 @@ PRESETS: dict[str, RobotPreset] = {
     "jackal": RobotPreset(
         "diff_drive", radius=0.267, max_speed=2.0, max_reverse_speed=2.0, max_accel=3.0,
         max_decel=3.0, max_omega=3.0, max_alpha=3.0,
-        source="Clearpath Jackal in ut_multirobot_sim config/ut_jackal_config.lua (2.0 m/s, 3 m/s^2, "
+        source="Clearpath Jackal in ut_multirobot_sim config/ut_jackal_config.lua (2.0 m/s, "
+               "3 m/s^2, "
                "3 rad/s, 3 rad/s^2); radius 0.267 m as in Arena-Rosnav (socialnav.md §D2)",
     ),
     "turtlebot3": RobotPreset(
@@ -110,11 +112,15 @@ PRESETS: dict[str, RobotPreset] = {
 }
 
 
-def resolve_robots(robots: str | RobotPreset | list, max_agents: int) -> list[tuple[str, RobotPreset]]:
-    """Expand a preset name, a preset, or a list of either (one per slot, or cycled) to ``max_agents``."""
+def resolve_robots(
+    robots: str | RobotPreset | list, max_agents: int
+) -> list[tuple[str, RobotPreset]]:
+    """Expand a preset name, a preset, or a list of either (one per slot, cycled) to
+    ``max_agents`` named presets."""
     items = robots if isinstance(robots, list | tuple) else [robots]
     if not items:
-        raise ValueError("robots: expected a preset name, a RobotPreset or a non-empty list of them")
+        raise ValueError("robots: expected a preset name, a RobotPreset or a non-empty list "
+                         "of them")
     named = []
     for i, item in enumerate(items):
         if isinstance(item, str):

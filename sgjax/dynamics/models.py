@@ -12,7 +12,8 @@ Commands (physical units, clipped to the limits):
 Per step of ``dt`` seconds: linear velocity moves toward the command by at most ``max_accel * dt``
 when speeding up in the same direction, else ``max_decel * dt`` (a vector limit for omni robots);
 diff drive and omni yaw rate moves by at most ``max_alpha * dt`` and stays within ``max_omega``;
-Ackermann steering moves by at most ``max_steer_rate * dt`` within ``atan(wheelbase / min_turn_radius)``,
+Ackermann steering moves by at most ``max_steer_rate * dt`` within
+``atan(wheelbase / min_turn_radius)``,
 and its yaw rate is ``v tan(steering) / wheelbase`` (kinematic bicycle about the rear axle), capped
 at ``max_omega``. Positions integrate with the mid-step heading.
 """
@@ -107,7 +108,8 @@ def decode_continuous(action: Array, p: RobotParams, action_dim: int) -> tuple[A
 
     ``action_dim`` 2 is ``(forward, turn)``; 3 is ``(forward, lateral, turn)``. ``forward`` scales
     by ``max_speed`` when positive and ``max_reverse_speed`` when negative; ``lateral`` by
-    ``max_speed`` (omnidirectional robots only; others ignore it); ``turn`` by ``max_omega`` (steering limit for Ackermann). Values outside
+    ``max_speed`` (omnidirectional robots only; others ignore it); ``turn`` by ``max_omega``
+    (steering limit for Ackermann). Values outside
     [-1, 1] are clipped to the box.
     """
     a = jnp.clip(action, -1.0, 1.0)

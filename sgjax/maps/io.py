@@ -41,5 +41,6 @@ def load(name_or_path: str | Path, clearance: float = DEFAULT_CLEARANCE) -> MapS
     try:
         data = json.loads(text)
     except json.JSONDecodeError as err:
-        raise MapError(source, f"line {err.lineno} column {err.colno}", f"invalid JSON: {err.msg}")
+        raise MapError(source, f"line {err.lineno} column {err.colno}",
+                       f"invalid JSON: {err.msg}") from None
     return parse_map(data, source=source, clearance=clearance)

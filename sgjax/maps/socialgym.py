@@ -55,7 +55,8 @@ def read_navigation_json(path: Path) -> tuple[list[dict[str, Any]], list[list[in
             nodes.append({"id": int(node["id"]),
                           "position": [float(node["loc"]["x"]), float(node["loc"]["y"])]})
         except (KeyError, TypeError, ValueError) as err:
-            raise MapError(str(path), f"$.nodes[{i}]", f"expected id and loc.x/loc.y: {err}") from None
+            raise MapError(str(path), f"$.nodes[{i}]",
+                           f"expected id and loc.x/loc.y: {err}") from None
     for i, edge in enumerate(data.get("edges", [])):
         try:
             edges.append([int(edge["s0_id"]), int(edge["s1_id"])])

@@ -1,0 +1,29 @@
+"""The README's test command is the one CI runs; shipped pictures exist for every scenario."""
+
+import re
+from pathlib import Path
+
+import sgjax
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def readme_commands() -> list[str]:
+    text = (ROOT / "README.md").read_text()
+    return re.findall(r"```bash\n(.+?)\n```", text, flags=re.S)
+
+
+def test_readme_has_exactly_two_setup_commands():
+    commands = readme_commands()
+    assert len(commands) == 2
+    assert "sgjax-rollout" in commands[0] and "pytest" in commands[1]
+
+
+def test_ci_runs_the_readme_test_command():
+    ci = (ROOT / ".ci" / "run").read_text()
+    assert readme_commands()[1] in ci
+
+
+def test_every_scenario_has_a_picture():
+    for name in sgjax.registered():
+        assert (ROOT / "docs" / "img" / f"{name}.png").exists(), name
