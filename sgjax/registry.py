@@ -15,6 +15,7 @@ from sgjax.env import ACTION_MODES, EnvConfig, EnvParams, RewardWeights, SocialN
 from sgjax.maps.arrays import compile_map
 from sgjax.maps.io import load, shipped_map_names
 from sgjax.maps.sampling import sample_starts_goals
+from sgjax.maps.schema import MapSpec, parse_map
 from sgjax.planner import PlannerConfig, PlannerParams
 
 DEFAULTS: dict[str, Any] = {
@@ -37,8 +38,9 @@ def registered() -> list[str]:
     return shipped_map_names()
 
 
-def make(scenario: str, **overrides: Any) -> tuple[SocialNavEnv, EnvParams]:
-    """Build the environment for ``scenario`` (a shipped id or a path to a map JSON file).
+def make(scenario: str | Path | MapSpec, **overrides: Any) -> tuple[SocialNavEnv, EnvParams]:
+    """Build the environment for ``scenario``: a shipped id, a path to a map JSON file, or a
+    ``MapSpec`` (for example from ``sgjax.maps.import_socialgym``).
 
     Overrides (see ``sgjax.registry.DEFAULTS``): ``num_agents``, ``max_agents``,
     ``action_mode``, ``robots``, ``dt``, ``substeps``, ``time_limit``, ``goal_tolerance``,
@@ -49,8 +51,9 @@ def make(scenario: str, **overrides: Any) -> tuple[SocialNavEnv, EnvParams]:
         raise TypeError(f"make({scenario!r}): unknown override(s) {unknown}; "
                         f"valid overrides are: {', '.join(DEFAULTS)}")
     opts = {**DEFAULTS, **overrides}
-    is_path = str(scenario).endswith(".json") or Path(str(scenario)).exists()
-    if not is_path and scenario not in registered():
+    is_spec = isinstance(scenario, MapSpec)
+    is_path = not is_spec and (str(scenario).endswith(".json") or Path(str(scenario)).exists())
+    if not is_spec and not is_path and scenario not in registered():
         raise KeyError(f"unknown scenario {scenario!r}; registered scenarios are: "
                        f"{', '.join(registered())} (or pass a path to a map .json file)")
 
@@ -69,7 +72,10 @@ def make(scenario: str, **overrides: Any) -> tuple[SocialNavEnv, EnvParams]:
     substeps = _substeps(opts["substeps"], presets, dt)
 
     largest = max(p.radius for p in presets)
-    spec = load(scenario, clearance=largest)
+    if is_spec:  # re-validate against the robots that will drive it
+        spec = parse_map(scenario.to_json(), source=scenario.source, clearance=largest)
+    else:
+        spec = load(scenario, clearance=largest)
     planner_config = PlannerConfig(num_arcs=_positive_int("num_arcs", opts["num_arcs"]))
     planner_params = PlannerParams()
     reach = (max(planner_config.arc_lengths) + largest + planner_params.obstacle_margin

@@ -4,6 +4,7 @@ import copy
 import json
 from pathlib import Path
 
+import jax
 import numpy as np
 import pytest
 
@@ -202,6 +203,21 @@ def test_import_socialgym_files(tmp_path):
     assert spec.routes and spec.node_ids.tolist() == [0, 20, 21, 22]
     everything = import_socialgym(tmp_path / "door")  # no routes: all nodes are starts and goals
     assert len(everything.groups[0][0]) == 4
+    # An imported map drives like a shipped one, directly or after saving it as sgjax JSON.
+    env, params = sgjax.make(spec, num_agents=1)
+    _, state = env.reset(jax.random.key(0), params)
+    assert state.route.start.tolist() == [0] and state.route.goal.tolist() == [3]
+    saved = sgjax.maps.save(spec, tmp_path / "door.json")
+    again = load(saved)
+    np.testing.assert_allclose(again.walls, spec.walls)
+    assert again.routes == spec.routes and again.node_ids.tolist() == spec.node_ids.tolist()
+
+
+def test_import_drops_and_reports_degenerate_walls(tmp_path):
+    write_socialgym(tmp_path / "stubs", [[0, 3, 1, 3], [2, 2, 2, 2]],
+                    {0: (0.0, 0.0), 1: (1.0, 0.0)}, [(0, 1)])
+    spec = import_socialgym(tmp_path / "stubs")
+    assert spec.walls.shape == (1, 4) and "dropped 1 zero-length wall" in spec.description
 
 
 def test_import_reports_bad_line(tmp_path):

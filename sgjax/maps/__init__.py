@@ -1,7 +1,7 @@
 """Maps: the JSON format, loading and validation, routing, and SocialGym 2.0 import."""
 
 from sgjax.maps.arrays import MapArrays, compile_map
-from sgjax.maps.io import load, shipped_map_names
+from sgjax.maps.io import load, save, shipped_map_names
 from sgjax.maps.schema import MapError, MapSpec, Zone, parse_map
 from sgjax.maps.socialgym import import_socialgym
 
@@ -14,5 +14,6 @@ __all__ = [
     "import_socialgym",
     "load",
     "parse_map",
+    "save",
     "shipped_map_names",
 ]

@@ -17,6 +17,13 @@ def shipped_map_names() -> list[str]:
     return sorted(p.name[: -len(".json")] for p in folder.iterdir() if p.name.endswith(".json"))
 
 
+def save(spec: MapSpec, path: str | Path) -> Path:
+    """Write a map to a JSON file in the sgjax format."""
+    path = Path(path)
+    path.write_text(json.dumps(spec.to_json(), indent=1) + "\n")
+    return path
+
+
 def load(name_or_path: str | Path, clearance: float = DEFAULT_CLEARANCE) -> MapSpec:
     """Load and validate a map: a shipped name (``"doorway"``) or a path to a JSON file.
 

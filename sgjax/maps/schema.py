@@ -75,6 +75,27 @@ class MapSpec:
         """Row index of the node with file id ``node_id``."""
         return int(np.flatnonzero(self.node_ids == node_id)[0])
 
+    def to_json(self) -> dict:
+        """The map in the JSON format (``parse_map(spec.to_json())`` gives it back)."""
+        ids = [int(i) for i in self.node_ids]
+        data: dict[str, Any] = {
+            "name": self.name,
+            "description": self.description,
+            "bounds": list(self.bounds),
+            "walls": self.walls.tolist(),
+            "nodes": [{"id": i, "position": p.tolist()} for i, p in zip(ids, self.node_positions,
+                                                                         strict=True)],
+            "edges": [[ids[a], ids[b]] for a, b in self.edges],
+        }
+        if self.groups:
+            data["groups"] = [{"starts": [ids[n] for n in starts], "goals": [ids[n] for n in goals]}
+                              for starts, goals in self.groups]
+        if self.routes:
+            data["routes"] = [[ids[n] for n in route] for route in self.routes]
+        if self.zones:
+            data["zones"] = [{"name": z.name, "rect": list(z.rect)} for z in self.zones]
+        return data
+
 
 def _type_name(value: Any) -> str:
     return type(value).__name__

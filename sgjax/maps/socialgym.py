@@ -91,12 +91,15 @@ def import_socialgym(
     if not nav.exists():
         raise FileNotFoundError(f"no {nav.name} in {folder}")
     nodes, edges = read_navigation_json(nav)
-    walls = [w for w in walls if (w[0], w[1]) != (w[2], w[3])]  # SocialGym ships degenerate stubs
+    kept = [w for w in walls if (w[0], w[1]) != (w[2], w[3])]
+    dropped = len(walls) - len(kept)  # SocialGym's intersection ships 4 zero-length stubs
+    walls = kept
     xs = [w[0] for w in walls] + [w[2] for w in walls] + [n["position"][0] for n in nodes]
     ys = [w[1] for w in walls] + [w[3] for w in walls] + [n["position"][1] for n in nodes]
     data: dict[str, Any] = {
         "name": name,
-        "description": f"imported from SocialGym 2.0 files in {folder}",
+        "description": f"imported from SocialGym 2.0 files in {folder}"
+        + (f"; dropped {dropped} zero-length wall(s)" if dropped else ""),
         "bounds": [min(xs) - 1.0, min(ys) - 1.0, max(xs) + 1.0, max(ys) + 1.0],
         "walls": walls,
         "nodes": nodes,
