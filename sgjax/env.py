@@ -36,7 +36,7 @@ from flax import struct
 from jax import Array
 
 from sgjax.contacts import clamp_to_walls, separate_robots
-from sgjax.dynamics.limits import RobotParams
+from sgjax.dynamics.limits import ACKERMANN, RobotParams
 from sgjax.dynamics.models import Kinematics, decode_continuous, integrate, stop_on_contact
 from sgjax.geometry import safe_norm
 from sgjax.maps.arrays import MapArrays
@@ -255,9 +255,8 @@ class SocialNavEnv:
             push_x, push_y, overlap = separate_robots(x + dx, y + dy, rp.radius, acting)
             dx, dy, wall = clamp_to_walls(x, y, dx + push_x, dy + push_y, rp.radius, params.map)
             x, y = x + dx, y + dy
-            # Relaxation: a robot pinned against a wall cannot take its half of a push, so what
-            # is left is resolved by pushing each robot the full remaining overlap (a free pair
-            # may end up separated by at most that small remainder).
+            # Relaxation: a robot pinned against a wall cannot take its half of a push, so the
+            # overlap left over is split again (each pass halves what a pinned pair leaves).
             for _ in range(cfg.contact_passes - 1):
                 push_x, push_y, _ = separate_robots(x, y, rp.radius, acting)
                 push_x, push_y, pinned = clamp_to_walls(x, y, push_x, push_y, rp.radius,
@@ -331,7 +330,7 @@ class SocialNavEnv:
         )
         go = actions == GO
         # STOP: brake to rest; Ackermann robots hold their steering.
-        turn = jnp.where(go, turn, jnp.where(rp.model == 2, robots.kin.steering, 0.0))
+        turn = jnp.where(go, turn, jnp.where(rp.model == ACKERMANN, robots.kin.steering, 0.0))
         return jnp.where(go, forward, 0.0), jnp.zeros_like(forward), turn
 
     # ------------------------------------------------------------ observation
