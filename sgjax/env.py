@@ -131,7 +131,7 @@ class EnvConfig:
     action_mode: str = "go_stop"
     action_dim: int = 2
     substeps: int = 1
-    contact_passes: int = 3  # robot-robot separation passes per sub-step
+    contact_passes: int = 1  # robot-robot separation passes per sub-step (see docs/robots.md)
     planner: PlannerConfig = dataclasses.field(default_factory=PlannerConfig)
 
 
@@ -255,14 +255,16 @@ class SocialNavEnv:
             push_x, push_y, overlap = separate_robots(x + dx, y + dy, rp.radius, acting)
             dx, dy, wall = clamp_to_walls(x, y, dx + push_x, dy + push_y, rp.radius, params.map)
             x, y = x + dx, y + dy
-            # Relaxation: a robot pinned against a wall cannot take its half of a push, so the
-            # overlap left over is split again (each pass halves what a pinned pair leaves).
+            # Optional relaxation: a robot pinned against a wall cannot take its half of a push,
+            # so the overlap left over is split again (each pass halves what a pinned pair
+            # leaves). Robots in contact also stop (below), which bounds what is left.
             for _ in range(cfg.contact_passes - 1):
                 push_x, push_y, _ = separate_robots(x, y, rp.radius, acting)
                 push_x, push_y, pinned = clamp_to_walls(x, y, push_x, push_y, rp.radius,
                                                         params.map)
                 x, y, wall = x + push_x, y + push_y, wall | pinned
-            new_kin = stop_on_contact(new_kin, wall, rp)
+            # Bumpers: a robot touching a wall or another robot stops.
+            new_kin = stop_on_contact(new_kin, wall | overlap, rp)
             kin = jax.tree.map(lambda new, old: jnp.where(acting, new, old), new_kin, kin)
             hit_robot, hit_wall = hit_robot | overlap, hit_wall | (wall & acting)
 

@@ -28,6 +28,7 @@ DEFAULTS: dict[str, Any] = {
     "time_limit": 75.0,  # s before truncation (SocialGym: 3000 steps x 0.025 s)
     "goal_tolerance": 0.5,  # m (SocialGym's success radius)
     "num_arcs": 11,  # local planner arcs (SocialGym sampled 41; see bench/ for the cost)
+    "contact_passes": 1,  # robot-robot separation passes per sub-step (more: less overlap)
 }
 CAPACITY_TRIALS = 64
 PLANNER_SLACK = 0.2  # m: how much obstacle_margin may grow after make() with walls still seen
@@ -44,7 +45,7 @@ def make(scenario: str | Path | MapSpec, **overrides: Any) -> tuple[SocialNavEnv
 
     Overrides (see ``sgjax.registry.DEFAULTS``): ``num_agents``, ``max_agents``,
     ``action_mode``, ``robots``, ``dt``, ``substeps``, ``time_limit``, ``goal_tolerance``,
-    ``num_arcs``. Returns ``(env, params)``.
+    ``num_arcs``, ``contact_passes``. Returns ``(env, params)``.
     """
     unknown = sorted(set(overrides) - set(DEFAULTS))
     if unknown:
@@ -85,6 +86,7 @@ def make(scenario: str | Path | MapSpec, **overrides: Any) -> tuple[SocialNavEnv
     config = EnvConfig(
         scenario=spec.name, max_agents=max_agents, action_mode=opts["action_mode"],
         action_dim=action_dim, substeps=substeps, planner=planner_config,
+        contact_passes=_positive_int("contact_passes", opts["contact_passes"]),
     )
     params = EnvParams(
         robots=robot_params(presets),

@@ -95,8 +95,8 @@ def integrate(
 
 
 def stop_on_contact(kin: Kinematics, hit: Array, p: RobotParams) -> Kinematics:
-    """A robot that hit a wall stops at once (linear speeds zero). Diff-drive and omni robots
-    keep their yaw rate; an Ackermann robot's yaw rate follows its (zero) speed."""
+    """A robot that hit something stops at once (linear speeds zero), like a bumper. Diff-drive
+    and omni robots keep their yaw rate; an Ackermann robot's yaw rate follows its speed."""
     v_forward = jnp.where(hit, 0.0, kin.v_forward)
     omega = jnp.where(hit & (p.model == ACKERMANN), 0.0, kin.omega)
     return kin.replace(v_forward=v_forward, v_lateral=jnp.where(hit, 0.0, kin.v_lateral),

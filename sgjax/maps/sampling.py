@@ -48,13 +48,15 @@ def _mix32(h: Array) -> Array:
     return h ^ (h >> 16)
 
 
-def _pick_by_priority(priority: Array, mask: Array) -> tuple[Array, Array]:
-    """Index of the highest-priority True entry of ``mask`` (max and min reductions only: XLA's
-    CPU cumsum and argmax are slow under vmap). ``priority`` is uint32 and never 0."""
-    masked = jnp.where(mask, priority, jnp.uint32(0))
-    best = jnp.max(masked)
-    index = jnp.min(jnp.where(masked == best, jnp.arange(mask.shape[0]), mask.shape[0]))
-    return jnp.minimum(index, mask.shape[0] - 1).astype(jnp.int32), best > 0
+def _pick_by_priority(priority: Array, mask: Array, index_bits: int) -> tuple[Array, Array]:
+    """Index of the highest-priority True entry of ``mask``, in one max reduction.
+
+    ``priority`` (uint32, top bit set) carries each entry's index in its low ``index_bits`` bits,
+    so the maximum also names its position (XLA's CPU argmax is slow under vmap). Returns the
+    index and whether any entry was True.
+    """
+    best = jnp.max(jnp.where(mask, priority, jnp.uint32(0)))
+    return (best & jnp.uint32((1 << index_bits) - 1)).astype(jnp.int32), best > 0
 
 
 def _pick_weighted(u: Array, weights: Array) -> tuple[Array, Array]:
@@ -76,8 +78,10 @@ def sample_starts_goals(
     """Draw a (start, goal) node pair for every wanted robot slot, one slot after another.
 
     Each slot draws a group with weight (free starts x free goals), then the free start and the
-    free goal of that group with the highest random priority (a uniform choice among them; every
-    slot re-scrambles one threefry draw of node priorities with MurmurHash3's finaliser). No two
+    free goal of that group with the highest random priority (a uniform choice among them).
+    Randomness: one threefry block per reset; every (node, slot, purpose) priority is a
+    counter-based hash of it (MurmurHash3's finaliser, twice), much cheaper on the CPU than a
+    threefry draw per node. No two
     robots share a start or a goal, and bodies at the starts do not overlap: placing a robot of
     radius ``r_j`` blocks every start closer than ``r_j + max(radius) + START_MARGIN`` (exact for
     a team of one size, conservative for mixed sizes). ``radius`` and ``wanted`` are ``[R]``.
@@ -88,25 +92,39 @@ def sample_starts_goals(
     reach = radius + jnp.max(radius) + START_MARGIN
     node_index = jnp.arange(num_nodes)
     group_index = jnp.arange(m.group_starts.shape[0])
-    key_nodes, key_groups = jax.random.split(key)
-    node_bits = jax.random.bits(key_nodes, (2, num_nodes), jnp.uint32)
-    group_draws = jax.random.uniform(key_groups, (num_robots,))
-    salts = (jnp.arange(num_robots, dtype=jnp.uint32) + 1) * jnp.uint32(0x9E3779B9)
+    seed = jax.random.bits(key, (2,), jnp.uint32)
+    slots = jnp.arange(num_robots, dtype=jnp.uint32)
+    group_draws = (_mix32(seed[1] ^ _mix32(slots + 1)) >> 8).astype(jnp.float32) / 2.0**24
+    counters = (node_index.astype(jnp.uint32)[None, :]
+                + jnp.uint32(num_nodes) * jnp.arange(2, dtype=jnp.uint32)[:, None])  # [2, N]
+    salts = slots * jnp.uint32(2 * num_nodes)
+
+    index_bits = max(1, (num_nodes - 1).bit_length())
+    high_bits = jnp.uint32(0xFFFFFFFF ^ ((1 << index_bits) - 1))
+    node_bits = node_index.astype(jnp.uint32)
+    single_group = m.group_starts.shape[0] == 1
 
     def place(carry, inputs):
-        # One-hot selections instead of gathers and scatters: faster under vmap on the CPU.
+        # Reductions over the nodes dominate the cost on the CPU: two per slot (one per pick),
+        # plus one to weigh the groups when a map has several.
         start_free, goal_free = carry
         u, salt, reach_i, wanted_i = inputs
-        priority = _mix32(node_bits ^ salt) | jnp.uint32(1)
-        n_starts = jnp.sum(m.group_starts & start_free[None, :], axis=1)
-        n_goals = jnp.sum(m.group_goals & goal_free[None, :], axis=1)
-        group, ok_g = _pick_weighted(u, (n_starts * n_goals).astype(jnp.float32))
-        in_group = (group_index == group)[:, None]
-        group_starts = jnp.any(m.group_starts & in_group, axis=0)
-        group_goals = jnp.any(m.group_goals & in_group, axis=0)
-        start, ok_s = _pick_by_priority(priority[0], group_starts & start_free)
+        scrambled = _mix32(seed[0] ^ _mix32(counters + salt)) | jnp.uint32(0x80000000)
+        priority = (scrambled & high_bits) | node_bits  # [2, N]: index in the low bits
+        if single_group:
+            group_starts, group_goals, ok_g = m.group_starts[0], m.group_goals[0], True
+        else:
+            free = jnp.stack([m.group_starts & start_free[None, :],
+                              m.group_goals & goal_free[None, :]])
+            counts = jnp.sum(free, axis=2)  # [2, G]
+            group, ok_g = _pick_weighted(u, (counts[0] * counts[1]).astype(jnp.float32))
+            in_group = (group_index == group)[:, None]
+            group_starts = jnp.any(m.group_starts & in_group, axis=0)
+            group_goals = jnp.any(m.group_goals & in_group, axis=0)
+        start, ok_s = _pick_by_priority(priority[0], group_starts & start_free, index_bits)
         is_start = node_index == start
-        goal, ok_t = _pick_by_priority(priority[1], group_goals & goal_free & ~is_start)
+        goal, ok_t = _pick_by_priority(priority[1], group_goals & goal_free & ~is_start,
+                                       index_bits)
         success = wanted_i & ok_g & ok_s & ok_t
         start_free = start_free & ~(success & (m.node_gap[start] < reach_i))
         goal_free = goal_free & ~(success & (node_index == goal))
@@ -114,7 +132,7 @@ def sample_starts_goals(
 
     init = (jnp.ones(num_nodes, bool), jnp.ones(num_nodes, bool))
     _, (start, goal, placed) = jax.lax.scan(
-        place, init, (group_draws, salts, reach, wanted)
+        place, init, (group_draws, salts, reach, wanted), unroll=True
     )
     return start, goal, placed
 
