@@ -27,52 +27,45 @@ def half_diamond(cx: float, side: int, first_id_order: list[int]) -> list[dict]:
             for i, p in zip(first_id_order, points, strict=True)]
 
 
-def doorway() -> dict:
-    walls = [[-10, -6, -0.5, -6], [-10, 6, -0.5, 6], [-10, -6, -10, 6],
-             [-0.5, 0.5, -0.5, 6], [-0.5, -6, -0.5, -0.5],
-             [-0.5, 0.5, 0.5, 0.5], [-0.5, -0.5, 0.5, -0.5],
-             [0.5, 0.5, 0.5, 6], [0.5, -6, 0.5, -0.5],
-             [0.5, -6, 10, -6], [0.5, 6, 10, 6], [10, -6, 10, 6]]
-    starts = [0, 43] + list(range(1, 20))
-    goals = list(range(22, 43))
-    nodes = (half_diamond(-2.0, -1, starts) + half_diamond(2.0, 1, goals)
-             + [{"id": 20, "position": [-2.0, 0.0]}, {"id": 21, "position": [2.0, 0.0]}])
-    edges = [[s, 20] for s in starts] + [[20, 21]] + [[21, g] for g in goals]
+def two_rooms(name: str, description: str, half_gap: float, half_width: float, hub_x: float,
+              starts: list[int], goals: list[int], hubs: tuple[int, int], zone: str) -> dict:
+    """Two 12 m tall rooms (x out to +-half_width) joined by a 1 m wide channel from -half_gap
+    to half_gap; spawns on a half-diamond around the left hub, goals around the right one."""
+    g, w = half_gap, half_width
+    walls = [[-w, -6, -g, -6], [-w, 6, -g, 6], [-w, -6, -w, 6],
+             [-g, 0.5, -g, 6], [-g, -6, -g, -0.5],
+             [-g, 0.5, g, 0.5], [-g, -0.5, g, -0.5],
+             [g, 0.5, g, 6], [g, -6, g, -0.5],
+             [g, -6, w, -6], [g, 6, w, 6], [w, -6, w, 6]]
+    nodes = (half_diamond(-hub_x, -1, starts) + half_diamond(hub_x, 1, goals)
+             + [{"id": hubs[0], "position": [-hub_x, 0.0]},
+                {"id": hubs[1], "position": [hub_x, 0.0]}])
+    edges = ([[s, hubs[0]] for s in starts] + [[hubs[0], hubs[1]]]
+             + [[hubs[1], t] for t in goals])
     return {
-        "name": "doorway",
-        "description": "SocialGym 2.0 doorway: two 9.5 m x 12 m rooms joined by a 1 m wide, "
-                       "1 m long door; robots cross left to right.",
-        "bounds": [-10.5, -6.5, 10.5, 6.5],
+        "name": name,
+        "description": description,
+        "bounds": [-w - 0.5, -6.5, w + 0.5, 6.5],
         "walls": walls,
         "nodes": sorted(nodes, key=lambda n: n["id"]),
         "edges": edges,
         "groups": [{"starts": starts, "goals": goals}],
-        "zones": [{"name": "door", "rect": [-2.0, -1.0, 2.0, 1.0]}],
+        "zones": [{"name": zone, "rect": [-hub_x, -1.0, hub_x, 1.0]}],
     }
+
+
+def doorway() -> dict:
+    return two_rooms(
+        "doorway", "SocialGym 2.0 doorway: two 9.5 m x 12 m rooms joined by a 1 m wide, "
+        "1 m long door; robots cross left to right.", half_gap=0.5, half_width=10.0, hub_x=2.0,
+        starts=[0, 43] + list(range(1, 20)), goals=list(range(22, 43)), hubs=(20, 21), zone="door")
 
 
 def hallway() -> dict:
-    walls = [[-12, -6, -3, -6], [-12, 6, -3, 6], [-12, -6, -12, 6],
-             [-3, 0.5, -3, 6], [-3, -6, -3, -0.5],
-             [-3, 0.5, 3, 0.5], [-3, -0.5, 3, -0.5],
-             [3, 0.5, 3, 6], [3, -6, 3, -0.5],
-             [3, -6, 12, -6], [3, 6, 12, 6], [12, -6, 12, 6]]
-    starts = list(range(0, 21))
-    goals = list(range(23, 44))
-    nodes = (half_diamond(-4.0, -1, starts) + half_diamond(4.0, 1, goals)
-             + [{"id": 21, "position": [-4.0, 0.0]}, {"id": 22, "position": [4.0, 0.0]}])
-    edges = [[s, 21] for s in starts] + [[21, 22]] + [[22, g] for g in goals]
-    return {
-        "name": "hallway",
-        "description": "SocialGym 2.0 hallway: two 9 m x 12 m rooms joined by a 1 m wide, 6 m long "
-                       "corridor; robots cross left to right.",
-        "bounds": [-12.5, -6.5, 12.5, 6.5],
-        "walls": walls,
-        "nodes": sorted(nodes, key=lambda n: n["id"]),
-        "edges": edges,
-        "groups": [{"starts": starts, "goals": goals}],
-        "zones": [{"name": "corridor", "rect": [-4.0, -1.0, 4.0, 1.0]}],
-    }
+    return two_rooms(
+        "hallway", "SocialGym 2.0 hallway: two 9 m x 12 m rooms joined by a 1 m wide, 6 m long "
+        "corridor; robots cross left to right.", half_gap=3.0, half_width=12.0, hub_x=4.0,
+        starts=list(range(0, 21)), goals=list(range(23, 44)), hubs=(21, 22), zone="corridor")
 
 
 def plus_walls() -> list[list[float]]:
