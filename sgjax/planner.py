@@ -91,9 +91,10 @@ def route_progress(route: Route, x: Array, y: Array, progress: Array) -> Array:
     dist_sq = jnp.square(x[:, None] - ax - t * ex) + jnp.square(y[:, None] - ay - t * ey)
     s = route.cum_length[:, :-1] + t * jnp.sqrt(seg_len_sq)
     eligible = (seg_len_sq > 1e-9) & (s >= progress[:, None] - 1.0)
-    best = jnp.argmin(jnp.where(eligible, dist_sq, jnp.inf), axis=1)
-    s_best = jnp.take_along_axis(s, best[:, None], axis=1)[:, 0]
-    return jnp.maximum(progress, jnp.where(jnp.any(eligible, axis=1), s_best, progress))
+    dist_sq = jnp.where(eligible, dist_sq, jnp.inf)
+    nearest = dist_sq <= jnp.min(dist_sq, axis=1, keepdims=True)  # argmin is slow on the CPU
+    s_best = jnp.max(jnp.where(nearest & eligible, s, -jnp.inf), axis=1)
+    return jnp.maximum(progress, s_best)
 
 
 def point_along_route(route: Route, s: Array) -> tuple[Array, Array]:
