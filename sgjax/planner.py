@@ -69,7 +69,12 @@ class PlannerConfig:
 
 @struct.dataclass
 class PlannerParams:
-    """Float planner settings (a pytree: sweepable)."""
+    """Float planner settings (a pytree: sweepable).
+
+    The map's per-cell wall lists are sized by ``make`` for the longest arc plus the largest
+    robot radius plus ``obstacle_margin`` plus 0.2 m: raising ``obstacle_margin`` by more than
+    0.2 m afterwards can hide walls from the planner (never from the contacts).
+    """
 
     carrot_distance: Array | float = 1.5  # m
     turn_in_place_angle: Array | float = jnp.pi / 6  # rad
