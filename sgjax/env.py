@@ -169,8 +169,30 @@ class SocialNavEnv:
         return gymnasium.spaces.Box(-np.inf, np.inf, (OBS_SIZE,), np.float32)
 
     # ------------------------------------------------------------------ reset
+    def check_params(self, params: EnvParams) -> None:
+        """Raise ``ValueError`` naming the field if concrete params do not fit this environment.
+
+        Called by ``reset``; values traced under ``jit`` cannot be checked there, so check params
+        you build on the host before jitting a rollout.
+        """
+        num_agents = params.num_agents
+        if not isinstance(num_agents, jax.core.Tracer):
+            n = int(num_agents)
+            if not 0 <= n <= self.max_agents:
+                raise ValueError(f"params.num_agents must be in [0, max_agents={self.max_agents}]"
+                                 f", got {n}")
+        radius = params.robots.radius
+        if jnp.shape(radius) != (self.max_agents,):
+            raise ValueError(f"params.robots.radius: expected shape ({self.max_agents},), "
+                             f"got {jnp.shape(radius)}")
+        for name in ("dt", "goal_tolerance"):
+            value = getattr(params, name)
+            if not isinstance(value, jax.core.Tracer) and not float(value) > 0.0:
+                raise ValueError(f"params.{name} must be positive, got {float(value)}")
+
     def reset(self, key: Array, params: EnvParams) -> tuple[Array, EnvState]:
         """Sample a scenario: starts, goals and routes for ``params.num_agents`` robots."""
+        self.check_params(params)
         wanted = jnp.arange(self.max_agents) < params.num_agents
         start, goal, placed = sample_starts_goals(key, params.map, params.robots.radius, wanted)
         return self.reset_to(start, goal, placed, params)

@@ -259,6 +259,14 @@ def test_scenario_sampling_constraints():
     assert len(np.unique(starts)) == 14 and len(np.unique(goals)) == 14
 
 
+def test_params_checked_on_reset():
+    env, params = sgjax.make("doorway", num_agents=2, max_agents=3)
+    with pytest.raises(ValueError, match=r"params.num_agents must be in \[0, max_agents=3\]"):
+        env.reset(jax.random.key(0), params.replace(num_agents=jnp.int32(4)))
+    with pytest.raises(ValueError, match="params.dt must be positive"):
+        env.reset(jax.random.key(0), params.replace(dt=jnp.float32(0.0)))
+
+
 def test_reset_to_validates_shapes():
     env, params = sgjax.make("doorway", num_agents=2)
     with pytest.raises(ValueError, match=r"start must have shape \(2,\)"):
