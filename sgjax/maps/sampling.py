@@ -78,7 +78,8 @@ def sample_starts_goals(
     """Draw a (start, goal) node pair for every wanted robot slot, one slot after another.
 
     Each slot draws a group with weight (free starts x free goals), then the free start and the
-    free goal of that group with the highest random priority (a uniform choice among them).
+    free goal of that group with the highest random priority (a uniform choice among them, up to
+    ties in the priorities' 25 or more random bits).
     Randomness: one threefry block per reset; every (node, slot, purpose) priority is a
     counter-based hash of it (MurmurHash3's finaliser, twice), much cheaper on the CPU than a
     threefry draw per node. No two
