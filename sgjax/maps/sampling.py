@@ -80,9 +80,9 @@ def sample_starts_goals(
     Each slot draws a group with weight (free starts x free goals), then the free start and the
     free goal of that group with the highest random priority (a uniform choice among them, up to
     ties in the priorities' 25 or more random bits).
-    Randomness: one threefry block per reset; every (node, slot, purpose) priority is a
-    counter-based hash of it (MurmurHash3's finaliser, twice), much cheaper on the CPU than a
-    threefry draw per node. No two
+    Randomness: one threefry block per reset; every (slot, purpose, node) priority is a
+    counter-based hash of it (MurmurHash3's finaliser of seed xor a Weyl sequence), much
+    cheaper on the CPU than a threefry draw per node. No two
     robots share a start or a goal, and bodies at the starts do not overlap: placing a robot of
     radius ``r_j`` blocks every start closer than ``r_j + max(radius) + START_MARGIN`` (exact for
     a team of one size, conservative for mixed sizes). ``radius`` and ``wanted`` are ``[R]``.
@@ -96,22 +96,21 @@ def sample_starts_goals(
     seed = jax.random.bits(key, (2,), jnp.uint32)
     slots = jnp.arange(num_robots, dtype=jnp.uint32)
     group_draws = (_mix32(seed[1] ^ _mix32(slots + 1)) >> 8).astype(jnp.float32) / 2.0**24
-    counters = (node_index.astype(jnp.uint32)[None, :]
-                + jnp.uint32(num_nodes) * jnp.arange(2, dtype=jnp.uint32)[:, None])  # [2, N]
-    salts = slots * jnp.uint32(2 * num_nodes)
-
     index_bits = max(1, (num_nodes - 1).bit_length())
     high_bits = jnp.uint32(0xFFFFFFFF ^ ((1 << index_bits) - 1))
-    node_bits = node_index.astype(jnp.uint32)
+    # Every slot's start and goal priorities at once, [R, 2, N], with the node index in the low
+    # bits so that one max reduction names the winner.
+    counters = jnp.arange(num_robots * 2 * num_nodes, dtype=jnp.uint32).reshape(
+        num_robots, 2, num_nodes)
+    scrambled = _mix32(seed[0] ^ (counters * jnp.uint32(0x9E3779B9))) | jnp.uint32(0x80000000)
+    priorities = (scrambled & high_bits) | node_index.astype(jnp.uint32)
     single_group = m.group_starts.shape[0] == 1
 
     def place(carry, inputs):
         # Reductions over the nodes dominate the cost on the CPU: two per slot (one per pick),
         # plus one to weigh the groups when a map has several.
         start_free, goal_free = carry
-        u, salt, reach_i, wanted_i = inputs
-        scrambled = _mix32(seed[0] ^ _mix32(counters + salt)) | jnp.uint32(0x80000000)
-        priority = (scrambled & high_bits) | node_bits  # [2, N]: index in the low bits
+        u, priority, reach_i, wanted_i = inputs
         if single_group:
             group_starts, group_goals, ok_g = m.group_starts[0], m.group_goals[0], True
         else:
@@ -133,7 +132,7 @@ def sample_starts_goals(
 
     init = (jnp.ones(num_nodes, bool), jnp.ones(num_nodes, bool))
     _, (start, goal, placed) = jax.lax.scan(
-        place, init, (group_draws, salts, reach, wanted), unroll=True
+        place, init, (group_draws, priorities, reach, wanted), unroll=True
     )
     return start, goal, placed
 
