@@ -19,8 +19,8 @@ def all_routes(scenario):
     return np.array(sorted(pairs), dtype=np.int32)
 
 
-def drive_every_route(scenario, robots="socialgym"):
-    env, params = sgjax.make(scenario, num_agents=1, robots=robots)
+def drive_every_route(scenario, robots="socialgym", time_limit=75.0):
+    env, params = sgjax.make(scenario, num_agents=1, robots=robots, time_limit=time_limit)
     pairs = all_routes(scenario)
     steps = int(params.max_steps)
 
@@ -55,6 +55,14 @@ def test_every_route_solved_by_the_planner(scenario, robots):
     failed = pairs[~succeeded].tolist()
     assert not failed, f"{len(failed)} of {len(pairs)} routes not reached, e.g. {failed[:5]}"
     assert not touched.any(), f"wall contact on routes {pairs[touched].tolist()[:5]}"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scenario", ["hallway", "office"])
+def test_slow_robot_needs_only_time(scenario):
+    # A TurtleBot3 (0.22 m/s) cannot cover the longest routes in 75 s; given 400 s it reaches all.
+    pairs, succeeded, touched = drive_every_route(scenario, "turtlebot3", time_limit=400.0)
+    assert succeeded.all() and not touched.any()
 
 
 def test_route_progress_and_carrot_point():

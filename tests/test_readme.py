@@ -27,3 +27,10 @@ def test_ci_runs_the_readme_test_command():
 def test_every_scenario_has_a_picture():
     for name in sgjax.registered():
         assert (ROOT / "docs" / "img" / f"{name}.png").exists(), name
+
+
+def test_readme_quick_start_runs():
+    code = re.findall(r"```python\n(.+?)\n```", (ROOT / "README.md").read_text(), flags=re.S)[0]
+    namespace: dict = {}
+    exec(compile(code, "README.md quick start", "exec"), namespace)  # noqa: S102
+    assert namespace["obs"].shape == (1024, 10, 10)
