@@ -13,7 +13,7 @@ every agent gets a fresh info dict. A robot is removed from ``agents`` right aft
 reports it terminated (goal reached) or truncated (time limit) and is never revived; after the
 last one, ``step({})`` returns five empty dicts until ``reset``. ``reset(seed=...)`` is
 deterministic; without a seed the next episode's key comes from the adapter's own generator
-(seeded by the last seed given).
+(seeded by the last seed given, or by ``parallel_env(seed=...)``).
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ class SgjaxParallelEnv(ParallelEnv):
                 "is_parallelizable": True}
 
     def __init__(self, scenario: str = "doorway", num_agents: int = 4,
-                 render_mode: str | None = None, **overrides: Any):
+                 render_mode: str | None = None, seed: int | None = None, **overrides: Any):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be None or one of "
                              f"{self.metadata['render_modes']}, got {render_mode!r}")
@@ -59,7 +59,7 @@ class SgjaxParallelEnv(ParallelEnv):
         self._action_spaces = {a: self._action_space for a in self.possible_agents}
         self._reset = jax.jit(self.env.reset)
         self._step = jax.jit(self.env.step_env)
-        self._rng = np.random.default_rng()
+        self._rng = np.random.default_rng(seed)
         self._key = jax.random.key(0)
         self._state = None
         self._map = None
@@ -110,7 +110,8 @@ class SgjaxParallelEnv(ParallelEnv):
             terms[agent] = bool(terminated[i])
             truncs[agent] = bool(truncated[i])
             infos[agent] = {"collision_robot": bool(robot_hit[i]),
-                            "collision_wall": bool(wall_hit[i])}
+                            "collision_wall": bool(wall_hit[i]),
+                            "is_success": terms[agent]}
         self.agents = [a for a in live if not (terms[a] or truncs[a])]
         self._trail.append(np.asarray(self._state.robots.position))
         return out_obs, rewards, terms, truncs, infos
@@ -164,6 +165,12 @@ class SgjaxParallelEnv(ParallelEnv):
 
 
 def parallel_env(scenario: str = "doorway", num_agents: int = 4,
-                 render_mode: str | None = None, **overrides: Any) -> SgjaxParallelEnv:
-    """A PettingZoo ``ParallelEnv`` over ``sgjax.make(scenario, num_agents=..., **overrides)``."""
-    return SgjaxParallelEnv(scenario, num_agents=num_agents, render_mode=render_mode, **overrides)
+                 render_mode: str | None = None, seed: int | None = None,
+                 **overrides: Any) -> SgjaxParallelEnv:
+    """A PettingZoo ``ParallelEnv`` over ``sgjax.make(scenario, num_agents=..., **overrides)``.
+
+    ``seed`` seeds the generator that picks episodes when ``reset`` gets no seed of its own
+    (wrappers such as SuperSuit's reset without one).
+    """
+    return SgjaxParallelEnv(scenario, num_agents=num_agents, render_mode=render_mode, seed=seed,
+                            **overrides)

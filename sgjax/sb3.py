@@ -131,15 +131,19 @@ class SgjaxVecEnv(VecEnv):
         return [indices] if isinstance(indices, int) else list(indices)
 
 
-def supersuit_vec_env(scenario: str = "doorway", num_agents: int = 4, **overrides: Any):
+def supersuit_vec_env(scenario: str = "doorway", num_agents: int = 4, seed: int | None = None,
+                      **overrides: Any):
     """SocialGym 2.0's route: PettingZoo env -> SuperSuit black death -> SB3 VecEnv.
 
     ``num_cpus=0``: SuperSuit's multiprocessing forks, which is unsafe once JAX has started.
+    ``seed`` seeds the episodes (SB3 cannot: SuperSuit's vector env has no ``seed``). Black death
+    keeps a finished robot in play with zero observations until every robot is done, so its
+    success never reaches SB3's infos; count episodes or use the native ``SgjaxVecEnv``.
     """
     import supersuit as ss
 
     from sgjax.pettingzoo import parallel_env
 
-    env = ss.black_death_v3(parallel_env(scenario, num_agents=num_agents, **overrides))
+    env = ss.black_death_v3(parallel_env(scenario, num_agents=num_agents, seed=seed, **overrides))
     env = ss.pettingzoo_env_to_vec_env_v1(env)
     return ss.concat_vec_envs_v1(env, 1, num_cpus=0, base_class="stable_baselines3")

@@ -94,9 +94,10 @@ def test_invariants_over_long_random_rollouts(scenario, robots):
     assert s["over_alpha"].max() <= TOL
     assert s["over_curvature"].max() <= TOL
     assert s["wall_penetration"].max() <= TOL, "a robot ended inside a wall"
-    # Robots jammed against walls by others may keep a small overlap after one separation pass
-    # (documented in docs/robots.md: measured up to 0.29 of the smaller radius).
-    assert s["body_overlap"].max() <= 0.35, "bodies left overlapping after contact resolution"
+    # With one separation pass, a robot meeting another that is pinned against a wall keeps up
+    # to half a full-speed step of overlap for that step: v_max dt / (2 r) = 0.375 r for the
+    # default robot, a little more in multi-body jams (docs/robots.md). Never near a crossing.
+    assert s["body_overlap"].max() <= 0.5, "bodies left overlapping after contact resolution"
     assert s["wall_contacts"].sum() > 0, "the rollout never tested a wall contact"
 
 
