@@ -13,24 +13,16 @@ from sgjax.sb3 import SgjaxVecEnv, supersuit_vec_env  # noqa: E402
 torch.set_num_threads(1)
 
 
-def successes(model, venv, steps=300):
+def evaluate(model, venv, steps):
+    """(robot episodes ended, robots that reached their goal) under the deterministic policy."""
     obs = venv.reset()
-    count = 0
+    ended = reached = 0
     for _ in range(steps):
         action, _ = model.predict(obs, deterministic=True)
         obs, _, done, infos = venv.step(action)
-        count += sum(infos[i].get("is_success", False) for i in np.flatnonzero(done))
-    return count
-
-
-def episodes_ended(model, venv, steps=1500):
-    obs = venv.reset()
-    ended = 0
-    for _ in range(steps):
-        action, _ = model.predict(obs, deterministic=True)
-        obs, _, done, _ = venv.step(action)
         ended += int(done.sum())
-    return ended
+        reached += sum(infos[i].get("is_success", False) for i in np.flatnonzero(done))
+    return ended, reached
 
 
 @pytest.mark.slow
@@ -42,9 +34,9 @@ def test_ppo_learns_through_the_supersuit_route():
     # No seed= for PPO: SB3 would call venv.seed(), which SuperSuit's ConcatVecEnv lacks.
     model = sb3.PPO("MlpPolicy", supersuit_vec_env(seed=0, **kwargs), n_steps=512,
                     batch_size=256)
-    before = episodes_ended(model, supersuit_vec_env(seed=1, **kwargs))
+    before, _ = evaluate(model, supersuit_vec_env(seed=1, **kwargs), 1500)
     model.learn(40_000)
-    after = episodes_ended(model, supersuit_vec_env(seed=1, **kwargs))
+    after, _ = evaluate(model, supersuit_vec_env(seed=1, **kwargs), 1500)
     assert before <= 20 and after >= 1.5 * before, (before, after)
 
 
@@ -70,7 +62,7 @@ def test_ppo_learns_through_native_vec_env():
                   time_limit=15.0)
     model = sb3.PPO("MlpPolicy", SgjaxVecEnv(seed=0, **kwargs), n_steps=64, batch_size=256,
                     seed=0)
-    before = successes(model, SgjaxVecEnv(seed=1, **kwargs))
+    _, before = evaluate(model, SgjaxVecEnv(seed=1, **kwargs), 300)
     model.learn(30_000)
-    after = successes(model, SgjaxVecEnv(seed=1, **kwargs))
+    _, after = evaluate(model, SgjaxVecEnv(seed=1, **kwargs), 300)
     assert before <= 2 and after >= 20, (before, after)
