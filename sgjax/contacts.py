@@ -12,10 +12,9 @@ WALL_SKIN = 1e-3  # m: robots stop this far short of the contact point with a wa
 
 
 def separate_robots(
-    x: Array, y: Array, radius: Array, in_world: Array, share: float = 0.5
+    x: Array, y: Array, radius: Array, in_world: Array
 ) -> tuple[Array, Array, Array]:
-    """Push overlapping robots apart along their centre line, each by ``share`` of the overlap
-    (0.5 resolves a free pair exactly; 1.0 resolves a pair whose partner is pinned).
+    """Push overlapping robots apart along their centre line, each by half the overlap.
 
     ``x, y, radius, in_world`` are ``[R]``; robots not ``in_world`` neither push nor get pushed.
     Returns the push ``(px, py)`` ``[R]`` (m) and a per-robot overlap flag ``[R]``.
@@ -33,7 +32,7 @@ def separate_robots(
     close = dist < 1e-6
     ux = jnp.where(close, fallback, dx / jnp.where(close, 1.0, dist))
     uy = jnp.where(close, 0.0, dy / jnp.where(close, 1.0, dist))
-    push = jnp.where(touching, share * overlap, 0.0)
+    push = jnp.where(touching, 0.5 * overlap, 0.0)
     return jnp.sum(push * ux, axis=1), jnp.sum(push * uy, axis=1), jnp.any(touching, axis=1)
 
 

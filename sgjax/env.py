@@ -94,7 +94,6 @@ class EnvState:
     robots: RobotState
     route: Route
     progress: Array  # [R] m along the route
-    goal_distance: Array  # [R] m, straight line, at the end of the last step
     touching_robot: Array  # [R] bool, at the last step (for onsets)
     touching_wall: Array  # [R] bool
     collisions: CollisionCounts
@@ -221,7 +220,6 @@ class SocialNavEnv:
         no = jnp.zeros(num_robots, bool)
         state = EnvState(
             robots=robots, route=route, progress=zeros,
-            goal_distance=safe_norm(route.goal_x - x, route.goal_y - y),
             touching_robot=no, touching_wall=no,
             collisions=CollisionCounts(jnp.zeros(num_robots, jnp.int32),
                                        jnp.zeros(num_robots, jnp.int32)),
@@ -291,6 +289,7 @@ class SocialNavEnv:
             hit_robot, hit_wall = hit_robot | overlap, hit_wall | (wall & acting)
 
         route = state.route
+        previous_distance = safe_norm(route.goal_x - robots.x, route.goal_y - robots.y)
         goal_distance = safe_norm(route.goal_x - x, route.goal_y - y)
         arrived = acting & (goal_distance < params.goal_tolerance)
         succeeded = robots.succeeded | arrived
@@ -303,7 +302,7 @@ class SocialNavEnv:
         )
         w = params.reward
         reward = (
-            w.progress * (state.goal_distance - goal_distance)
+            w.progress * (previous_distance - goal_distance)
             + w.success * arrived
             + w.collision * (robot_onset | wall_onset)
         )
@@ -316,7 +315,6 @@ class SocialNavEnv:
             robots=robots.replace(x=x, y=y, kin=kin, succeeded=succeeded),
             route=route,
             progress=progress,
-            goal_distance=jnp.where(acting, goal_distance, state.goal_distance),
             touching_robot=hit_robot,
             touching_wall=hit_wall,
             collisions=collisions,

@@ -97,46 +97,6 @@ def swept_disc_segment_toi(
     return jnp.minimum(t_side, jnp.minimum(t_a, t_b))
 
 
-def ray_segment_distance(
-    px: Array,
-    py: Array,
-    cos_a: Array,
-    sin_a: Array,
-    ax: Array,
-    ay: Array,
-    bx: Array,
-    by: Array,
-) -> Array:
-    """Distance (m) along rays from ``p`` with unit direction ``(cos_a, sin_a)`` to segments.
-
-    Returns ``inf`` where the ray misses the segment. Broadcasts over all arguments.
-    """
-    ex, ey = bx - ax, by - ay
-    denom = cos_a * ey - sin_a * ex
-    qx, qy = ax - px, ay - py
-    ok = jnp.abs(denom) > _TINY
-    safe = jnp.where(ok, denom, 1.0)
-    t = (qx * ey - qy * ex) / safe
-    u = (qx * sin_a - qy * cos_a) / safe
-    hit = ok & (t >= 0.0) & (u >= 0.0) & (u <= 1.0)
-    return jnp.where(hit, t, jnp.inf)
-
-
-def ray_circle_distance(
-    px: Array, py: Array, cos_a: Array, sin_a: Array, cx: Array, cy: Array, radius: Array
-) -> Array:
-    """Distance (m) along unit rays from ``p`` to the boundary of circles; ``inf`` on a miss."""
-    mx, my = px - cx, py - cy
-    b = mx * cos_a + my * sin_a
-    c = mx * mx + my * my - radius * radius
-    disc = b * b - c
-    ok = disc >= 0.0
-    root = jnp.sqrt(jnp.where(ok, disc, 0.0))
-    t_near = -b - root
-    t = jnp.where(c <= 0.0, 0.0, t_near)
-    return jnp.where(ok & (t >= 0.0), t, jnp.inf)
-
-
 def segments_intersect(
     p1: tuple[float, float],
     p2: tuple[float, float],

@@ -13,8 +13,8 @@ Per robot and step:
      ``obstacle_margin``) clears every wall and every other robot's disc. The arc whose free end is
      closest to the carrot wins, with ``clearance_weight`` per metre of wall clearance (up to 1 m)
      as a tie-breaker. Walls come from the map's per-cell lists (``MapArrays.cell_walls``), which
-     hold every wall within ``MapArrays.reach`` of the cell: enough for the longest arc plus the
-     inflated radius given to ``make``;
+     hold every wall within reach of the cell: ``make`` sizes them for the longest arc plus the
+     inflated radius;
   4. the speed is the largest from which the robot can stop within the arc's free length:
      ``min(max_speed, sqrt(2 max_decel (free - stop_margin)))``, and the yaw rate is the speed the
      robot reaches this step x curvature (steering ``atan(wheelbase x curvature)`` for Ackermann).

@@ -7,8 +7,6 @@ import pytest
 
 from sgjax.geometry import (
     point_segment_distance,
-    ray_circle_distance,
-    ray_segment_distance,
     segments_intersect,
     swept_disc_segment_toi,
     wrap_angle,
@@ -52,13 +50,6 @@ def test_inside_moving_in_is_zero_and_moving_out_is_free():
 def test_point_segment_distance():
     d = point_segment_distance(jnp.array([-3.0, 0.5, 0.0]), jnp.array([0.0, 3.0, 0.0]), *WALL)
     np.testing.assert_allclose(d, [3.0, np.hypot(0.5, 2.0), 0.0], rtol=1e-6)
-
-
-def test_rays():
-    d = ray_segment_distance(-2.0, 0.0, 1.0, 0.0, *WALL)
-    assert float(d) == pytest.approx(2.0)
-    assert np.isinf(float(ray_segment_distance(-2.0, 0.0, -1.0, 0.0, *WALL)))
-    assert float(ray_circle_distance(0.0, 0.0, 1.0, 0.0, 3.0, 0.0, 0.5)) == pytest.approx(2.5)
 
 
 def test_segments_intersect():

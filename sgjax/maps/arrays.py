@@ -43,7 +43,6 @@ class MapArrays:
     max_route_nodes: int = struct.field(pytree_node=False, default=2)
     grid_shape: tuple[int, int] = struct.field(pytree_node=False, default=(1, 1))
     cell_size: float = struct.field(pytree_node=False, default=1.0)
-    reach: float = struct.field(pytree_node=False, default=0.0)
 
     def cell_of(self, x: Array, y: Array) -> Array:
         """Flat grid-cell index of points (clipped to the grid)."""
@@ -137,5 +136,4 @@ def compile_map(spec: MapSpec, reach: float = 2.5, cell_size: float = 1.0) -> Ma
         max_route_nodes=longest,
         grid_shape=grid_shape,
         cell_size=float(cell_size),
-        reach=float(reach),
     )

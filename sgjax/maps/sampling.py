@@ -16,13 +16,12 @@ START_MARGIN = 0.02  # m of free space between the bodies of two robots placed a
 class Route:
     """Each robot's waypoints along the shortest graph path from its start to its goal.
 
-    ``x``, ``y``, ``cum_length`` are ``[R, L]`` (m); entries past ``num_nodes - 1`` repeat the goal.
+    ``x``, ``y``, ``cum_length`` are ``[R, L]`` (m); entries past the goal repeat it.
     """
 
     x: Array
     y: Array
     cum_length: Array
-    num_nodes: Array  # [R] int32
     start: Array  # [R] int32 node rows
     goal: Array  # [R] int32 node rows
 
@@ -146,6 +145,4 @@ def build_routes(m: MapArrays, start: Array, goal: Array) -> Route:
     x, y = m.node_x[path], m.node_y[path]
     seg = jnp.sqrt(jnp.square(jnp.diff(x, axis=1)) + jnp.square(jnp.diff(y, axis=1)))
     cum = jnp.concatenate([jnp.zeros_like(x[:, :1]), jnp.cumsum(seg, axis=1)], axis=1)
-    num_nodes = 1 + jnp.sum(path[:, 1:] != path[:, :-1], axis=1)
-    return Route(x=x, y=y, cum_length=cum, num_nodes=num_nodes.astype(jnp.int32),
-                 start=start, goal=goal)
+    return Route(x=x, y=y, cum_length=cum, start=start, goal=goal)
