@@ -26,15 +26,25 @@ def safe_norm(x: Array, y: Array) -> Array:
     return jnp.where(sq > _TINY, jnp.sqrt(safe_sq), 0.0)
 
 
+def point_segment_distance_sq(
+    px: Array, py: Array, ax: Array, ay: Array, bx: Array, by: Array
+) -> Array:
+    """Squared distance (m^2) from points ``p`` to segments ``a-b``; broadcasts over all
+    arguments. The segments' inverse squared lengths are computed at the segments' shape."""
+    ex, ey = bx - ax, by - ay
+    inv_length_sq = 1.0 / jnp.maximum(ex * ex + ey * ey, _TINY)
+    qx, qy = px - ax, py - ay
+    t = jnp.clip((qx * ex + qy * ey) * inv_length_sq, 0.0, 1.0)
+    return jnp.square(qx - t * ex) + jnp.square(qy - t * ey)
+
+
 def point_segment_distance(
     px: Array, py: Array, ax: Array, ay: Array, bx: Array, by: Array
 ) -> Array:
-    """Distance (m) from points ``p`` to segments ``a-b``; broadcasts over all arguments."""
-    ex, ey = bx - ax, by - ay
-    length_sq = ex * ex + ey * ey
-    t = ((px - ax) * ex + (py - ay) * ey) / jnp.maximum(length_sq, _TINY)
-    t = jnp.clip(t, 0.0, 1.0)
-    return safe_norm(px - (ax + t * ex), py - (ay + t * ey))
+    """Distance (m) from points ``p`` to segments ``a-b`` (finite gradient at zero)."""
+    sq = point_segment_distance_sq(px, py, ax, ay, bx, by)
+    safe_sq = jnp.where(sq > _TINY, sq, 1.0)
+    return jnp.where(sq > _TINY, jnp.sqrt(safe_sq), 0.0)
 
 
 def _first_circle_hit(

@@ -28,7 +28,7 @@ from pettingzoo import ParallelEnv
 
 from sgjax.maps.io import load
 from sgjax.registry import make
-from sgjax.render import render_frame
+from sgjax.render import render_state
 
 RENDER_FPS = 10
 
@@ -145,12 +145,7 @@ class SgjaxParallelEnv(ParallelEnv):
             raise RuntimeError("render() before reset()")
         if self._map is None:
             self._map = load(self.scenario) if isinstance(self.scenario, str) else self.scenario
-        robots = jax.device_get(self._state.robots)
-        goal = np.stack([np.asarray(self._state.route.goal_x),
-                         np.asarray(self._state.route.goal_y)], -1)
-        return render_frame(self._map, np.asarray(robots.position), np.asarray(robots.heading),
-                            np.asarray(self.params.robots.radius), np.asarray(robots.present),
-                            np.asarray(robots.succeeded), goal,
+        return render_state(self._map, self._state, self.params.robots.radius,
                             trail=np.stack(self._trail[-15:]),
                             title=f"{self.env.config.scenario}  step {int(self._state.time)}")
 

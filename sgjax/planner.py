@@ -32,6 +32,7 @@ from flax import struct
 from jax import Array
 
 from sgjax.dynamics.limits import ACKERMANN, RobotParams
+from sgjax.geometry import point_segment_distance_sq
 from sgjax.maps.arrays import MapArrays
 from sgjax.maps.sampling import Route
 
@@ -160,11 +161,7 @@ def plan(
     inflate = (robots.radius + pp.obstacle_margin)[:, None]
     near = m.cell_walls[m.cell_of(x, y)]  # [R, Kw]
     wx1, wy1, wx2, wy2 = (a[near][:, :, None] for a in (m.wall_x1, m.wall_y1, m.wall_x2, m.wall_y2))
-    ex, ey = wx2 - wx1, wy2 - wy1
-    inv_len_sq = 1.0 / jnp.maximum(ex * ex + ey * ey, 1e-12)
-    qx, qy = px[:, None, :] - wx1, py[:, None, :] - wy1
-    t = jnp.clip((qx * ex + qy * ey) * inv_len_sq, 0.0, 1.0)
-    d_sq = jnp.square(qx - t * ex) + jnp.square(qy - t * ey)
+    d_sq = point_segment_distance_sq(px[:, None, :], py[:, None, :], wx1, wy1, wx2, wy2)
     d_sq = jnp.where(m.wall_valid[near][:, :, None], d_sq, jnp.inf)
     wall_clearance = jnp.sqrt(jnp.min(d_sq, axis=1)) - inflate  # [R, S]
     num_robots = x.shape[0]

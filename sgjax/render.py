@@ -110,6 +110,20 @@ def render_frame(
     return _to_rgb(fig)
 
 
+def render_state(
+    spec: MapSpec, state, radius: np.ndarray, trail: np.ndarray | None = None, title: str = "",
+    width_px: int = 480,
+) -> np.ndarray:
+    """:func:`render_frame` of one (unbatched) ``EnvState``; ``radius [R]`` from
+    ``params.robots.radius``."""
+    robots = state.robots
+    goal = np.stack([np.asarray(state.route.goal_x), np.asarray(state.route.goal_y)], -1)
+    return render_frame(spec, np.asarray(robots.position), np.asarray(robots.heading),
+                        np.asarray(radius), np.asarray(robots.present),
+                        np.asarray(robots.succeeded), goal, trail=trail, title=title,
+                        width_px=width_px)
+
+
 def save_gif(frames: Sequence[np.ndarray], path: str | Path, fps: int = 10) -> Path:
     """Write frames (``H x W x 3`` uint8) to an animated GIF with pillow."""
     if not frames:

@@ -20,7 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import sgjax
-from sgjax.render import render_frame, save_gif
+from sgjax.render import render_state, save_gif
 
 
 def policy_fn(name: str, stop_prob: float, shape: tuple[int, ...]):
@@ -156,14 +156,9 @@ def main(argv: list[str] | None = None) -> None:
     radius = np.asarray(params.robots.radius)
     images = []
     for t, s in enumerate(frames):
-        r = jax.device_get(s.robots)
-        start = max(0, t - 15)
-        trail = np.stack([np.asarray(f.robots.position) for f in frames[start:t + 1]])
-        images.append(render_frame(
-            spec, np.asarray(r.position), np.asarray(r.heading), radius, np.asarray(r.present),
-            np.asarray(r.succeeded), np.stack([np.asarray(s.route.goal_x),
-                                               np.asarray(s.route.goal_y)], -1),
-            trail=trail, title=f"{args.scenario}  t = {t * stride * dt:.1f} s"))
+        trail = np.stack([np.asarray(f.robots.position) for f in frames[max(0, t - 15):t + 1]])
+        images.append(render_state(spec, s, radius, trail=trail,
+                                   title=f"{args.scenario}  t = {t * stride * dt:.1f} s"))
     fps = max(1, round(1 / (dt * stride)))
     path = save_gif(images, Path(args.out) / "episode.gif", fps=fps)
     print(f"\nwrote {path} ({len(images)} frames)")

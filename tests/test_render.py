@@ -6,15 +6,12 @@ import numpy as np
 from PIL import Image
 
 import sgjax
-from sgjax.render import draw_scenario, render_frame, save_gif
+from sgjax.render import draw_scenario, render_state, save_gif
 from sgjax.rollout import main
 
 
 def frame_of(spec, state, radius):
-    r = state.robots
-    goal = np.stack([state.route.goal_x, state.route.goal_y], -1)
-    return render_frame(spec, np.asarray(r.position), np.asarray(r.heading), radius,
-                        np.asarray(r.present), np.asarray(r.succeeded), goal, width_px=200)
+    return render_state(spec, state, radius, width_px=200)
 
 
 def test_frames_change_between_steps_and_gif_is_readable(tmp_path):

@@ -8,7 +8,7 @@ from flax import struct
 from jax import Array
 
 from sgjax.maps.routing import all_pairs_shortest_paths, path_nodes
-from sgjax.maps.schema import MapSpec
+from sgjax.maps.schema import MapSpec, point_segment_distances
 
 _FAR = 1.0e6  # m: where the padding wall of a wall-less map lives
 
@@ -77,10 +77,7 @@ def wall_grid(
     iy, ix = np.mgrid[0:ny, 0:nx]
     centre = np.stack([lo[0] + (ix.ravel() + 0.5) * cell_size,
                        lo[1] + (iy.ravel() + 0.5) * cell_size], axis=-1)  # [C, 2]
-    a, b = walls[None, :, :2], walls[None, :, 2:]
-    e = b - a
-    t = np.clip(np.sum((centre[:, None] - a) * e, -1) / np.maximum(np.sum(e * e, -1), 1e-12), 0, 1)
-    dist = np.linalg.norm(centre[:, None] - (a + t[..., None] * e), axis=-1)  # [C, W]
+    dist = point_segment_distances(centre, walls)  # [C, W]
     near = (dist <= reach + cell_size * np.sqrt(0.5)) & valid[None, :]
     width = max(1, int(near.sum(axis=1).max()))
     cell_walls = np.full((near.shape[0], width), walls.shape[0] - 1, dtype=np.int32)

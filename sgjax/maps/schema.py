@@ -237,16 +237,21 @@ def _parse_edges(source: str, raw: Any, index: dict[int, int]) -> np.ndarray:
     return np.asarray(edges, dtype=np.int64).reshape(-1, 2)
 
 
+def point_segment_distances(points: np.ndarray, walls: np.ndarray) -> np.ndarray:
+    """Host-side distances (m) from ``points [P, 2]`` to segments ``walls [W, 4]``: ``[P, W]``."""
+    a, b = walls[None, :, :2], walls[None, :, 2:]
+    p = points[:, None, :]
+    e = b - a
+    t = np.clip(np.sum((p - a) * e, -1) / np.maximum(np.sum(e * e, -1), 1e-12), 0.0, 1.0)
+    return np.linalg.norm(p - (a + t[..., None] * e), axis=-1)
+
+
 def _check_clearance(
     source: str, walls: np.ndarray, ids: np.ndarray, positions: np.ndarray, clearance: float
 ) -> None:
     if walls.shape[0] == 0:
         return
-    a, b = walls[None, :, :2], walls[None, :, 2:]
-    p = positions[:, None, :]
-    e = b - a
-    t = np.clip(np.sum((p - a) * e, -1) / np.sum(e * e, -1), 0.0, 1.0)
-    dist = np.linalg.norm(p - (a + t[..., None] * e), axis=-1)  # [N, W]
+    dist = point_segment_distances(positions, walls)  # [N, W]
     node, wall = np.unravel_index(np.argmin(dist), dist.shape)
     if dist[node, wall] < clearance:
         raise MapError(
