@@ -39,6 +39,16 @@ from sgjax.contacts import clamp_to_walls, separate_robots
 from sgjax.dynamics.limits import ACKERMANN, RobotParams
 from sgjax.dynamics.models import Kinematics, decode_continuous, integrate, stop_on_contact
 from sgjax.geometry import safe_norm
+from sgjax.humans.crowd import (
+    HumanConfig,
+    HumanParams,
+    HumanState,
+    advance_waypoints,
+    human_forces,
+    move_humans,
+    spawn_humans,
+    yield_to_robots,
+)
 from sgjax.maps.arrays import MapArrays
 from sgjax.maps.sampling import Route, build_routes, sample_starts_goals
 from sgjax.planner import PlannerConfig, PlannerParams, carrot_point, plan, route_progress
@@ -87,6 +97,7 @@ class CollisionCounts:
 
     robot: Array
     wall: Array
+    human: Array
 
 
 @struct.dataclass
@@ -96,7 +107,9 @@ class EnvState:
     progress: Array  # [R] m along the route
     touching_robot: Array  # [R] bool, at the last step (for onsets)
     touching_wall: Array  # [R] bool
+    touching_human: Array  # [R] bool
     collisions: CollisionCounts
+    humans: HumanState  # pedestrians [H]
     time: Array  # int32 steps since reset
 
 
@@ -104,7 +117,7 @@ class EnvState:
 class RewardWeights:
     progress: Array | float = 1.0  # per metre of goal distance gained
     success: Array | float = 100.0  # once, on arrival
-    collision: Array | float = -10.0  # per collision onset
+    collision: Array | float = -10.0  # per collision onset (robot, wall or pedestrian)
 
 
 @struct.dataclass
@@ -115,6 +128,7 @@ class EnvParams:
     map: MapArrays
     planner: PlannerParams
     reward: RewardWeights
+    humans: HumanParams
     num_agents: Array  # int32 scalar: robots that take part in an episode
     dt: Array  # s per step
     max_steps: Array  # int32: truncation after this many steps
@@ -132,6 +146,7 @@ class EnvConfig:
     substeps: int = 1
     contact_passes: int = 1  # robot-robot separation passes per sub-step (see docs/robots.md)
     planner: PlannerConfig = dataclasses.field(default_factory=PlannerConfig)
+    humans: HumanConfig = dataclasses.field(default_factory=HumanConfig)
 
 
 class SocialNavEnv:
@@ -180,6 +195,12 @@ class SocialNavEnv:
             if not 0 <= n <= self.max_agents:
                 raise ValueError(f"params.num_agents must be in [0, max_agents={self.max_agents}]"
                                  f", got {n}")
+        num_humans = params.humans.num_humans
+        if not isinstance(num_humans, jax.core.Tracer):
+            n, most = int(num_humans), self.config.humans.max_humans
+            if not 0 <= n <= most:
+                raise ValueError(f"params.humans.num_humans must be in [0, max_humans={most}], "
+                                 f"got {n}")
         radius = params.robots.radius
         if jnp.shape(radius) != (self.max_agents,):
             raise ValueError(f"params.robots.radius: expected shape ({self.max_agents},), "
@@ -192,15 +213,19 @@ class SocialNavEnv:
     def reset(self, key: Array, params: EnvParams) -> tuple[Array, EnvState]:
         """Sample a scenario: starts, goals and routes for ``params.num_agents`` robots."""
         self.check_params(params)
+        key_robots, key_humans = jax.random.split(key)
         wanted = jnp.arange(self.max_agents) < params.num_agents
-        start, goal, placed = sample_starts_goals(key, params.map, params.robots.radius, wanted)
-        return self.reset_to(start, goal, placed, params)
+        start, goal, placed = sample_starts_goals(key_robots, params.map, params.robots.radius,
+                                                  wanted)
+        return self.reset_to(start, goal, placed, params, key=key_humans)
 
     def reset_to(
-        self, start: Array, goal: Array, present: Array, params: EnvParams
+        self, start: Array, goal: Array, present: Array, params: EnvParams,
+        key: Array | None = None,
     ) -> tuple[Array, EnvState]:
         """Start an episode on given routes: node rows ``start, goal [R]`` (int) and which robots
-        take part (``present [R]`` bool). Robots start at rest facing their first waypoint."""
+        take part (``present [R]`` bool). Robots start at rest facing their first waypoint.
+        ``key`` places the pedestrians (default: ``jax.random.key(0)``)."""
         num_robots = self.max_agents
         for name, value in (("start", start), ("goal", goal), ("present", present)):
             if jnp.shape(value) != (num_robots,):
@@ -218,11 +243,16 @@ class SocialNavEnv:
             present=jnp.asarray(present, bool), succeeded=jnp.zeros(num_robots, bool),
         )
         no = jnp.zeros(num_robots, bool)
+        none = jnp.zeros(num_robots, jnp.int32)
+        humans = spawn_humans(
+            jax.random.key(0) if key is None else key, self.config.humans, params.humans,
+            params.map, x, y, params.robots.radius, robots.present,
+        )
         state = EnvState(
             robots=robots, route=route, progress=zeros,
-            touching_robot=no, touching_wall=no,
-            collisions=CollisionCounts(jnp.zeros(num_robots, jnp.int32),
-                                       jnp.zeros(num_robots, jnp.int32)),
+            touching_robot=no, touching_wall=no, touching_human=no,
+            collisions=CollisionCounts(robot=none, wall=none, human=none),
+            humans=humans,
             time=jnp.zeros((), jnp.int32),
         )
         return self.observe(state, params), state
@@ -259,17 +289,23 @@ class SocialNavEnv:
         self, key: Array, state: EnvState, actions: Array, params: EnvParams
     ) -> tuple[Array, EnvState, Array, Array, Array, dict]:
         """One step without auto-reset (same returns as :meth:`step`)."""
-        del key  # the step is deterministic; the key is kept for the API and later noise terms
         cfg, rp = self.config, params.robots
         robots = state.robots
         acting = robots.active
         forward, lateral, turn = self._commands(state, actions, params)
+        humans = advance_waypoints(key, cfg.humans, params.humans, params.map, state.humans)
 
         dt_sub = params.dt / cfg.substeps
         x, y, kin = robots.x, robots.y, robots.kin
         hit_robot = jnp.zeros(self.max_agents, bool)
         hit_wall = jnp.zeros(self.max_agents, bool)
+        hit_human = jnp.zeros(self.max_agents, bool)
         for _ in range(cfg.substeps):
+            if cfg.humans.max_humans:
+                velocity = robots.replace(kin=kin).velocity
+                fx, fy = human_forces(cfg.humans, params.humans, params.map, humans, x, y,
+                                      velocity[:, 0], velocity[:, 1], acting)
+                humans = move_humans(params.humans, params.map, humans, fx, fy, dt_sub)
             new_kin, dx, dy = integrate(kin, forward, lateral, turn, rp, dt_sub)
             dx, dy = jnp.where(acting, dx, 0.0), jnp.where(acting, dy, 0.0)
             push_x, push_y, overlap = separate_robots(x + dx, y + dy, rp.radius, acting)
@@ -283,10 +319,16 @@ class SocialNavEnv:
                 push_x, push_y, pinned = clamp_to_walls(x, y, push_x, push_y, rp.radius,
                                                         params.map)
                 x, y, wall = x + push_x, y + push_y, wall | pinned
-            # Bumpers: a robot touching a wall or another robot stops.
-            new_kin = stop_on_contact(new_kin, wall | overlap, rp)
+            if cfg.humans.max_humans:
+                humans, met = yield_to_robots(params.humans, params.map, humans, x, y,
+                                              rp.radius, acting)
+            else:
+                met = jnp.zeros(self.max_agents, bool)
+            # Bumpers: a robot touching a wall, another robot or a pedestrian stops.
+            new_kin = stop_on_contact(new_kin, wall | overlap | met, rp)
             kin = jax.tree.map(lambda new, old: jnp.where(acting, new, old), new_kin, kin)
             hit_robot, hit_wall = hit_robot | overlap, hit_wall | (wall & acting)
+            hit_human = hit_human | (met & acting)
 
         route = state.route
         previous_distance = safe_norm(route.goal_x - robots.x, route.goal_y - robots.y)
@@ -296,15 +338,17 @@ class SocialNavEnv:
         progress = jnp.where(acting, route_progress(route, x, y, state.progress), state.progress)
         robot_onset = hit_robot & ~state.touching_robot
         wall_onset = hit_wall & ~state.touching_wall
+        human_onset = hit_human & ~state.touching_human
         collisions = CollisionCounts(
             robot=state.collisions.robot + robot_onset.astype(jnp.int32),
             wall=state.collisions.wall + wall_onset.astype(jnp.int32),
+            human=state.collisions.human + human_onset.astype(jnp.int32),
         )
         w = params.reward
         reward = (
             w.progress * (previous_distance - goal_distance)
             + w.success * arrived
-            + w.collision * (robot_onset | wall_onset)
+            + w.collision * (robot_onset | wall_onset | human_onset)
         )
         reward = jnp.where(acting, reward, 0.0)
         time = state.time + 1
@@ -317,13 +361,16 @@ class SocialNavEnv:
             progress=progress,
             touching_robot=hit_robot,
             touching_wall=hit_wall,
+            touching_human=hit_human,
             collisions=collisions,
+            humans=humans,
             time=time,
         )
         info = {
             "acting": acting,
             "collision_robot": hit_robot,
             "collision_wall": hit_wall,
+            "collision_human": hit_human,
             "arrived": arrived,
         }
         return self.observe(next_state, params), next_state, reward, terminated, truncated, info
@@ -349,11 +396,22 @@ class SocialNavEnv:
         forward, turn = plan(
             cfg.planner, params.planner, rp, params.map, robots.x, robots.y, robots.heading,
             robots.kin.v_forward, params.dt, robots.active, carrot_x, carrot_y,
+            bodies=self._pedestrian_bodies(state, params),
         )
         go = actions == GO
         # STOP: brake to rest; Ackermann robots hold their steering.
         turn = jnp.where(go, turn, jnp.where(rp.model == ACKERMANN, robots.kin.steering, 0.0))
         return jnp.where(go, forward, 0.0), jnp.zeros_like(forward), turn
+
+    def _pedestrian_bodies(
+        self, state: EnvState, params: EnvParams
+    ) -> tuple[Array, Array, Array, Array] | None:
+        """Pedestrians as discs ``(x, y, radius, active)`` for the planner (None if there are
+        none)."""
+        if not self.config.humans.max_humans:
+            return None
+        h = state.humans
+        return h.x, h.y, params.humans.radius, h.active
 
     # ------------------------------------------------------------ observation
     def observe(self, state: EnvState, params: EnvParams) -> Array:

@@ -130,13 +130,16 @@ def plan(
     in_world: Array,
     carrot_x: Array,
     carrot_y: Array,
+    bodies: tuple[Array, Array, Array, Array] | None = None,
 ) -> tuple[Array, Array]:
-    """GO commands ``(forward m/s, turn)`` ``[R]`` toward the carrots, avoiding walls and robots.
+    """GO commands ``(forward m/s, turn)`` ``[R]`` toward the carrots, avoiding walls, robots and
+    other bodies.
 
     ``v_forward [R]`` is each robot's current forward speed (m/s) and ``dt`` the step (s).
 
     ``turn`` is a yaw rate (rad/s), or a steering angle (rad) for Ackermann robots.
-    ``in_world [R]`` masks which robots are obstacles.
+    ``in_world [R]`` masks which robots are obstacles. ``bodies`` adds discs ``(x, y, radius,
+    present)``, each ``[B]`` (pedestrians).
     """
     ackermann = robots.model == ACKERMANN
     cos_h, sin_h = jnp.cos(heading), jnp.sin(heading)
@@ -166,9 +169,17 @@ def plan(
     wall_clearance = jnp.sqrt(jnp.min(d_sq, axis=1)) - inflate  # [R, S]
     num_robots = x.shape[0]
     other = in_world[None, :] & ~jnp.eye(num_robots, dtype=bool)  # [R, R]
-    body_sq = jnp.square(px[:, None, :] - x[None, :, None]) + jnp.square(
-        py[:, None, :] - y[None, :, None])  # [R, R, S]
-    reach_sq = jnp.square(inflate[:, :, None] + robots.radius[None, :, None])
+    body_x, body_y, body_r = x, y, robots.radius
+    if bodies is not None:
+        other = jnp.concatenate(
+            [other, jnp.broadcast_to(bodies[3][None, :], (num_robots, bodies[3].shape[0]))],
+            axis=1)
+        body_x = jnp.concatenate([x, bodies[0]])
+        body_y = jnp.concatenate([y, bodies[1]])
+        body_r = jnp.concatenate([robots.radius, jnp.broadcast_to(bodies[2], bodies[0].shape)])
+    body_sq = jnp.square(px[:, None, :] - body_x[None, :, None]) + jnp.square(
+        py[:, None, :] - body_y[None, :, None])  # [R, R + B, S]
+    reach_sq = jnp.square(inflate[:, :, None] + body_r[None, :, None])
     body_blocked = jnp.any(other[:, :, None] & (body_sq < reach_sq), axis=1)
     blocked = ((wall_clearance < 0.0) | body_blocked).reshape(num_robots, num_arcs, num_samples)
     wall_clearance = wall_clearance.reshape(num_robots, num_arcs, num_samples)

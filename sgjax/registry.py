@@ -12,6 +12,9 @@ import numpy as np
 
 from sgjax.dynamics.limits import RobotPreset, resolve_robots, robot_params
 from sgjax.env import ACTION_MODES, EnvConfig, EnvParams, RewardWeights, SocialNavEnv
+from sgjax.humans.crowd import HumanConfig, HumanParams
+from sgjax.humans.forces import SocialForceParams
+from sgjax.humans.slots import spawn_slots, wall_sample_points
 from sgjax.maps.arrays import compile_map
 from sgjax.maps.io import load, shipped_map_names
 from sgjax.maps.sampling import sample_starts_goals
@@ -29,8 +32,16 @@ DEFAULTS: dict[str, Any] = {
     "goal_tolerance": 0.5,  # m (SocialGym's success radius)
     "num_arcs": 11,  # local planner arcs (SocialGym sampled 41; see bench/ for the cost)
     "contact_passes": 1,  # robot-robot separation passes per sub-step (more: less overlap)
+    "num_humans": 0,  # pedestrians in an episode (a param: change it without recompiling)
+    "max_humans": None,  # static maximum; default: num_humans
+    "human_model": "moussaid",  # social-force law: "moussaid" or "helbing"
+    "human_walls": "segments",  # Moussaid wall term: "segments" or "points" (PySocialForce)
+    "human_goals": "random",  # at its goal a pedestrian takes a "random" node or will "return"
+    "human_radius": 0.25,  # m (SocialGym 0.2, CrowdNav 0.3, PySocialForce 0.35)
 }
 CAPACITY_TRIALS = 64
+HUMAN_TOP_SPEED = 2.6  # m/s: fastest pedestrian (desired speed 2.0 m/s x the 1.3 cap)
+WALL_RESOLUTION = 10.0  # wall points per metre for human_walls="points" (PySocialForce's)
 PLANNER_SLACK = 0.2  # m: how much obstacle_margin may grow after make() with walls still seen
 
 
@@ -45,7 +56,9 @@ def make(scenario: str | Path | MapSpec, **overrides: Any) -> tuple[SocialNavEnv
 
     Overrides (see ``sgjax.registry.DEFAULTS``): ``num_agents``, ``max_agents``,
     ``action_mode``, ``robots``, ``dt``, ``substeps``, ``time_limit``, ``goal_tolerance``,
-    ``num_arcs``, ``contact_passes``. Returns ``(env, params)``.
+    ``num_arcs``, ``contact_passes``, and for pedestrians ``num_humans``, ``max_humans``,
+    ``human_model``, ``human_walls``, ``human_goals``, ``human_radius``. Returns
+    ``(env, params)``.
     """
     unknown = sorted(set(overrides) - set(DEFAULTS))
     if unknown:
@@ -70,7 +83,16 @@ def make(scenario: str | Path | MapSpec, **overrides: Any) -> tuple[SocialNavEnv
     goal_tolerance = _positive_float("goal_tolerance", opts["goal_tolerance"])
     slots = resolve_robots(opts["robots"], max_agents)
     presets: list[RobotPreset] = [p for _, p in slots]
-    substeps = _substeps(opts["substeps"], presets, dt)
+    num_humans = _count("num_humans", opts["num_humans"])
+    max_humans = num_humans if opts["max_humans"] is None else _count(
+        "max_humans", opts["max_humans"])
+    if num_humans > max_humans:
+        raise ValueError(f"num_humans ({num_humans}) must not exceed max_humans ({max_humans})")
+    human_config = HumanConfig(max_humans=max_humans, force_model=opts["human_model"],
+                               wall_model=opts["human_walls"], goal_mode=opts["human_goals"])
+    human_radius = _positive_float("human_radius", opts["human_radius"])
+    substeps = _substeps(opts["substeps"], presets, dt,
+                         (HUMAN_TOP_SPEED, human_radius) if max_humans else None)
 
     largest = max(p.radius for p in presets)
     if is_spec:  # re-validate against the robots that will drive it
@@ -87,19 +109,53 @@ def make(scenario: str | Path | MapSpec, **overrides: Any) -> tuple[SocialNavEnv
         scenario=spec.name, max_agents=max_agents, action_mode=opts["action_mode"],
         action_dim=action_dim, substeps=substeps, planner=planner_config,
         contact_passes=_positive_int("contact_passes", opts["contact_passes"]),
+        humans=human_config,
     )
     params = EnvParams(
         robots=robot_params(presets),
         map=map_arrays,
         planner=planner_params,
         reward=RewardWeights(),
+        humans=human_params(spec, human_config, num_humans, human_radius),
         num_agents=jnp.asarray(num_agents, jnp.int32),
         dt=jnp.asarray(dt, jnp.float32),
         max_steps=jnp.asarray(math.ceil(time_limit / dt - 1e-9), jnp.int32),
         goal_tolerance=jnp.asarray(goal_tolerance, jnp.float32),
     )
     _check_capacity(spec.source, params, max_agents)
-    return SocialNavEnv(config, params), params
+    env = SocialNavEnv(config, params)
+    if max_humans:
+        _check_human_capacity(spec.source, env, params)
+    return env, params
+
+
+def human_params(
+    spec: MapSpec, config: HumanConfig, num_humans: int, radius: float
+) -> HumanParams:
+    """Default pedestrian params for a map: spawn slots for ``radius`` (m), desired speeds
+    N(1.34, 0.26) m/s clipped to [0.5, 2.0], a 1.3x speed cap (``socialnav.md`` B1)."""
+    slots, slot_nodes = spawn_slots(spec, radius) if config.max_humans else (
+        np.zeros((0, 2)), np.zeros((0, 2), np.int64))
+    points = (wall_sample_points(spec.walls, WALL_RESOLUTION) if config.wall_model == "points"
+              else np.zeros((0, 2)))
+    f32 = jnp.float32
+    return HumanParams(
+        num_humans=jnp.asarray(num_humans, jnp.int32),
+        radius=jnp.asarray(radius, f32),
+        speed_mean=jnp.asarray(1.34, f32),
+        speed_std=jnp.asarray(0.26, f32),
+        speed_min=jnp.asarray(0.5, f32),
+        speed_max=jnp.asarray(HUMAN_TOP_SPEED / 1.3, f32),
+        max_speed_factor=jnp.asarray(1.3, f32),
+        waypoint_radius=jnp.asarray(0.75, f32),
+        robot_weight=jnp.asarray(1.0, f32),
+        forces=SocialForceParams(),
+        spawn_x=jnp.asarray(slots[:, 0], f32),
+        spawn_y=jnp.asarray(slots[:, 1], f32),
+        spawn_nodes=jnp.asarray(slot_nodes, jnp.int32),
+        wall_points_x=jnp.asarray(points[:, 0], f32),
+        wall_points_y=jnp.asarray(points[:, 1], f32),
+    )
 
 
 def _positive_int(name: str, value: Any) -> int:
@@ -116,18 +172,31 @@ def _positive_float(name: str, value: Any) -> float:
     return float(value)
 
 
-def _substeps(value: Any, presets: list[RobotPreset], dt: float) -> int:
-    """Sub-steps such that two robots closing head-on at full speed never cross centres."""
+def _count(name: str, value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
+        raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
+    return int(value)
+
+
+def _substeps(
+    value: Any, presets: list[RobotPreset], dt: float, human: tuple[float, float] | None
+) -> int:
+    """Sub-steps such that two robots closing head-on at full speed never cross centres, nor a
+    robot and a pedestrian (``human = (top speed m/s, radius m)``) when there are any."""
     fastest = max(max(p.max_speed, p.max_reverse_speed) for p in presets)
     smallest = min(p.radius for p in presets)
     needed = max(1, math.floor(fastest * dt / smallest) + 1)
+    if human is not None:
+        closing, reach = fastest + human[0], smallest + human[1]
+        needed = max(needed, math.floor(closing * dt / reach) + 1)
     if value is None:
         return needed
     substeps = _positive_int("substeps", value)
     if substeps < needed:
         raise ValueError(
             f"substeps={substeps} is too few for dt={dt} s: robots at {fastest} m/s with radius "
-            f"{smallest} m could pass through each other; use substeps >= {needed}"
+            f"{smallest} m could pass through each other or a pedestrian; use substeps >= "
+            f"{needed}"
         )
     return substeps
 
@@ -145,4 +214,24 @@ def _check_capacity(source: str, params: EnvParams, max_agents: int) -> None:
             f"{source}: cannot place max_agents={max_agents} robots with distinct starts and goals "
             f"and non-overlapping bodies (managed only {fewest} in some of {CAPACITY_TRIALS} "
             "draws); use fewer robots or smaller ones"
+        )
+
+
+def _check_human_capacity(source: str, env: SocialNavEnv, params: EnvParams) -> None:
+    """Fail early if ``max_humans`` pedestrians do not always find free spawn slots."""
+    full = params.replace(
+        num_agents=jnp.asarray(env.max_agents, jnp.int32),
+        humans=params.humans.replace(
+            num_humans=jnp.asarray(env.config.humans.max_humans, jnp.int32)),
+    )
+    keys = jax.random.split(jax.random.key(0), CAPACITY_TRIALS // 4)
+    states = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(keys, full)[1]
+    fewest = int(jnp.min(jnp.sum(states.humans.active, axis=1)))
+    wanted = env.config.humans.max_humans
+    if fewest < wanted:
+        slots = int(params.humans.spawn_x.shape[0])
+        raise ValueError(
+            f"{source}: cannot place max_humans={wanted} pedestrians of radius "
+            f"{float(params.humans.radius)} m beside {env.max_agents} robots (the map has "
+            f"{slots} spawn slots; managed only {fewest} in some draws); use fewer pedestrians"
         )

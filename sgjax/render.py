@@ -83,15 +83,27 @@ def render_frame(
     trail: np.ndarray | None = None,
     title: str = "",
     width_px: int = 480,
+    humans: np.ndarray | None = None,
+    human_velocity: np.ndarray | None = None,
+    human_radius: float = 0.25,
 ) -> np.ndarray:
     """One top-down frame as an ``H x W x 3`` uint8 array.
 
     ``position [R, 2]``, ``heading [R]``, ``radius [R]``, ``present``/``succeeded [R]`` bool,
     ``goal [R, 2]``; ``trail [T, R, 2]`` optional recent positions. Robots are coloured by id;
-    finished robots are drawn hollow at their goal.
+    finished robots are drawn hollow at their goal. ``humans [H, 2]`` (active pedestrians only)
+    are grey discs of ``human_radius`` m, with a 0.5 s velocity tick from ``human_velocity``.
     """
     fig, ax = _figure(spec, width_px)
     _draw_map(ax, spec, graph=True, zones=True)
+    if humans is not None:
+        for k, centre in enumerate(humans):
+            ax.add_patch(Circle(tuple(centre), human_radius, facecolor="#9e9e9e",
+                                edgecolor="#505050", lw=0.6, zorder=3))
+            if human_velocity is not None:
+                tip = centre + 0.5 * human_velocity[k]
+                ax.plot([centre[0], tip[0]], [centre[1], tip[1]], color="#505050", lw=0.8,
+                        zorder=3)
     for i in np.flatnonzero(present):
         colour = ROBOT_COLOURS[i % len(ROBOT_COLOURS)]
         if trail is not None:
@@ -112,16 +124,20 @@ def render_frame(
 
 def render_state(
     spec: MapSpec, state, radius: np.ndarray, trail: np.ndarray | None = None, title: str = "",
-    width_px: int = 480,
+    width_px: int = 480, human_radius: float = 0.25,
 ) -> np.ndarray:
-    """:func:`render_frame` of one (unbatched) ``EnvState``; ``radius [R]`` from
-    ``params.robots.radius``."""
+    """:func:`render_frame` of one (unbatched) ``EnvState`` with its active pedestrians;
+    ``radius [R]`` from ``params.robots.radius``, ``human_radius`` (m) from
+    ``params.humans.radius``."""
     robots = state.robots
     goal = np.stack([np.asarray(state.route.goal_x), np.asarray(state.route.goal_y)], -1)
+    active = np.asarray(state.humans.active)
     return render_frame(spec, np.asarray(robots.position), np.asarray(robots.heading),
                         np.asarray(radius), np.asarray(robots.present),
                         np.asarray(robots.succeeded), goal, trail=trail, title=title,
-                        width_px=width_px)
+                        width_px=width_px, humans=np.asarray(state.humans.position)[active],
+                        human_velocity=np.asarray(state.humans.velocity)[active],
+                        human_radius=float(human_radius))
 
 
 def save_gif(frames: Sequence[np.ndarray], path: str | Path, fps: int = 10) -> Path:

@@ -1,0 +1,261 @@
+"""Pedestrians: state, params, spawning, waypoint following and one physics sub-step.
+
+Pedestrians are ``[H]`` arrays padded to the static ``HumanConfig.max_humans``; the first
+``HumanParams.num_humans`` of them are ``active`` (a param: changing it does not recompile).
+Each walks the navigation graph: it heads for ``target`` (a node row), the next node on the
+shortest path to its ``goal``; on reaching the goal it takes a new one (a random node, or the
+node it came from: SocialGym's back-and-forth walk), so crowds persist for the whole episode.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+from jax import Array
+
+from sgjax.contacts import clamp_to_walls
+from sgjax.geometry import safe_norm
+from sgjax.humans.forces import (
+    SocialForceParams,
+    cap_speed,
+    desired_force,
+    exponential_wall_force,
+    helbing_interaction,
+    helbing_wall_force,
+    moussaid_interaction,
+    nearest_on_segments,
+    unit,
+)
+from sgjax.humans.slots import SPAWN_JITTER, SPAWN_MARGIN
+from sgjax.maps.arrays import MapArrays
+
+FORCE_MODELS = ("moussaid", "helbing")
+WALL_MODELS = ("segments", "points")
+GOAL_MODES = ("random", "return")
+
+
+@dataclasses.dataclass(frozen=True)
+class HumanConfig:
+    """Static pedestrian settings (changing them recompiles).
+
+    ``force_model``: ``"moussaid"`` (Moussaid 2009 interaction, exponential obstacle term) or
+    ``"helbing"`` (Helbing-Molnar 1995 potentials with a field of view).
+    ``wall_model`` (Moussaid only): ``"segments"`` sums the obstacle term over each wall's nearest
+    point; ``"points"`` sums it over points sampled along the walls, as PySocialForce does.
+    ``goal_mode``: ``"random"`` (a new random node at each goal) or ``"return"`` (walk back).
+    """
+
+    max_humans: int = 0
+    force_model: str = "moussaid"
+    wall_model: str = "segments"
+    goal_mode: str = "random"
+
+    def __post_init__(self):
+        for name, allowed in (("force_model", FORCE_MODELS), ("wall_model", WALL_MODELS),
+                              ("goal_mode", GOAL_MODES)):
+            value = getattr(self, name)
+            if value not in allowed:
+                raise ValueError(f"HumanConfig.{name} must be one of {allowed}, got {value!r}")
+        if self.max_humans < 0:
+            raise ValueError(f"HumanConfig.max_humans must be >= 0, got {self.max_humans}")
+
+
+@struct.dataclass
+class HumanParams:
+    """Pedestrian params (a pytree). ``spawn_*`` and ``wall_points_*`` are compiled by
+    ``sgjax.make`` for the map and radius; the rest may be changed or batched freely."""
+
+    num_humans: Array  # int32 scalar: active pedestrians in an episode
+    radius: Array  # m (scalar); spawn slots were laid out for the value given to make()
+    speed_mean: Array  # m/s: desired speeds ~ N(mean, std) clipped to [min, max]
+    speed_std: Array
+    speed_min: Array
+    speed_max: Array
+    max_speed_factor: Array  # speed cap = factor x desired speed (PySocialForce: 1.3)
+    waypoint_radius: Array  # m: a waypoint counts as reached this close
+    robot_weight: Array  # how strongly robots repel pedestrians, relative to a pedestrian
+    forces: SocialForceParams
+    spawn_x: Array  # [S] m: spawn slots
+    spawn_y: Array
+    spawn_nodes: Array  # [S, 2] int32: ends of the graph edge beside each slot
+    wall_points_x: Array  # [P] m: sampled wall points (wall_model "points"; else empty)
+    wall_points_y: Array
+
+
+@struct.dataclass
+class HumanState:
+    """Pedestrians, each field ``[H]``. Public: ``position``, ``velocity``, ``active``."""
+
+    x: Array  # m, world
+    y: Array
+    vx: Array  # m/s, world
+    vy: Array
+    target: Array  # int32 node row: next waypoint
+    goal: Array  # int32 node row
+    origin: Array  # int32 node row: where the current walk began (goal_mode "return")
+    desired_speed: Array  # m/s
+    active: Array  # bool: takes part in this episode
+
+    @property
+    def position(self) -> Array:
+        """World position ``[H, 2]`` (m)."""
+        return jnp.stack([self.x, self.y], axis=-1)
+
+    @property
+    def velocity(self) -> Array:
+        """World velocity ``[H, 2]`` (m/s)."""
+        return jnp.stack([self.vx, self.vy], axis=-1)
+
+
+def _random_other_node(key: Array, current: Array, num_nodes: int) -> Array:
+    """A uniformly random node row different from ``current`` (when there are two or more)."""
+    if num_nodes < 2:
+        return current
+    offset = jax.random.randint(key, current.shape, 1, num_nodes)
+    return (current + offset) % num_nodes
+
+
+def spawn_humans(
+    key: Array, config: HumanConfig, hp: HumanParams, m: MapArrays,
+    robot_x: Array, robot_y: Array, robot_radius: Array, robot_present: Array,
+) -> HumanState:
+    """Place ``hp.num_humans`` pedestrians at rest on distinct spawn slots clear of the robots'
+    start bodies, with random goals and desired speeds. Robots are ``[R]`` arrays.
+
+    A pedestrian is ``active`` only if a free slot was left for it; ``sgjax.make`` checks that
+    ``max_humans`` always fit.
+    """
+    num = config.max_humans
+    num_nodes = m.node_x.shape[0]
+    k_slot, k_jitter, k_goal, k_speed = jax.random.split(key, 4)
+    reach = robot_radius[None, :] + hp.radius + SPAWN_JITTER * 1.5 + SPAWN_MARGIN
+    gap_sq = (jnp.square(hp.spawn_x[:, None] - robot_x[None, :])
+              + jnp.square(hp.spawn_y[:, None] - robot_y[None, :]))
+    blocked = jnp.any(robot_present[None, :] & (gap_sq < jnp.square(reach)), axis=1)
+    priority = jnp.where(blocked, -1.0, jax.random.uniform(k_slot, hp.spawn_x.shape))
+    best, slot = jax.lax.top_k(priority, num)
+    jitter = jax.random.uniform(k_jitter, (2, num), minval=-SPAWN_JITTER, maxval=SPAWN_JITTER)
+    x, y = hp.spawn_x[slot] + jitter[0], hp.spawn_y[slot] + jitter[1]
+    # Start toward whichever end of the slot's edge is on the shorter way to the goal.
+    end_a, end_b = hp.spawn_nodes[slot, 0], hp.spawn_nodes[slot, 1]
+    goal = _random_other_node(k_goal, end_a, num_nodes)
+
+    def via(node: Array) -> Array:
+        length = m.path_length[node, goal]
+        return jnp.where(length >= 0.0, length + safe_norm(m.node_x[node] - x,
+                                                           m.node_y[node] - y), jnp.inf)
+
+    target = jnp.where(via(end_a) <= via(end_b), end_a, end_b)
+    goal = jnp.where(jnp.isfinite(jnp.minimum(via(end_a), via(end_b))), goal, target)
+    speed = hp.speed_mean + hp.speed_std * jax.random.normal(k_speed, (num,))
+    speed = jnp.clip(speed, hp.speed_min, hp.speed_max)
+    active = (jnp.arange(num) < hp.num_humans) & (best >= 0.0)
+    zeros = jnp.zeros(num, jnp.float32)
+    return HumanState(x=x, y=y, vx=zeros, vy=zeros, target=target, goal=goal, origin=target,
+                      desired_speed=speed, active=active)
+
+
+def advance_waypoints(
+    key: Array, config: HumanConfig, hp: HumanParams, m: MapArrays, humans: HumanState
+) -> HumanState:
+    """Move each pedestrian's target on once it is within ``waypoint_radius`` of it; at the goal,
+    pick the next goal (``goal_mode``)."""
+    tx, ty = m.node_x[humans.target], m.node_y[humans.target]
+    reached = humans.active & (safe_norm(tx - humans.x, ty - humans.y) < hp.waypoint_radius)
+    at_goal = reached & (humans.target == humans.goal)
+    if config.goal_mode == "return":
+        fresh = humans.origin
+    else:
+        fresh = _random_other_node(key, humans.target, m.node_x.shape[0])
+    fresh = jnp.where(m.path_length[humans.target, fresh] >= 0.0, fresh, humans.origin)
+    goal = jnp.where(at_goal, fresh, humans.goal)
+    origin = jnp.where(at_goal, humans.target, humans.origin)
+    hop = m.next_hop[humans.target, goal]
+    target = jnp.where(reached & (hop >= 0), hop, humans.target)
+    return humans.replace(target=target, goal=goal, origin=origin)
+
+
+def human_forces(
+    config: HumanConfig, hp: HumanParams, m: MapArrays, humans: HumanState,
+    robot_x: Array, robot_y: Array, robot_vx: Array, robot_vy: Array, robot_in_world: Array,
+) -> tuple[Array, Array]:
+    """Total force per unit mass ``(fx, fy)`` ``[H]`` (m/s^2) on every pedestrian: driving term,
+    interaction with the other pedestrians and the robots (``[R]`` arrays; robots count
+    ``robot_weight``), and walls."""
+    p = hp.forces
+    h = humans
+    num = h.x.shape[0]
+    tx, ty = m.node_x[h.target], m.node_y[h.target]
+    fx, fy = desired_force(h.x, h.y, h.vx, h.vy, tx, ty, h.desired_speed, p.tau)
+    others_x = jnp.concatenate([h.x, robot_x])
+    others_y = jnp.concatenate([h.y, robot_y])
+    others_vx = jnp.concatenate([h.vx, robot_vx])
+    others_vy = jnp.concatenate([h.vy, robot_vy])
+    not_self = ~jnp.eye(num, dtype=bool)
+    weight = jnp.concatenate([
+        jnp.where(not_self & h.active[None, :], 1.0, 0.0),
+        jnp.broadcast_to(jnp.where(robot_in_world, hp.robot_weight, 0.0)[None, :],
+                         (num, robot_x.shape[0])),
+    ], axis=1)
+    if config.force_model == "moussaid":
+        sx, sy = moussaid_interaction(h.x, h.y, h.vx, h.vy, others_x, others_y, others_vx,
+                                      others_vy, weight, p)
+        if config.wall_model == "points":
+            away_x = h.x[:, None] - hp.wall_points_x[None, :]
+            away_y = h.y[:, None] - hp.wall_points_y[None, :]
+            valid = jnp.ones(hp.wall_points_x.shape, bool)
+        else:
+            away_x, away_y = nearest_on_segments(h.x, h.y, m.wall_x1, m.wall_y1, m.wall_x2,
+                                                 m.wall_y2)
+            valid = m.wall_valid
+        wx, wy = exponential_wall_force(away_x, away_y, valid,
+                                        jnp.broadcast_to(hp.radius, h.x.shape), p)
+    else:
+        ex, ey, _ = unit(tx - h.x, ty - h.y)
+        sx, sy = helbing_interaction(h.x, h.y, ex, ey, others_x, others_y, others_vx, others_vy,
+                                     weight, p)
+        away_x, away_y = nearest_on_segments(h.x, h.y, m.wall_x1, m.wall_y1, m.wall_x2,
+                                             m.wall_y2)
+        wx, wy = helbing_wall_force(away_x, away_y, m.wall_valid, p)
+    return fx + sx + wx, fy + sy + wy
+
+
+def move_humans(
+    hp: HumanParams, m: MapArrays, humans: HumanState, fx: Array, fy: Array, dt: Array
+) -> HumanState:
+    """Semi-implicit Euler (as PySocialForce): ``v <- cap(v + dt F)``, ``x <- x + dt v``, with
+    the move cut at the first wall contact (swept test, so no step size tunnels through a wall);
+    a pedestrian stopped by a wall keeps only the allowed part of its velocity."""
+    h = humans
+    vx, vy = cap_speed(h.vx + dt * fx, h.vy + dt * fy, hp.max_speed_factor * h.desired_speed)
+    vx, vy = jnp.where(h.active, vx, 0.0), jnp.where(h.active, vy, 0.0)
+    dx, dy = vx * dt, vy * dt
+    radius = jnp.broadcast_to(hp.radius, h.x.shape)
+    allowed_x, allowed_y, hit = clamp_to_walls(h.x, h.y, dx, dy, radius, m)
+    vx = jnp.where(hit, allowed_x / dt, vx)
+    vy = jnp.where(hit, allowed_y / dt, vy)
+    return h.replace(x=h.x + allowed_x, y=h.y + allowed_y, vx=vx, vy=vy)
+
+
+def yield_to_robots(
+    hp: HumanParams, m: MapArrays, humans: HumanState,
+    robot_x: Array, robot_y: Array, robot_radius: Array, robot_in_world: Array,
+) -> tuple[HumanState, Array]:
+    """Push pedestrians out of robot bodies (pedestrians give way; a robot is not moved), cut at
+    walls. Returns the pedestrians and ``[R]`` flags: robot overlapped a pedestrian."""
+    h = humans
+    rx = h.x[:, None] - robot_x[None, :]
+    ry = h.y[:, None] - robot_y[None, :]
+    ux, uy, dist = unit(rx, ry)
+    ux = jnp.where(dist > 0.0, ux, 1.0)  # coincident centres: push along +x
+    pair = h.active[:, None] & robot_in_world[None, :]
+    overlap = jnp.where(pair, hp.radius + robot_radius[None, :] - dist, 0.0)
+    touching = overlap > 0.0
+    push = jnp.where(touching, overlap, 0.0)
+    px, py = jnp.sum(push * ux, axis=1), jnp.sum(push * uy, axis=1)
+    radius = jnp.broadcast_to(hp.radius, h.x.shape)
+    px, py, _ = clamp_to_walls(h.x, h.y, px, py, radius, m)
+    return h.replace(x=h.x + px, y=h.y + py), jnp.any(touching, axis=0)
