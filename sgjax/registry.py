@@ -41,6 +41,10 @@ DEFAULTS: dict[str, Any] = {
 }
 CAPACITY_TRIALS = 64
 HUMAN_TOP_SPEED = 2.6  # m/s: fastest pedestrian (desired speed 2.0 m/s x the 1.3 cap)
+# Robots repel pedestrians twice as strongly as a pedestrian does: the Moussaid law ignores body
+# sizes, and at weight 1 pedestrians graze a standing robot (tests/test_humans.py). pedsim gets
+# the same effect by scaling a robot's distance by robotPosDiffScalingFactor = 1.5.
+ROBOT_WEIGHT = 2.0
 WALL_RESOLUTION = 10.0  # wall points per metre for human_walls="points" (PySocialForce's)
 PLANNER_SLACK = 0.2  # m: how much obstacle_margin may grow after make() with walls still seen
 
@@ -148,7 +152,7 @@ def human_params(
         speed_max=jnp.asarray(HUMAN_TOP_SPEED / 1.3, f32),
         max_speed_factor=jnp.asarray(1.3, f32),
         waypoint_radius=jnp.asarray(0.75, f32),
-        robot_weight=jnp.asarray(1.0, f32),
+        robot_weight=jnp.asarray(ROBOT_WEIGHT, f32),
         forces=SocialForceParams(),
         spawn_x=jnp.asarray(slots[:, 0], f32),
         spawn_y=jnp.asarray(slots[:, 1], f32),
@@ -219,6 +223,13 @@ def _check_capacity(source: str, params: EnvParams, max_agents: int) -> None:
 
 def _check_human_capacity(source: str, env: SocialNavEnv, params: EnvParams) -> None:
     """Fail early if ``max_humans`` pedestrians do not always find free spawn slots."""
+    wanted = env.config.humans.max_humans
+    slots = int(params.humans.spawn_x.shape[0])
+    if slots < wanted:
+        raise ValueError(
+            f"{source}: cannot place max_humans={wanted} pedestrians of radius "
+            f"{float(params.humans.radius)} m: the map has only {slots} spawn slots"
+        )
     full = params.replace(
         num_agents=jnp.asarray(env.max_agents, jnp.int32),
         humans=params.humans.replace(
@@ -227,9 +238,7 @@ def _check_human_capacity(source: str, env: SocialNavEnv, params: EnvParams) -> 
     keys = jax.random.split(jax.random.key(0), CAPACITY_TRIALS // 4)
     states = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(keys, full)[1]
     fewest = int(jnp.min(jnp.sum(states.humans.active, axis=1)))
-    wanted = env.config.humans.max_humans
     if fewest < wanted:
-        slots = int(params.humans.spawn_x.shape[0])
         raise ValueError(
             f"{source}: cannot place max_humans={wanted} pedestrians of radius "
             f"{float(params.humans.radius)} m beside {env.max_agents} robots (the map has "

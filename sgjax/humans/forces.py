@@ -59,10 +59,25 @@ def unit(x: Array, y: Array) -> tuple[Array, Array, Array]:
     return x * inv, y * inv, sq * inv
 
 
+SIGN_DEADZONE = 1e-5  # rad: |theta| below this turns neither way (float32 rounding noise)
+
+
 def _sign(v: Array) -> Array:
-    """``jnp.sign`` (0 at 0) as arithmetic: a select feeding a reduction stops XLA's CPU
-    backend vectorising, so the pair terms below blend with 0/1 factors instead of ``where``."""
-    return (v > 0.0).astype(v.dtype) - (v < 0.0).astype(v.dtype)
+    """``sign`` with a dead zone, as arithmetic (a select feeding a reduction stops XLA's CPU
+    backend vectorising, so the pair terms below blend with 0/1 factors instead of ``where``).
+
+    Two pedestrians at rest have ``theta = 0`` exactly, but rounding leaves it at +-1e-7, and a
+    plain sign would pick the turning direction by that noise (and differ between ``jit`` and
+    eager); the dead zone makes it 0, as the exact value is.
+    """
+    return (v > SIGN_DEADZONE).astype(v.dtype) - (v < -SIGN_DEADZONE).astype(v.dtype)
+
+
+def _pair_offset(weight: Array) -> Array:
+    """1 m for masked pairs (weight 0), 0 otherwise: added to their separation so that a
+    pedestrian paired with itself is not at distance 0, whose square root has an infinite
+    derivative (``0 x inf`` would turn gradients NaN even though the pair is masked)."""
+    return 1.0 - (weight != 0.0).astype(jnp.float32)
 
 
 def _flag(condition: Array) -> Array:
@@ -82,7 +97,7 @@ def desired_force(
 def moussaid_interaction(
     x: Array, y: Array, vx: Array, vy: Array,
     ox: Array, oy: Array, ovx: Array, ovy: Array,
-    weight: Array, p: SocialForceParams,
+    weight: Array, p: SocialForceParams, pysocialforce_angle: bool = False,
 ) -> tuple[Array, Array]:
     """Moussaid et al. 2009 interaction of pedestrians ``[H]`` with bodies ``[M]``.
 
@@ -94,8 +109,13 @@ def moussaid_interaction(
         f = A exp(-d / B) [-exp(-(n' B theta)^2) t + sign(theta) exp(-(n B theta)^2) left(t)]
 
     The first term brakes, the second turns away from the other's side.
+
+    ``pysocialforce_angle=True`` reproduces PySocialForce 1.1.2, whose ``theta`` is the raw
+    difference ``angle(-t) - angle(-e)`` of two ``arctan2`` values, not wrapped: where it lands
+    outside [-pi, pi] (a pair straddling the +x direction) its interaction nearly vanishes.
+    Only for the correspondence test; the default is the wrapped angle of the paper.
     """
-    rx = ox[None, :] - x[:, None]
+    rx = ox[None, :] - x[:, None] + _pair_offset(weight)
     ry = oy[None, :] - y[:, None]
     # Written lean on purpose: XLA's CPU backend stops vectorising a fused pair kernel once it
     # holds too many distinct terms (measured: 4x slower), so t = D / |D| is folded into the
@@ -107,6 +127,8 @@ def moussaid_interaction(
     d_norm = jnp.sqrt(dx * dx + dy * dy)
     # theta from e x D and e . D (|D| > 0 and |r| drop out of the angle).
     theta = polynomial_atan2(rx * dy - ry * dx, rx * dx + ry * dy)
+    if pysocialforce_angle:
+        theta = polynomial_atan2(-dy, -dx) - polynomial_atan2(-ry, -rx)
     b = jnp.maximum(p.gamma * d_norm, _TINY)
     scale = p.social_strength * weight / jnp.maximum(d_norm, _TINY)
     brake = scale * jnp.exp(-dist / b - jnp.square(p.n_prime * b * theta))
@@ -129,7 +151,7 @@ def helbing_interaction(
     Others outside the field of view (``heading [H]``, a unit vector: the desired direction)
     count ``fov_out_weight``. ``weight [H, M]`` masks pairs.
     """
-    rx = x[:, None] - ox[None, :]
+    rx = x[:, None] - ox[None, :] + _pair_offset(weight)
     ry = y[:, None] - oy[None, :]
     sx = ovx[None, :] * p.ellipse_dt
     sy = ovy[None, :] * p.ellipse_dt
