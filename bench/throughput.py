@@ -14,6 +14,10 @@ timed function; for VMAS, the growth of the process's peak RSS (a coarse upper b
 
     python bench/throughput.py                      # the full table of the issue
     python bench/throughput.py --num-envs 64 1024 --robots 4 --peers none
+    python bench/throughput.py --table pedestrians  # pedestrians {0,10,50,100} x envs {64,1024}
+
+Pedestrian table: pedestrian-steps/s of the whole sgjax step on the hallway (4 robots), beside
+PySocialForce (pip pysocialforce) stepping one scene of as many pedestrians in the same walls.
 """
 
 from __future__ import annotations
@@ -133,6 +137,91 @@ def bench_vmas(robots: int, num_envs: int, steps: int, repeats: int):
     return setup_s, best / steps, max(0, rss1 - rss0) * 1024
 
 
+def bench_pedestrians(humans: int, num_envs: int, steps: int, repeats: int, robots: int):
+    """sgjax on the hallway with ``robots`` robots (GO/STOP) and ``humans`` pedestrians."""
+    env, params = sgjax.make("hallway", num_agents=robots, num_humans=humans)
+    keys = jax.random.split(jax.random.key(0), num_envs)
+    _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+    vstep = jax.vmap(env.step, in_axes=(0, 0, 0, None))
+
+    def step_fn(key, st, actions):
+        return vstep(jax.random.split(key, num_envs), st, actions, params)[1]
+
+    def sample(k):
+        return (jax.random.uniform(k, (num_envs, robots)) < 0.2).astype(jnp.int32)
+
+    return _time_jax(_scan_rollout(step_fn, sample, steps), state, steps, repeats)
+
+
+def bench_pysocialforce(humans: int, steps: int, repeats: int) -> float:
+    """PySocialForce's seconds per step for one scene of ``humans`` pedestrians in the hallway's
+    walls (groups off, 0.1 s step), half starting in each room and heading for the other."""
+    import logging
+    import tempfile
+    from pathlib import Path
+
+    import numpy as np
+    import pysocialforce
+    import toml
+
+    logging.disable(logging.CRITICAL)  # it switches the root logger to DEBUG
+    spec = sgjax.maps.load("hallway")
+    obstacles = [[x1, x2, y1, y2] for x1, y1, x2, y2 in spec.walls]
+    config = toml.load(Path(pysocialforce.__file__).parent / "config" / "default.toml")
+    config["scene"]["enable_group"] = False
+    config["step_width"] = 0.1  # read from the top level, not [scene]
+    rng = np.random.default_rng(0)
+    left = humans // 2
+    x = np.concatenate([rng.uniform(-11, -4, left), rng.uniform(4, 11, humans - left)])
+    y = rng.uniform(-5, 5, humans)
+    speed = np.clip(rng.normal(1.34, 0.26, humans), 0.5, 2.0)
+    state = np.stack([x, y, -np.sign(x) * speed, np.zeros(humans), -x, y], axis=-1)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "psf.toml"
+        path.write_text(toml.dumps(config))
+        sim = pysocialforce.Simulator(state, groups=None, obstacles=obstacles,
+                                      config_file=str(path))
+    sim.step(2)
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        sim.step(steps)
+        best = min(best, (time.perf_counter() - t0) / steps)
+    return best
+
+
+def pedestrian_table(humans_list, envs_list, robots: int, budget: int, repeats: int) -> None:
+    """Pedestrian-steps/s of sgjax (whole environment step: robots, planner, contacts,
+    pedestrians, auto-reset) against PySocialForce's single scene, in the same run."""
+    print(f"\npedestrians on the hallway ({robots} robots, GO/STOP, dt 0.1 s)")
+    header = (f"{'simulator':<24}{'peds':>6}{'envs':>7}{'ped-steps/s':>14}{'env-steps/s':>13}"
+              f"{'compile s':>11}{'peak MB':>9}")
+    print(header)
+    print("-" * len(header))
+    ours: dict[int, float] = {}
+    theirs: dict[int, float] = {}
+    for humans in humans_list:
+        for envs in envs_list:
+            steps = int(max(10, min(200, budget // max(1, envs * max(humans, robots)))))
+            compile_s, per_step, peak = bench_pedestrians(humans, envs, steps, repeats, robots)
+            rate = envs * humans / per_step
+            ours[humans] = max(ours.get(humans, 0.0), rate)
+            print(f"{'sgjax':<24}{humans:>6}{envs:>7}{rate:>14,.0f}{envs / per_step:>13,.0f}"
+                  f"{compile_s:>11.2f}{peak / 2**20:>9.1f}", flush=True)
+        if humans:
+            try:
+                per_step = bench_pysocialforce(humans, 30, repeats)
+            except ImportError as err:
+                print(f"pysocialforce: skipped ({err})")
+                continue
+            theirs[humans] = humans / per_step
+            print(f"{'pysocialforce (1 scene)':<24}{humans:>6}{1:>7}{humans / per_step:>14,.0f}"
+                  f"{1 / per_step:>13,.0f}{'':>11}{'':>9}", flush=True)
+    for humans in sorted(theirs):
+        print(f"  {humans:>4} pedestrians: sgjax {ours[humans] / theirs[humans]:,.0f}x "
+              "PySocialForce per pedestrian-step")
+
+
 def _steps_for(num_envs: int, robots: int, budget: int) -> int:
     return int(max(10, min(200, budget // max(1, num_envs * robots))))
 
@@ -148,10 +237,19 @@ def main() -> None:
     parser.add_argument("--budget", type=int, default=4_000_000,
                         help="agent-steps per timed repeat (sets the scan length)")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--table", choices=["robots", "pedestrians", "all"], default="all",
+                        help="which table to run: robots against JaxMARL/VMAS, pedestrians "
+                             "against PySocialForce, or both")
+    parser.add_argument("--pedestrians", type=int, nargs="+", default=[0, 10, 50, 100])
+    parser.add_argument("--pedestrian-envs", type=int, nargs="+", default=[64, 1024])
     args = parser.parse_args()
 
     print(f"jax {jax.__version__} on {jax.devices()[0].platform} "
           f"({len(jax.devices())} device(s)); scenario {args.scenario}")
+    if args.table in ("pedestrians", "all"):
+        pedestrian_table(args.pedestrians, args.pedestrian_envs, 4, args.budget, args.repeats)
+    if args.table == "pedestrians":
+        return
     header = (f"{'simulator':<28}{'robots':>7}{'envs':>8}{'agent-steps/s':>15}"
               f"{'env-steps/s':>13}{'compile s':>11}{'peak MB':>10}")
     print(header)
