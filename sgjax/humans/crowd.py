@@ -194,12 +194,11 @@ def human_forces(
     others_y = jnp.concatenate([h.y, robot_y])
     others_vx = jnp.concatenate([h.vx, robot_vx])
     others_vy = jnp.concatenate([h.vy, robot_vy])
-    not_self = ~jnp.eye(num, dtype=bool)
-    weight = jnp.concatenate([
-        jnp.where(not_self & h.active[None, :], 1.0, 0.0),
-        jnp.broadcast_to(jnp.where(robot_in_world, hp.robot_weight, 0.0)[None, :],
-                         (num, robot_x.shape[0])),
-    ], axis=1)
+    # 0/1 factors rather than selects (they fuse into the pair kernel; see forces.py).
+    others = (~jnp.eye(num, dtype=bool) & h.active[None, :]).astype(jnp.float32)
+    robots = robot_in_world.astype(jnp.float32) * hp.robot_weight
+    weight = jnp.concatenate(
+        [others, jnp.broadcast_to(robots[None, :], (num, robot_x.shape[0]))], axis=1)
     if config.force_model == "moussaid":
         sx, sy = moussaid_interaction(h.x, h.y, h.vx, h.vy, others_x, others_y, others_vx,
                                       others_vy, weight, p)
