@@ -68,8 +68,9 @@ def _time_jax(rollout: Callable, state, steps: int, repeats: int) -> tuple[float
     return compile_s, best / steps, peak
 
 
-def bench_sgjax(mode: str, robots: int, num_envs: int, steps: int, repeats: int, scenario: str):
-    env, params = sgjax.make(scenario, num_agents=robots, action_mode=mode)
+def bench_sgjax(mode: str, robots: int, num_envs: int, steps: int, repeats: int, scenario: str,
+                humans: int = 0):
+    env, params = sgjax.make(scenario, num_agents=robots, action_mode=mode, num_humans=humans)
     keys = jax.random.split(jax.random.key(0), num_envs)
     _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
     vstep = jax.vmap(env.step, in_axes=(0, 0, 0, None))
@@ -137,22 +138,6 @@ def bench_vmas(robots: int, num_envs: int, steps: int, repeats: int):
     return setup_s, best / steps, max(0, rss1 - rss0) * 1024
 
 
-def bench_pedestrians(humans: int, num_envs: int, steps: int, repeats: int, robots: int):
-    """sgjax on the hallway with ``robots`` robots (GO/STOP) and ``humans`` pedestrians."""
-    env, params = sgjax.make("hallway", num_agents=robots, num_humans=humans)
-    keys = jax.random.split(jax.random.key(0), num_envs)
-    _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
-    vstep = jax.vmap(env.step, in_axes=(0, 0, 0, None))
-
-    def step_fn(key, st, actions):
-        return vstep(jax.random.split(key, num_envs), st, actions, params)[1]
-
-    def sample(k):
-        return (jax.random.uniform(k, (num_envs, robots)) < 0.2).astype(jnp.int32)
-
-    return _time_jax(_scan_rollout(step_fn, sample, steps), state, steps, repeats)
-
-
 def bench_pysocialforce(humans: int, steps: int, repeats: int) -> float:
     """PySocialForce's seconds per step for one scene of ``humans`` pedestrians in the hallway's
     walls (groups off, 0.1 s step), half starting in each room and heading for the other."""
@@ -203,7 +188,8 @@ def pedestrian_table(humans_list, envs_list, robots: int, budget: int, repeats: 
     for humans in humans_list:
         for envs in envs_list:
             steps = int(max(10, min(200, budget // max(1, envs * max(humans, robots)))))
-            compile_s, per_step, peak = bench_pedestrians(humans, envs, steps, repeats, robots)
+            compile_s, per_step, peak = bench_sgjax("go_stop", robots, envs, steps, repeats,
+                                                    "hallway", humans)
             rate = envs * humans / per_step
             ours[humans] = max(ours.get(humans, 0.0), rate)
             print(f"{'sgjax':<24}{humans:>6}{envs:>7}{rate:>14,.0f}{envs / per_step:>13,.0f}"

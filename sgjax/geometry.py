@@ -28,16 +28,24 @@ def safe_norm(x: Array, y: Array) -> Array:
     return sq * jax.lax.rsqrt(jnp.maximum(sq, _TINY))
 
 
-def point_segment_distance_sq(
+def point_segment_offset(
     px: Array, py: Array, ax: Array, ay: Array, bx: Array, by: Array
-) -> Array:
-    """Squared distance (m^2) from points ``p`` to segments ``a-b``; broadcasts over all
-    arguments. The segments' inverse squared lengths are computed at the segments' shape."""
+) -> tuple[Array, Array]:
+    """Vector (m) from the nearest point of segments ``a-b`` to points ``p``; broadcasts over
+    all arguments. The segments' inverse squared lengths are computed at the segments' shape."""
     ex, ey = bx - ax, by - ay
     inv_length_sq = 1.0 / jnp.maximum(ex * ex + ey * ey, _TINY)
     qx, qy = px - ax, py - ay
     t = jnp.clip((qx * ex + qy * ey) * inv_length_sq, 0.0, 1.0)
-    return jnp.square(qx - t * ex) + jnp.square(qy - t * ey)
+    return qx - t * ex, qy - t * ey
+
+
+def point_segment_distance_sq(
+    px: Array, py: Array, ax: Array, ay: Array, bx: Array, by: Array
+) -> Array:
+    """Squared distance (m^2) from points ``p`` to segments ``a-b`` (broadcasts)."""
+    ox, oy = point_segment_offset(px, py, ax, ay, bx, by)
+    return ox * ox + oy * oy
 
 
 def point_segment_distance(

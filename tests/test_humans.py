@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 import sgjax
-from sgjax.geometry import point_segment_distance
+from sgjax.geometry import point_segment_distance, point_segment_offset
 from sgjax.humans import HumanState, SocialForceParams
-from sgjax.humans.forces import helbing_interaction, helbing_wall_force, nearest_on_segments
+from sgjax.humans.forces import helbing_interaction, helbing_wall_force
 from sgjax.maps import parse_map
 
 DT = 0.1
@@ -306,11 +306,11 @@ def test_helbing_wall_force_is_minus_the_potential_gradient():
     p = SocialForceParams()
     wall = [jnp.array([v]) for v in (-1.0, 0.3, 2.0, 0.3)]
     x, y = jnp.array([0.5, -1.5]), jnp.array([0.0, 0.1])
-    ax, ay = nearest_on_segments(x, y, *wall)
+    ax, ay = point_segment_offset(x[:, None], y[:, None], *wall)
     fx, fy = helbing_wall_force(ax, ay, jnp.array([True]), p)
 
     def potential(px, py):
-        qx, qy = nearest_on_segments(px[None], py[None], *wall)
+        qx, qy = point_segment_offset(px[None, None], py[None, None], *wall)
         return jnp.sum(p.u0 * jnp.exp(-jnp.hypot(qx, qy) / p.wall_range))
 
     gx, gy = jax.vmap(jax.grad(potential, argnums=(0, 1)))(x, y)

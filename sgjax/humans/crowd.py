@@ -17,7 +17,7 @@ from flax import struct
 from jax import Array
 
 from sgjax.contacts import clamp_to_walls
-from sgjax.geometry import safe_norm
+from sgjax.geometry import point_segment_offset, safe_norm
 from sgjax.humans.forces import (
     SocialForceParams,
     cap_speed,
@@ -26,7 +26,6 @@ from sgjax.humans.forces import (
     helbing_interaction,
     helbing_wall_force,
     moussaid_interaction,
-    nearest_on_segments,
     unit,
 )
 from sgjax.humans.slots import SPAWN_JITTER, SPAWN_MARGIN
@@ -178,6 +177,12 @@ def advance_waypoints(
     return humans.replace(target=target, goal=goal, origin=origin)
 
 
+def _wall_offsets(h: HumanState, m: MapArrays) -> tuple[Array, Array]:
+    """Vectors ``[H, W + 1]`` from each wall's nearest point to each pedestrian."""
+    return point_segment_offset(h.x[:, None], h.y[:, None], m.wall_x1, m.wall_y1, m.wall_x2,
+                                m.wall_y2)
+
+
 def human_forces(
     config: HumanConfig, hp: HumanParams, m: MapArrays, humans: HumanState,
     robot_x: Array, robot_y: Array, robot_vx: Array, robot_vy: Array, robot_in_world: Array,
@@ -207,8 +212,7 @@ def human_forces(
             away_y = h.y[:, None] - hp.wall_points_y[None, :]
             valid = jnp.ones(hp.wall_points_x.shape, bool)
         else:
-            away_x, away_y = nearest_on_segments(h.x, h.y, m.wall_x1, m.wall_y1, m.wall_x2,
-                                                 m.wall_y2)
+            away_x, away_y = _wall_offsets(h, m)
             valid = m.wall_valid
         wx, wy = exponential_wall_force(away_x, away_y, valid,
                                         jnp.broadcast_to(hp.radius, h.x.shape), p)
@@ -216,8 +220,7 @@ def human_forces(
         ex, ey, _ = unit(tx - h.x, ty - h.y)
         sx, sy = helbing_interaction(h.x, h.y, ex, ey, others_x, others_y, others_vx, others_vy,
                                      weight, p)
-        away_x, away_y = nearest_on_segments(h.x, h.y, m.wall_x1, m.wall_y1, m.wall_x2,
-                                             m.wall_y2)
+        away_x, away_y = _wall_offsets(h, m)
         wx, wy = helbing_wall_force(away_x, away_y, m.wall_valid, p)
     return fx + sx + wx, fy + sy + wy
 

@@ -169,17 +169,6 @@ def helbing_interaction(
     return jnp.sum(weight * fx, axis=1), jnp.sum(weight * fy, axis=1)
 
 
-def nearest_on_segments(
-    x: Array, y: Array, x1: Array, y1: Array, x2: Array, y2: Array
-) -> tuple[Array, Array]:
-    """Vector from the nearest point of each segment ``[W]`` to each point ``[H]``: ``[H, W]``."""
-    ex, ey = x2 - x1, y2 - y1
-    inv = 1.0 / jnp.maximum(ex * ex + ey * ey, _TINY)
-    qx, qy = x[:, None] - x1[None, :], y[:, None] - y1[None, :]
-    t = jnp.clip((qx * ex + qy * ey) * inv, 0.0, 1.0)
-    return qx - t * ex, qy - t * ey
-
-
 def exponential_wall_force(
     away_x: Array, away_y: Array, valid: Array, radius: Array, p: SocialForceParams
 ) -> tuple[Array, Array]:
