@@ -18,10 +18,11 @@ Actions (static ``action_mode``):
     ``(forward, lateral, turn)`` when the team has an omnidirectional robot
     (see :func:`sgjax.dynamics.decode_continuous`).
 
-Default observation ``[R, 10]``: world pose ``(x, y, cos h, sin h)``, body velocity
-``(v_forward, v_lateral, omega)``, goal in the robot frame ``(gx, gy)`` and goal distance.
-Default reward: ``progress`` x metres gained toward the goal + ``success`` once on arrival +
-``collision`` per collision onset (robot-robot or robot-wall).
+Observations, rewards and episode ends are made of named terms (``sgjax.observations``,
+``sgjax.rewards``, ``sgjax.enders``; ``docs/terms.md``), chosen in ``make`` by preset or spec.
+The default observation is ``[R, 10]``: world pose ``(x, y, cos h, sin h)``, body velocity
+``(v_forward, v_lateral, omega)``, goal in the robot frame ``(gx, gy)`` and goal distance; the
+default reward is metres gained toward the goal + 100 once on arrival - 10 per collision onset.
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from jax import Array
 from sgjax.contacts import clamp_to_walls, separate_robots
 from sgjax.dynamics.limits import ACKERMANN, RobotParams
 from sgjax.dynamics.models import Kinematics, decode_continuous, integrate, stop_on_contact
+from sgjax.enders import Enders, parse_enders
 from sgjax.geometry import safe_norm
 from sgjax.humans.crowd import (
     HumanConfig,
@@ -51,11 +53,15 @@ from sgjax.humans.crowd import (
 )
 from sgjax.maps.arrays import MapArrays
 from sgjax.maps.sampling import Route, build_routes, sample_starts_goals
+from sgjax.observations import Observer, parse_observations
 from sgjax.planner import PlannerConfig, PlannerParams, carrot_point, plan, route_progress
+from sgjax.presets import OBSERVATION_PRESETS, REWARD_PRESETS
+from sgjax.rewards import Rewarder, RewardParams, parse_rewards
+from sgjax.zones import ZoneState, start_zones, update_zones
 
 ACTION_MODES = ("go_stop", "continuous")
 GO, STOP = 0, 1
-OBS_SIZE = 10
+OBS_SIZE = 10  # of the default observation preset
 
 
 @struct.dataclass
@@ -67,6 +73,7 @@ class RobotState:
     kin: Kinematics
     present: Array  # bool: takes part in this episode
     succeeded: Array  # bool: reached its goal (absorbing)
+    ended: Array  # bool: terminated by an ender without success, e.g. a collision (absorbing)
 
     @property
     def position(self) -> Array:
@@ -88,7 +95,12 @@ class RobotState:
     @property
     def active(self) -> Array:
         """``[R]`` bool: in the episode and not yet finished."""
-        return self.present & ~self.succeeded
+        return self.present & ~self.succeeded & ~self.ended
+
+    @property
+    def finished(self) -> Array:
+        """``[R]`` bool: terminated (arrived, or ended by an ender)."""
+        return self.succeeded | self.ended
 
 
 @struct.dataclass
@@ -98,6 +110,36 @@ class CollisionCounts:
     robot: Array
     wall: Array
     human: Array
+
+
+@struct.dataclass
+class History:
+    """Recent values for observation terms with a history: ``[K, R]`` each, row 0 the latest
+    (``K = observer.history_length``; at reset every row holds the initial value)."""
+
+    vx: Array  # m/s, world frame
+    vy: Array
+    v_forward: Array  # m/s, body frame
+    v_lateral: Array
+    omega: Array  # rad/s
+    goal_distance: Array  # m, straight line
+
+    @staticmethod
+    def of(robots: RobotState, distance: Array) -> dict[str, Array]:
+        v = robots.velocity
+        k = robots.kin
+        return {"vx": v[:, 0], "vy": v[:, 1], "v_forward": k.v_forward, "v_lateral": k.v_lateral,
+                "omega": k.omega, "goal_distance": distance}
+
+    @classmethod
+    def start(cls, length: int, robots: RobotState, distance: Array) -> History:
+        now = cls.of(robots, distance)
+        return cls(**{n: jnp.broadcast_to(v, (length,) + v.shape) for n, v in now.items()})
+
+    def push(self, robots: RobotState, distance: Array) -> History:
+        now = self.of(robots, distance)
+        return History(**{n: jnp.concatenate([v[None], getattr(self, n)[:-1]], axis=0)
+                          for n, v in now.items()})
 
 
 @struct.dataclass
@@ -111,13 +153,10 @@ class EnvState:
     collisions: CollisionCounts
     humans: HumanState  # pedestrians [H]
     time: Array  # int32 steps since reset
-
-
-@struct.dataclass
-class RewardWeights:
-    progress: Array | float = 1.0  # per metre of goal distance gained
-    success: Array | float = 100.0  # once, on arrival
-    collision: Array | float = -10.0  # per collision onset (robot, wall or pedestrian)
+    history: History  # [K, R] recent velocities and goal distances
+    zones: ZoneState  # [R, Z] conflict-zone bookkeeping
+    moved: Array  # [T, R] m travelled per step over the stuck detector's window (ring buffer)
+    total_steps: Array  # int32 steps since the first reset, kept across auto-resets (schedules)
 
 
 @struct.dataclass
@@ -127,7 +166,7 @@ class EnvParams:
     robots: RobotParams
     map: MapArrays
     planner: PlannerParams
-    reward: RewardWeights
+    reward: RewardParams  # weight schedules by reward-term name
     humans: HumanParams
     num_agents: Array  # int32 scalar: robots that take part in an episode
     dt: Array  # s per step
@@ -147,6 +186,13 @@ class EnvConfig:
     contact_passes: int = 1  # robot-robot separation passes per sub-step (see docs/robots.md)
     planner: PlannerConfig = dataclasses.field(default_factory=PlannerConfig)
     humans: HumanConfig = dataclasses.field(default_factory=HumanConfig)
+    observer: Observer = dataclasses.field(
+        default_factory=lambda: parse_observations(OBSERVATION_PRESETS["default"]))
+    rewarder: Rewarder = dataclasses.field(
+        default_factory=lambda: parse_rewards(REWARD_PRESETS["default"]["rewards"])[0])
+    enders: Enders = dataclasses.field(
+        default_factory=lambda: parse_enders(REWARD_PRESETS["default"]["enders"]))
+    num_zones: int = 0  # conflict zones on the map (sizes the zone terms)
 
 
 class SocialNavEnv:
@@ -179,8 +225,21 @@ class SocialNavEnv:
         return gymnasium.spaces.Box(-1.0, 1.0, (self.config.action_dim,), np.float32)
 
     def observation_space(self, params: EnvParams | None = None) -> gymnasium.spaces.Box:
-        """One robot's observation space."""
-        return gymnasium.spaces.Box(-np.inf, np.inf, (OBS_SIZE,), np.float32)
+        """One robot's observation space: ``Box(D)`` with ``D = env.observation_size``."""
+        return gymnasium.spaces.Box(-np.inf, np.inf, (self.observation_size,), np.float32)
+
+    @property
+    def observation_size(self) -> int:
+        """Length ``D`` of one robot's observation vector."""
+        return self.config.observer.size(self.config)
+
+    def observation_slices(self) -> dict[str, slice]:
+        """Which slice of the observation vector holds which term."""
+        return self.config.observer.slices(self.config)
+
+    def split_observation(self, obs: Array) -> dict[str, Array]:
+        """Cut observations ``[..., D]`` into ``{term name: [..., size]}``."""
+        return self.config.observer.split(obs, self.config)
 
     # ------------------------------------------------------------------ reset
     def check_params(self, params: EnvParams) -> None:
@@ -209,6 +268,11 @@ class SocialNavEnv:
             value = getattr(params, name)
             if not isinstance(value, jax.core.Tracer) and not float(value) > 0.0:
                 raise ValueError(f"params.{name} must be positive, got {float(value)}")
+        self.config.rewarder.check_params(params.reward)
+        zones = jnp.shape(params.map.zone_rect)
+        if zones != (self.config.num_zones, 4):
+            raise ValueError(f"params.map.zone_rect: expected shape ({self.config.num_zones}, 4)"
+                             f" for this environment, got {zones}")
 
     def reset(self, key: Array, params: EnvParams) -> tuple[Array, EnvState]:
         """Sample a scenario: starts, goals and routes for ``params.num_agents`` robots."""
@@ -231,6 +295,8 @@ class SocialNavEnv:
             if jnp.shape(value) != (num_robots,):
                 raise ValueError(f"reset_to: {name} must have shape ({num_robots},), "
                                  f"got {jnp.shape(value)}")
+        key = jax.random.key(0) if key is None else key
+        key_humans, key_zones, key_obs = jax.random.split(key, 3)
         route = build_routes(params.map, jnp.asarray(start, jnp.int32),
                              jnp.asarray(goal, jnp.int32))
         x, y = route.x[:, 0], route.y[:, 0]
@@ -241,21 +307,27 @@ class SocialNavEnv:
             kin=Kinematics(heading=heading, v_forward=zeros, v_lateral=zeros, omega=zeros,
                            steering=zeros),
             present=jnp.asarray(present, bool), succeeded=jnp.zeros(num_robots, bool),
+            ended=jnp.zeros(num_robots, bool),
         )
         no = jnp.zeros(num_robots, bool)
         none = jnp.zeros(num_robots, jnp.int32)
-        humans = spawn_humans(
-            jax.random.key(0) if key is None else key, self.config.humans, params.humans,
-            params.map, x, y, params.robots.radius, robots.present,
-        )
+        humans = spawn_humans(key_humans, self.config.humans, params.humans, params.map, x, y,
+                              params.robots.radius, robots.present)
+        zones = start_zones(key_zones, route.x, route.y, x, y, params.robots.radius,
+                            robots.present, params.map.zone_rect)
+        distance = safe_norm(route.goal_x - x, route.goal_y - y)
         state = EnvState(
             robots=robots, route=route, progress=zeros,
             touching_robot=no, touching_wall=no, touching_human=no,
             collisions=CollisionCounts(robot=none, wall=none, human=none),
             humans=humans,
             time=jnp.zeros((), jnp.int32),
+            history=History.start(self.config.observer.history_length, robots, distance),
+            zones=zones,
+            moved=jnp.zeros((self.config.enders.window, num_robots), jnp.float32),
+            total_steps=jnp.zeros((), jnp.int32),
         )
-        return self.observe(state, params), state
+        return self.observe(state, params, key_obs), state
 
     # ------------------------------------------------------------------ step
     def step(
@@ -283,13 +355,19 @@ class SocialNavEnv:
         next_state = jax.tree.map(
             lambda fresh, old: jnp.where(episode_done, fresh, old), reset_state, next_state
         )
+        next_state = next_state.replace(total_steps=state.total_steps + 1)
         return obs, next_state, reward, terminated, truncated, info
 
     def step_env(
         self, key: Array, state: EnvState, actions: Array, params: EnvParams
     ) -> tuple[Array, EnvState, Array, Array, Array, dict]:
-        """One step without auto-reset (same returns as :meth:`step`)."""
+        """One step without auto-reset (same returns as :meth:`step`).
+
+        ``info["reward_terms"]`` holds each reward term's weighted value ``[R]`` (and the stuck
+        penalty under ``"stuck"`` when that ender is on).
+        """
         cfg, rp = self.config, params.robots
+        key, key_obs = jax.random.split(key)
         robots = state.robots
         acting = robots.active
         forward, lateral, turn = self._commands(state, actions, params)
@@ -331,9 +409,8 @@ class SocialNavEnv:
             hit_human = hit_human | (met & acting)
 
         route = state.route
-        previous_distance = safe_norm(route.goal_x - robots.x, route.goal_y - robots.y)
-        goal_distance = safe_norm(route.goal_x - x, route.goal_y - y)
-        arrived = acting & (goal_distance < params.goal_tolerance)
+        distance = safe_norm(route.goal_x - x, route.goal_y - y)
+        arrived = acting & (distance < params.goal_tolerance)
         succeeded = robots.succeeded | arrived
         progress = jnp.where(acting, route_progress(route, x, y, state.progress), state.progress)
         robot_onset = hit_robot & ~state.touching_robot
@@ -344,19 +421,13 @@ class SocialNavEnv:
             wall=state.collisions.wall + wall_onset.astype(jnp.int32),
             human=state.collisions.human + human_onset.astype(jnp.int32),
         )
-        w = params.reward
-        reward = (
-            w.progress * (previous_distance - goal_distance)
-            + w.success * arrived
-            + w.collision * (robot_onset | wall_onset | human_onset)
-        )
-        reward = jnp.where(acting, reward, 0.0)
         time = state.time + 1
-        terminated = robots.present & succeeded
-        truncated = robots.present & ~succeeded & (time >= params.max_steps)
-
+        moved_now = jnp.where(acting, safe_norm(x - robots.x, y - robots.y), 0.0)
+        window = state.moved.shape[0]
+        moved = state.moved.at[state.time % window].set(moved_now) if window else state.moved
+        new_robots = robots.replace(x=x, y=y, kin=kin, succeeded=succeeded)
         next_state = EnvState(
-            robots=robots.replace(x=x, y=y, kin=kin, succeeded=succeeded),
+            robots=new_robots,
             route=route,
             progress=progress,
             touching_robot=hit_robot,
@@ -365,15 +436,31 @@ class SocialNavEnv:
             collisions=collisions,
             humans=humans,
             time=time,
+            history=state.history.push(new_robots, distance),
+            zones=update_zones(state.zones, x, y, rp.radius, params.map.zone_rect, time),
+            moved=moved,
+            total_steps=state.total_steps,
         )
+        outcome, ender_rewards = cfg.enders(state, next_state, params, cfg)
+        ended = robots.ended | (outcome.terminated & acting & ~succeeded)
+        next_state = next_state.replace(robots=new_robots.replace(ended=ended))
+        reward, reward_terms = cfg.rewarder(state, next_state, actions, params, cfg)
+        reward = reward + jnp.where(acting, outcome.reward, 0.0)
+        reward_terms.update({k: jnp.where(acting, v, 0.0) for k, v in ender_rewards.items()})
+        present = robots.present
+        terminated = present & (succeeded | ended)
+        truncated = present & ~terminated & outcome.truncated
+
         info = {
             "acting": acting,
             "collision_robot": hit_robot,
             "collision_wall": hit_wall,
             "collision_human": hit_human,
             "arrived": arrived,
+            "reward_terms": reward_terms,
         }
-        return self.observe(next_state, params), next_state, reward, terminated, truncated, info
+        obs = self.observe(next_state, params, key_obs)
+        return obs, next_state, reward, terminated, truncated, info
 
     def _commands(
         self, state: EnvState, actions: Array, params: EnvParams
@@ -414,14 +501,8 @@ class SocialNavEnv:
         return h.x, h.y, params.humans.radius, h.active
 
     # ------------------------------------------------------------ observation
-    def observe(self, state: EnvState, params: EnvParams) -> Array:
-        """Default observation ``[R, 10]`` (zeros for robots not in the episode)."""
-        r = state.robots
-        c, s = jnp.cos(r.heading), jnp.sin(r.heading)
-        gx, gy = state.route.goal_x - r.x, state.route.goal_y - r.y
-        obs = jnp.stack(
-            [r.x, r.y, c, s, r.kin.v_forward, r.kin.v_lateral, r.kin.omega,
-             c * gx + s * gy, -s * gx + c * gy, safe_norm(gx, gy)],
-            axis=-1,
-        )
-        return jnp.where(r.present[:, None], obs, 0.0)
+    def observe(self, state: EnvState, params: EnvParams, key: Array | None = None) -> Array:
+        """Observations ``[R, D]`` from the configured terms (zeros for robots not in the
+        episode); ``key`` feeds noisy terms (lidar noise), default ``jax.random.key(0)``."""
+        key = jax.random.key(0) if key is None else key
+        return self.config.observer(state, params, self.config, key)

@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from sgjax.dynamics.limits import RobotPreset, resolve_robots, robot_params
-from sgjax.env import ACTION_MODES, EnvConfig, EnvParams, RewardWeights, SocialNavEnv
+from sgjax.env import ACTION_MODES, EnvConfig, EnvParams, SocialNavEnv
 from sgjax.humans.crowd import HumanConfig, HumanParams
 from sgjax.humans.forces import SocialForceParams
 from sgjax.humans.slots import spawn_slots, wall_sample_points
@@ -20,6 +20,7 @@ from sgjax.maps.io import load, shipped_map_names
 from sgjax.maps.sampling import sample_starts_goals
 from sgjax.maps.schema import MapSpec, parse_map
 from sgjax.planner import PlannerConfig, PlannerParams
+from sgjax.presets import resolve_terms
 
 DEFAULTS: dict[str, Any] = {
     "num_agents": 4,  # robots in an episode (a param: change it without recompiling)
@@ -38,6 +39,13 @@ DEFAULTS: dict[str, Any] = {
     "human_walls": "segments",  # Moussaid wall term: "segments" or "points" (PySocialForce)
     "human_goals": "random",  # at its goal a pedestrian takes a "random" node or will "return"
     "human_radius": 0.25,  # m (SocialGym 0.2, CrowdNav 0.3, PySocialForce 0.35)
+    # Terms (docs/terms.md): a preset name, a spec (list / mapping), or a YAML/JSON file.
+    "observations": None,  # default: the "default" observation preset
+    "rewards": None,  # default: the "default" reward preset (which brings its enders)
+    "enders": None,  # default: those of the reward preset
+    "terms": None,  # a mapping or file with any of observations / rewards / enders
+    "observation_preset": None,  # same as observations=<name>
+    "reward_preset": None,  # same as rewards=<name>
 }
 CAPACITY_TRIALS = 64
 HUMAN_TOP_SPEED = 2.6  # m/s: fastest pedestrian (desired speed 2.0 m/s x the 1.3 cap)
@@ -60,9 +68,10 @@ def make(scenario: str | Path | MapSpec, **overrides: Any) -> tuple[SocialNavEnv
 
     Overrides (see ``sgjax.registry.DEFAULTS``): ``num_agents``, ``max_agents``,
     ``action_mode``, ``robots``, ``dt``, ``substeps``, ``time_limit``, ``goal_tolerance``,
-    ``num_arcs``, ``contact_passes``, and for pedestrians ``num_humans``, ``max_humans``,
-    ``human_model``, ``human_walls``, ``human_goals``, ``human_radius``. Returns
-    ``(env, params)``.
+    ``num_arcs``, ``contact_passes``, for pedestrians ``num_humans``, ``max_humans``,
+    ``human_model``, ``human_walls``, ``human_goals``, ``human_radius``, and for the
+    observation / reward / ender terms ``observations``, ``rewards``, ``enders``, ``terms``,
+    ``observation_preset``, ``reward_preset`` (``docs/terms.md``). Returns ``(env, params)``.
     """
     unknown = sorted(set(overrides) - set(DEFAULTS))
     if unknown:
@@ -95,6 +104,11 @@ def make(scenario: str | Path | MapSpec, **overrides: Any) -> tuple[SocialNavEnv
     human_config = HumanConfig(max_humans=max_humans, force_model=opts["human_model"],
                                wall_model=opts["human_walls"], goal_mode=opts["human_goals"])
     human_radius = _positive_float("human_radius", opts["human_radius"])
+    observer, rewarder, reward_params, enders = resolve_terms(
+        observations=_alias(opts, "observations", "observation_preset"),
+        rewards=_alias(opts, "rewards", "reward_preset"),
+        enders=opts["enders"], terms=opts["terms"],
+    )
     substeps = _substeps(opts["substeps"], presets, dt,
                          (HUMAN_TOP_SPEED, human_radius) if max_humans else None)
 
@@ -113,13 +127,14 @@ def make(scenario: str | Path | MapSpec, **overrides: Any) -> tuple[SocialNavEnv
         scenario=spec.name, max_agents=max_agents, action_mode=opts["action_mode"],
         action_dim=action_dim, substeps=substeps, planner=planner_config,
         contact_passes=_positive_int("contact_passes", opts["contact_passes"]),
-        humans=human_config,
+        humans=human_config, observer=observer, rewarder=rewarder, enders=enders,
+        num_zones=len(spec.zones),
     )
     params = EnvParams(
         robots=robot_params(presets),
         map=map_arrays,
         planner=planner_params,
-        reward=RewardWeights(),
+        reward=reward_params,
         humans=human_params(spec, human_config, num_humans, human_radius),
         num_agents=jnp.asarray(num_agents, jnp.int32),
         dt=jnp.asarray(dt, jnp.float32),
@@ -160,6 +175,18 @@ def human_params(
         wall_points_x=jnp.asarray(points[:, 0], f32),
         wall_points_y=jnp.asarray(points[:, 1], f32),
     )
+
+
+def _alias(opts: dict[str, Any], name: str, preset_name: str) -> Any:
+    """``opts[name]``, or the preset named by ``opts[preset_name]`` (not both)."""
+    value, preset = opts[name], opts[preset_name]
+    if preset is None:
+        return value
+    if value is not None:
+        raise ValueError(f"give {name}= or {preset_name}=, not both")
+    if not isinstance(preset, str):
+        raise ValueError(f"{preset_name} must be a preset name, got {preset!r}")
+    return preset
 
 
 def _positive_int(name: str, value: Any) -> int:

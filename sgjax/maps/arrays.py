@@ -24,6 +24,7 @@ class MapArrays:
     ``max_route_nodes`` (static) bounds the node count of any shortest start-goal path.
     ``cell_walls`` lists, for each cell of a ``grid_shape`` grid of ``cell_size`` m squares from
     ``grid_origin``, the walls within ``reach`` m of the cell (what the planner checks).
+    ``zone_rect [Z, 4]`` holds the map's conflict zones in file order.
     """
 
     wall_x1: Array
@@ -40,6 +41,7 @@ class MapArrays:
     node_gap: Array
     cell_walls: Array  # [C, Kw] int32: walls within reach of each grid cell (padded, masked)
     grid_origin: Array  # [2] m: lower-left corner of the wall grid
+    zone_rect: Array  # [Z, 4] conflict zones (xmin, ymin, xmax, ymax) in m; Z may be 0
     max_route_nodes: int = struct.field(pytree_node=False, default=2)
     grid_shape: tuple[int, int] = struct.field(pytree_node=False, default=(1, 1))
     cell_size: float = struct.field(pytree_node=False, default=1.0)
@@ -130,6 +132,7 @@ def compile_map(spec: MapSpec, reach: float = 2.5, cell_size: float = 1.0) -> Ma
         node_gap=jnp.asarray(gap, f32),
         cell_walls=jnp.asarray(cell_walls, jnp.int32),
         grid_origin=jnp.asarray(origin, f32),
+        zone_rect=jnp.asarray(np.reshape([z.rect for z in spec.zones], (-1, 4)), f32),
         max_route_nodes=longest,
         grid_shape=grid_shape,
         cell_size=float(cell_size),

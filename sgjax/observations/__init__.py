@@ -1,0 +1,36 @@
+"""Observation terms and the Observer (``sgjax.observations.OBSERVATIONS`` lists them by name)."""
+
+from sgjax.observations import lidar, others, own, zones  # noqa: F401  (registers the terms)
+from sgjax.observations.base import OBSERVATIONS, ObservationTerm, Observer, parse_observations
+from sgjax.observations.lidar import Lidar
+from sgjax.observations.others import FEATURES, Others
+from sgjax.observations.own import (
+    CollisionFlag,
+    Goal,
+    GoalDistance,
+    Pose,
+    PreferredSpeed,
+    SuccessFlag,
+    TimeLeft,
+    Velocity,
+    Waypoint,
+)
+
+__all__ = [
+    "FEATURES",
+    "OBSERVATIONS",
+    "CollisionFlag",
+    "Goal",
+    "GoalDistance",
+    "Lidar",
+    "ObservationTerm",
+    "Observer",
+    "Others",
+    "Pose",
+    "PreferredSpeed",
+    "SuccessFlag",
+    "TimeLeft",
+    "Velocity",
+    "Waypoint",
+    "parse_observations",
+]

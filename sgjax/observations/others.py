@@ -1,0 +1,188 @@
+"""The k nearest other bodies (robots and pedestrians) in each robot's frame."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import TYPE_CHECKING
+
+import jax
+import jax.numpy as jnp
+from jax import Array
+
+from sgjax.geometry import safe_norm
+from sgjax.observations.base import OBSERVATIONS, ObservationTerm
+from sgjax.observations.own import to_robot_frame
+from sgjax.terms import check_bool, check_int
+
+if TYPE_CHECKING:
+    from sgjax.env import EnvConfig, EnvParams, EnvState
+
+# Per-other feature groups and their widths, in output order.
+FEATURES = {
+    "position": 2,  # (dx, dy) m, robot frame
+    "distance": 1,  # body-to-body gap (m): centre distance minus both radii
+    "heading": 2,  # (cos, sin) of the other's heading relative to the robot's
+    "velocity": 2,  # the other's velocity (or relative velocity) in the robot frame, m/s
+    "radius": 1,  # m
+    "kind": 1,  # 1 = pedestrian, 0 = robot
+    "mask": 1,  # 1 = a real, visible body in this slot; 0 = padding
+}
+_FAR = 1.0e9
+
+
+@dataclasses.dataclass(frozen=True)
+class Bodies:
+    """Everything another robot can observe: ``[B]`` each (robots first, then pedestrians)."""
+
+    x: Array
+    y: Array
+    cos_h: Array
+    sin_h: Array
+    vx: Array
+    vy: Array
+    radius: Array
+    is_human: Array  # float 0/1
+    active: Array  # bool
+
+
+def gather_bodies(state: EnvState, params: EnvParams, robots: bool = True,
+                  humans: bool = True) -> Bodies:
+    """Robots (taking part and not finished) and active pedestrians as one body list.
+    Pedestrians face along their velocity (+x when standing)."""
+    r, h = state.robots, state.humans
+    vel = r.velocity
+    parts = []
+    if robots:
+        parts.append((r.x, r.y, jnp.cos(r.heading), jnp.sin(r.heading), vel[:, 0], vel[:, 1],
+                      params.robots.radius, jnp.zeros_like(r.x), r.active))
+    if humans and h.x.shape[0]:
+        speed = safe_norm(h.vx, h.vy)
+        moving = speed > 1e-3
+        inv = 1.0 / jnp.where(moving, speed, 1.0)
+        parts.append((h.x, h.y, jnp.where(moving, h.vx * inv, 1.0),
+                      jnp.where(moving, h.vy * inv, 0.0), h.vx, h.vy,
+                      jnp.broadcast_to(params.humans.radius, h.x.shape), jnp.ones_like(h.x),
+                      h.active))
+    if not parts:
+        empty = jnp.zeros((0,), jnp.float32)
+        return Bodies(*(empty,) * 8, active=jnp.zeros((0,), bool))
+    columns = [jnp.concatenate(c) for c in zip(*parts, strict=True)]
+    return Bodies(*columns)
+
+
+def line_of_sight(px: Array, py: Array, qx: Array, qy: Array, params: EnvParams) -> Array:
+    """Whether segments p-q (broadcast shapes ``S``) cross no wall; returns bool ``S``."""
+    m = params.map
+    ax, ay, bx, by = (v[(None,) * px.ndim] for v in (m.wall_x1, m.wall_y1, m.wall_x2, m.wall_y2))
+    px, py, qx, qy = (v[..., None] for v in (px, py, qx, qy))
+
+    def side(ox: Array, oy: Array, ux: Array, uy: Array, wx: Array, wy: Array) -> Array:
+        return (ux - ox) * (wy - oy) - (uy - oy) * (wx - ox)
+
+    d1, d2 = side(ax, ay, bx, by, px, py), side(ax, ay, bx, by, qx, qy)
+    d3, d4 = side(px, py, qx, qy, ax, ay), side(px, py, qx, qy, bx, by)
+    crosses = (d1 * d2 < 0.0) & (d3 * d4 < 0.0) & m.wall_valid[(None,) * (px.ndim - 1)]
+    return ~jnp.any(crosses, axis=-1)
+
+
+@OBSERVATIONS.register
+@dataclasses.dataclass(frozen=True)
+class Others(ObservationTerm):
+    """The ``k`` nearest other robots and pedestrians, nearest first, each described by
+    ``features`` (see ``FEATURES``) in the robot's frame; empty slots are zeros with mask 0.
+
+    ``robots`` / ``humans`` choose who is seen; ``line_of_sight`` hides bodies whose centre is
+    behind a wall (SocialGym's ``partially_observable``); ``max_range`` (m) hides farther ones;
+    ``relative_velocity`` reports ``v_other - v_self`` instead of ``v_other``. Size
+    ``k x sum(feature widths)``.
+    """
+
+    name = "others"
+    k: int = 4
+    features: tuple[str, ...] = tuple(FEATURES)
+    robots: bool = True
+    humans: bool = True
+    line_of_sight: bool = False
+    max_range: float | None = None
+    relative_velocity: bool = False
+
+    def __post_init__(self) -> None:
+        check_int("k", self.k)
+        if isinstance(self.features, str) or not self.features:
+            raise ValueError(f"features must be a non-empty list of {list(FEATURES)}, "
+                             f"got {self.features!r}")
+        for f in self.features:
+            if f not in FEATURES:
+                raise ValueError(f"features: unknown feature {f!r}; valid: {list(FEATURES)}")
+        for field in ("robots", "humans", "line_of_sight", "relative_velocity"):
+            check_bool(field, getattr(self, field))
+
+    @property
+    def width(self) -> int:
+        return sum(FEATURES[f] for f in self.features)
+
+    def size(self, config: EnvConfig) -> int:
+        return self.k * self.width
+
+    def nearest(self, state: EnvState, params: EnvParams, config: EnvConfig
+                ) -> tuple[Array, dict[str, Array]]:
+        """``(visible [R, k] bool, features {name: [R, k, width]})`` of the k nearest."""
+        r = state.robots
+        bodies = gather_bodies(state, params, robots=self.robots, humans=self.humans)
+        num_robots = config.max_agents
+        count = bodies.x.shape[0]
+        dxw = bodies.x[None, :] - r.x[:, None]  # [R, B]
+        dyw = bodies.y[None, :] - r.y[:, None]
+        centre = safe_norm(dxw, dyw)
+        visible = jnp.broadcast_to(bodies.active[None, :], (num_robots, count))
+        if self.robots:  # a robot does not see itself
+            visible = visible & ~jnp.eye(num_robots, count, dtype=bool)
+        if self.max_range is not None:
+            visible = visible & (centre <= self.max_range)
+        if self.line_of_sight:
+            visible = visible & line_of_sight(r.x[:, None], r.y[:, None], bodies.x[None, :],
+                                              bodies.y[None, :], params)
+        if count < self.k:  # pad so that top_k has k candidates
+            pad = self.k - count
+            centre = jnp.pad(centre, ((0, 0), (0, pad)))
+            visible = jnp.pad(visible, ((0, 0), (0, pad)))
+        order_key = jnp.where(visible, centre, _FAR)
+        _, index = jax.lax.top_k(-order_key, self.k)  # [R, k], nearest first, stable on ties
+        chosen = jnp.take_along_axis(visible, index, axis=1)
+
+        def pick(values: Array) -> Array:  # [R, B] -> [R, k]
+            if count < self.k:
+                values = jnp.pad(values, ((0, 0), (0, self.k - count)))
+            return jnp.where(chosen, jnp.take_along_axis(values, index, axis=1), 0.0)
+
+        def each(v: Array) -> Array:
+            return jnp.broadcast_to(v[None, :], (num_robots, count))
+
+        c, s = jnp.cos(r.heading)[:, None], jnp.sin(r.heading)[:, None]
+        own = r.velocity
+        vx, vy = each(bodies.vx), each(bodies.vy)
+        if self.relative_velocity:
+            vx, vy = vx - own[:, :1], vy - own[:, 1:]
+        rel_cos = c * each(bodies.cos_h) + s * each(bodies.sin_h)
+        rel_sin = c * each(bodies.sin_h) - s * each(bodies.cos_h)
+        px, py = to_robot_frame(r.heading[:, None], dxw, dyw)
+        qx, qy = to_robot_frame(r.heading[:, None], vx, vy)
+        radius = each(bodies.radius)
+        columns = {
+            "position": [px, py],
+            "distance": [centre[:, :count] - radius - params.robots.radius[:, None]],
+            "heading": [rel_cos, rel_sin],
+            "velocity": [qx, qy],
+            "radius": [radius],
+            "kind": [each(bodies.is_human)],
+            "mask": [jnp.ones((num_robots, count))],
+        }
+        feats = {name: jnp.stack([pick(v) for v in columns[name]], axis=-1)
+                 for name in self.features}
+        return chosen, feats
+
+    def __call__(self, state: EnvState, params: EnvParams, config: EnvConfig, key: Array
+                 ) -> Array:
+        _, feats = self.nearest(state, params, config)
+        stacked = jnp.concatenate([feats[name] for name in self.features], axis=-1)
+        return stacked.reshape(config.max_agents, -1)

@@ -1,0 +1,103 @@
+"""What observation terms, reward terms and episode enders share: a name registry and the
+parsing of their options from plain dicts (YAML or JSON), with errors that list valid names."""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+from collections.abc import Mapping
+from typing import Any, TypeVar
+
+T = TypeVar("T")
+
+
+class ConfigError(ValueError):
+    """A bad observation, reward or ender configuration: names where and what was expected."""
+
+
+def suggest(name: str, valid: list[str]) -> str:
+    """``" (did you mean 'x'?)"`` for the closest valid name, or ``""``."""
+    close = difflib.get_close_matches(name, valid, n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def unknown_name(where: str, kind: str, name: str, valid: list[str]) -> ConfigError:
+    return ConfigError(f"{where}: unknown {kind} {name!r}{suggest(name, valid)}; "
+                       f"valid {kind}s are: {', '.join(sorted(valid))}")
+
+
+class Registry:
+    """Term classes by name. A term class is a frozen dataclass whose fields are its options."""
+
+    def __init__(self, kind: str):
+        self.kind = kind
+        self.classes: dict[str, type] = {}
+
+    def register(self, cls: type[T]) -> type[T]:
+        name = cls.name  # type: ignore[attr-defined]
+        if name in self.classes:
+            raise RuntimeError(f"{self.kind} {name!r} registered twice")
+        self.classes[name] = cls
+        return cls
+
+    def names(self) -> list[str]:
+        return sorted(self.classes)
+
+    def build(self, where: str, name: Any, options: Any) -> Any:
+        """Instantiate term ``name`` with ``options`` (a dict or None), checking every key."""
+        if not isinstance(name, str):
+            raise ConfigError(f"{where}: a {self.kind} name must be a string, got {name!r}")
+        if name not in self.classes:
+            raise unknown_name(where, self.kind, name, self.names())
+        cls = self.classes[name]
+        return build_dataclass(f"{where}.{name}", cls, options or {})
+
+
+def option_names(cls: type) -> list[str]:
+    return [f.name for f in dataclasses.fields(cls) if f.init]
+
+
+def build_dataclass(where: str, cls: type[T], options: Any) -> T:
+    """``cls(**options)`` with an error naming ``where`` for unknown keys or bad values."""
+    if not isinstance(options, Mapping):
+        raise ConfigError(f"{where}: options must be a mapping of "
+                          f"{', '.join(option_names(cls)) or 'nothing'}, got {options!r}")
+    valid = option_names(cls)
+    for key in options:
+        if key not in valid:
+            raise ConfigError(f"{where}: unknown option {key!r}{suggest(str(key), valid)}; "
+                              f"valid options are: {', '.join(valid) or 'none'}")
+    try:
+        return cls(**{k: _freeze(v) for k, v in options.items()})
+    except (TypeError, ValueError) as err:
+        raise ConfigError(f"{where}: {err}") from None
+
+
+def _freeze(value: Any) -> Any:
+    """Lists become tuples, so that terms stay hashable (they are static jit arguments)."""
+    if isinstance(value, list):
+        return tuple(_freeze(v) for v in value)
+    return value
+
+
+def check_choice(field: str, value: Any, choices: tuple) -> None:
+    if value not in choices:
+        raise ValueError(f"{field} must be one of {choices}, got {value!r}")
+
+
+def check_positive(field: str, value: Any, allow_zero: bool = False) -> None:
+    ok = isinstance(value, int | float) and not isinstance(value, bool) and (
+        value >= 0 if allow_zero else value > 0)
+    if not ok:
+        raise ValueError(f"{field} must be a {'non-negative' if allow_zero else 'positive'} "
+                         f"number, got {value!r}")
+
+
+def check_int(field: str, value: Any, low: int = 1) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or value < low:
+        raise ValueError(f"{field} must be an integer >= {low}, got {value!r}")
+
+
+def check_bool(field: str, value: Any) -> None:
+    if not isinstance(value, bool):
+        raise ValueError(f"{field} must be true or false, got {value!r}")
