@@ -101,6 +101,9 @@ class SgjaxParallelEnv(ParallelEnv):
         truncated = np.asarray(truncated)
         robot_hit = np.asarray(info["collision_robot"])
         wall_hit = np.asarray(info["collision_wall"])
+        human_hit = np.asarray(info["collision_human"])
+        succeeded = np.asarray(self._state.robots.succeeded)
+        terms_by_name = {k: np.asarray(v) for k, v in info["reward_terms"].items()}
         live = self.agents
         out_obs, rewards, terms, truncs, infos = {}, {}, {}, {}, {}
         for agent in live:
@@ -111,7 +114,9 @@ class SgjaxParallelEnv(ParallelEnv):
             truncs[agent] = bool(truncated[i])
             infos[agent] = {"collision_robot": bool(robot_hit[i]),
                             "collision_wall": bool(wall_hit[i]),
-                            "is_success": terms[agent]}
+                            "collision_human": bool(human_hit[i]),
+                            "is_success": bool(succeeded[i]),
+                            "reward_terms": {k: float(v[i]) for k, v in terms_by_name.items()}}
         self.agents = [a for a in live if not (terms[a] or truncs[a])]
         self._trail.append(np.asarray(self._state.robots.position))
         return out_obs, rewards, terms, truncs, infos

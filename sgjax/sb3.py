@@ -68,7 +68,7 @@ class SgjaxVecEnv(VecEnv):
             obs = jnp.where(live_next[..., None], obs, 0.0)
             final = jnp.where(acting[..., None], info["final_observation"], 0.0)
             return (obs, state, reward, finished | dead, finished & truncated & ~terminated,
-                    final, acting & terminated)
+                    final, acting & info["arrived"])
 
         return step
 
