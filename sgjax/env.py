@@ -194,6 +194,16 @@ class EnvConfig:
         default_factory=lambda: parse_enders(REWARD_PRESETS["default"]["enders"]))
     num_zones: int = 0  # conflict zones on the map (sizes the zone terms)
 
+    @property
+    def uses_zones(self) -> bool:
+        """Whether any term reads the zone bookkeeping (else ``state.zones`` is ``[R, 0]``)."""
+        return self.num_zones > 0 and any(
+            t.uses_zones for t in self.observer.terms + self.rewarder.terms)
+
+    def tracked_zones(self, zone_rect: Array) -> Array:
+        """The zone rectangles the step keeps books on: all of them, or none (``[0, 4]``)."""
+        return zone_rect if self.uses_zones else zone_rect[:0]
+
 
 class SocialNavEnv:
     """A scenario's environment. Holds only static configuration; all arrays live in params."""
@@ -296,7 +306,10 @@ class SocialNavEnv:
                 raise ValueError(f"reset_to: {name} must have shape ({num_robots},), "
                                  f"got {jnp.shape(value)}")
         key = jax.random.key(0) if key is None else key
-        key_humans, key_zones, key_obs = jax.random.split(key, 3)
+        # Split only what is used: reset runs inside every auto-reset step.
+        key_humans, key_zones, key_obs = key, key, key
+        if self.config.uses_zones or self.config.observer.needs_key:
+            key_humans, key_zones, key_obs = jax.random.split(key, 3)
         route = build_routes(params.map, jnp.asarray(start, jnp.int32),
                              jnp.asarray(goal, jnp.int32))
         x, y = route.x[:, 0], route.y[:, 0]
@@ -314,7 +327,7 @@ class SocialNavEnv:
         humans = spawn_humans(key_humans, self.config.humans, params.humans, params.map, x, y,
                               params.robots.radius, robots.present)
         zones = start_zones(key_zones, route.x, route.y, x, y, params.robots.radius,
-                            robots.present, params.map.zone_rect)
+                            robots.present, self.config.tracked_zones(params.map.zone_rect))
         distance = safe_norm(route.goal_x - x, route.goal_y - y)
         state = EnvState(
             robots=robots, route=route, progress=zeros,
@@ -367,7 +380,7 @@ class SocialNavEnv:
         penalty under ``"stuck"`` when that ender is on).
         """
         cfg, rp = self.config, params.robots
-        key, key_obs = jax.random.split(key)
+        key, key_obs = jax.random.split(key) if cfg.observer.needs_key else (key, key)
         robots = state.robots
         acting = robots.active
         forward, lateral, turn = self._commands(state, actions, params)
@@ -437,7 +450,8 @@ class SocialNavEnv:
             humans=humans,
             time=time,
             history=state.history.push(new_robots, distance),
-            zones=update_zones(state.zones, x, y, rp.radius, params.map.zone_rect, time),
+            zones=update_zones(state.zones, x, y, rp.radius,
+                               cfg.tracked_zones(params.map.zone_rect), time),
             moved=moved,
             total_steps=state.total_steps,
         )

@@ -62,6 +62,7 @@ def place(env, params, xs, ys, headings=None, speeds=None, starts=None, goals=No
                                                active=jnp.arange(m) < len(humans)))
     distance = jnp.hypot(state.route.goal_x - robots.x, state.route.goal_y - robots.y)
     zones = start_zones(jax.random.key(key), state.route.x, state.route.y, robots.x, robots.y,
-                        params.robots.radius, present, params.map.zone_rect)
+                        params.robots.radius, present,
+                        env.config.tracked_zones(params.map.zone_rect))
     history = History.start(env.config.observer.history_length, robots, distance)
     return state.replace(history=history, zones=zones)

@@ -30,6 +30,7 @@ class ObservationTerm:
     name: ClassVar[str] = ""
     history: ClassVar[int] = 1  # steps of history the term reads (instances may override)
     needs_key: ClassVar[bool] = False
+    uses_zones: ClassVar[bool] = False  # reads state.zones (conflict-zone bookkeeping)
 
     def size(self, config: EnvConfig) -> int:
         raise NotImplementedError
@@ -57,6 +58,11 @@ class Observer:
     @property
     def names(self) -> tuple[str, ...]:
         return tuple(t.name for t in self.terms)
+
+    @property
+    def needs_key(self) -> bool:
+        """Whether any term draws random numbers (observation noise)."""
+        return any(t.needs_key for t in self.terms)
 
     @property
     def history_length(self) -> int:
@@ -90,7 +96,8 @@ class Observer:
     def __call__(self, state: EnvState, params: EnvParams, config: EnvConfig, key: Array
                  ) -> Array:
         """``obs [R, D]`` (float32); rows of robots not in the episode are zeros."""
-        keys = jax.random.split(key, len(self.terms))
+        keys = (jax.random.split(key, len(self.terms)) if self.needs_key
+                else [key] * len(self.terms))
         parts = []
         for term, term_key in zip(self.terms, keys, strict=True):
             value = term(state, params, config, term_key)

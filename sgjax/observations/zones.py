@@ -18,6 +18,8 @@ if TYPE_CHECKING:
 
 @dataclasses.dataclass(frozen=True)
 class ZoneTerm(ObservationTerm):
+    uses_zones = True
+
     def size(self, config: EnvConfig) -> int:
         return config.num_zones
 

@@ -31,6 +31,7 @@ class RewardTerm:
     """Base class: subclasses set ``name`` and implement ``__call__``."""
 
     name: ClassVar[str] = ""
+    uses_zones: ClassVar[bool] = False  # reads state.zones (conflict-zone bookkeeping)
 
     def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
                  config: EnvConfig) -> Array:

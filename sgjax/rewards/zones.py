@@ -31,6 +31,7 @@ class ZoneOrder(RewardTerm):
     """
 
     name = "zone_order"
+    uses_zones = True
     any_order: bool = False
     incorrect_penalty: bool = True
     multiple_entry_penalty: bool = True
