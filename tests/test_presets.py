@@ -170,3 +170,18 @@ def test_rich_terms_long_rollout_stays_finite(rich):
                                                     jax.random.split(jax.random.key(8), 600))
                              )(state)
     assert bool(ok.all()) and np.isfinite(np.asarray(total)).all()
+
+
+def test_docs_terms_examples_run(tmp_path):
+    """The Python and YAML examples of docs/terms.md work as written."""
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).parent.parent / "docs" / "terms.md").read_text()
+    python = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    exec(compile(python, "docs/terms.md", "exec"), {})
+    yaml_text = re.search(r"```yaml\n(.*?)```", text, re.S).group(1)
+    path = tmp_path / "my_terms.yaml"
+    path.write_text(yaml_text)
+    env, _ = sgjax.make("hallway", terms=path)
+    assert env.config.enders.names == ("success", "time_limit", "collision")
