@@ -31,6 +31,7 @@ import jax
 import jax.numpy as jnp
 
 import sgjax
+from sgjax.presets import REWARD_PRESETS
 
 DEFAULT_ENVS = (1, 64, 1024, 4096, 16384)
 DEFAULT_ROBOTS = (4, 10)
@@ -69,8 +70,11 @@ def _time_jax(rollout: Callable, state, steps: int, repeats: int) -> tuple[float
 
 
 def bench_sgjax(mode: str, robots: int, num_envs: int, steps: int, repeats: int, scenario: str,
-                humans: int = 0):
-    env, params = sgjax.make(scenario, num_agents=robots, action_mode=mode, num_humans=humans)
+                humans: int = 0, terms: str = "default"):
+    """``terms``: an observation preset; its reward preset too when one has that name."""
+    rewards = terms if terms in REWARD_PRESETS else "default"
+    env, params = sgjax.make(scenario, num_agents=robots, action_mode=mode, num_humans=humans,
+                             observation_preset=terms, reward_preset=rewards)
     keys = jax.random.split(jax.random.key(0), num_envs)
     _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
     vstep = jax.vmap(env.step, in_axes=(0, 0, 0, None))
@@ -228,6 +232,9 @@ def main() -> None:
                              "against PySocialForce, or both")
     parser.add_argument("--pedestrians", type=int, nargs="+", default=[0, 10, 50, 100])
     parser.add_argument("--pedestrian-envs", type=int, nargs="+", default=[64, 1024])
+    parser.add_argument("--terms", nargs="+", default=["default"],
+                        help="observation/reward presets to time (docs/terms.md), e.g. "
+                             "default socialgym enforced_order")
     args = parser.parse_args()
 
     print(f"jax {jax.__version__} on {jax.devices()[0].platform} "
@@ -236,7 +243,7 @@ def main() -> None:
         pedestrian_table(args.pedestrians, args.pedestrian_envs, 4, args.budget, args.repeats)
     if args.table == "pedestrians":
         return
-    header = (f"{'simulator':<28}{'robots':>7}{'envs':>8}{'agent-steps/s':>15}"
+    header = (f"{'simulator':<36}{'robots':>7}{'envs':>8}{'agent-steps/s':>15}"
               f"{'env-steps/s':>13}{'compile s':>11}{'peak MB':>10}")
     print(header)
     print("-" * len(header))
@@ -246,15 +253,18 @@ def main() -> None:
         compile_s, per_step, peak = result
         agent_sps = envs * robots / per_step
         best[(name, robots)] = max(best.get((name, robots), 0.0), agent_sps)
-        print(f"{name:<28}{robots:>7}{envs:>8}{agent_sps:>15,.0f}{envs / per_step:>13,.0f}"
+        print(f"{name:<36}{robots:>7}{envs:>8}{agent_sps:>15,.0f}{envs / per_step:>13,.0f}"
               f"{compile_s:>11.2f}{peak / 2**20:>10.1f}", flush=True)
 
     for robots in args.robots:
         for envs in args.num_envs:
             steps = _steps_for(envs, robots, args.budget)
-            for mode in args.modes:
-                report(f"sgjax {mode}", robots, envs,
-                       bench_sgjax(mode, robots, envs, steps, args.repeats, args.scenario))
+            for terms in args.terms:
+                for mode in args.modes:
+                    name = f"sgjax {mode}" + ("" if terms == "default" else f" [{terms}]")
+                    report(name, robots, envs, bench_sgjax(mode, robots, envs, steps,
+                                                           args.repeats, args.scenario,
+                                                           terms=terms))
             for peer in args.peers:
                 try:
                     if peer == "jaxmarl":
@@ -271,7 +281,7 @@ def main() -> None:
         ratios = [f"{sps / best[(p, robots)]:.1f}x {p.split()[0]}"
                   for p in ("jaxmarl simple_spread_v3", "vmas navigation (torch cpu)")
                   if (p, robots) in best and not name.startswith(p.split()[0])]
-        print(f"  {name:<28} {robots:>3} robots {sps:>14,.0f}   " + ", ".join(ratios))
+        print(f"  {name:<36} {robots:>3} robots {sps:>14,.0f}   " + ", ".join(ratios))
 
 
 if __name__ == "__main__":
