@@ -50,7 +50,7 @@ def ray_disc_hits(px: Array, py: Array, ux: Array, uy: Array, cx: Array, cy: Arr
     b = wx * ux + wy * uy
     c = wx * wx + wy * wy - radius * radius
     disc = b * b - c
-    t = b - jnp.sqrt(jnp.maximum(disc, 0.0))
+    t = b - jnp.sqrt(jnp.where(disc > 0.0, disc, 1.0))  # no inf gradient from sqrt(0)
     inside = c <= 0.0
     hit = inside | ((disc >= 0.0) & (t >= 0.0))
     return jnp.where(inside, 0.0, jnp.where(hit, t, jnp.inf))
