@@ -368,7 +368,7 @@ class SocialNavEnv:
         next_state = jax.tree.map(
             lambda fresh, old: jnp.where(episode_done, fresh, old), reset_state, next_state
         )
-        next_state = next_state.replace(total_steps=state.total_steps + 1)
+        next_state = next_state.replace(total_steps=state.total_steps + 1)  # not reset
         return obs, next_state, reward, terminated, truncated, info
 
     def step_env(
@@ -453,7 +453,7 @@ class SocialNavEnv:
             zones=update_zones(state.zones, x, y, rp.radius,
                                cfg.tracked_zones(params.map.zone_rect), time),
             moved=moved,
-            total_steps=state.total_steps,
+            total_steps=state.total_steps + 1,
         )
         outcome, ender_rewards = cfg.enders(state, next_state, params, cfg)
         ended = robots.ended | (outcome.terminated & acting & ~succeeded)

@@ -77,7 +77,10 @@ class SgjaxParallelEnv(ParallelEnv):
             self._rng = np.random.default_rng(seed)
         key_seed = int(self._rng.integers(0, 2**31 - 1))
         self._key, reset_key = jax.random.split(jax.random.key(key_seed))
+        previous = self._state
         obs, self._state = self._reset(reset_key, self.params)
+        if previous is not None:  # reward-weight schedules count steps across episodes
+            self._state = self._state.replace(total_steps=previous.total_steps)
         self.agents = [a for a in self.possible_agents
                        if bool(self._state.robots.present[self._index[a]])]
         self._trail = [np.asarray(self._state.robots.position)]

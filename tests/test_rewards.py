@@ -259,3 +259,25 @@ def test_reward_config_errors():
     with pytest.raises(ConfigError, match="clip must be"):
         parse_rewards({"progress": {"clip": [1.0, 0.0]}})
     assert isinstance(parse_rewards({})[0], Rewarder)
+
+
+def test_schedule_clock_runs_across_auto_resets_and_pettingzoo_resets():
+    import jax
+
+    from sgjax.pettingzoo import parallel_env
+    env, params = make_room(num_agents=2, time_limit=0.5)  # 5-step episodes
+    _, state = env.reset(jax.random.key(0), params)
+    step = jax.jit(env.step)
+    ends = 0
+    for t in range(12):
+        _, state, _, _, _, info = step(jax.random.key(t), state, jnp.ones(2, jnp.int32), params)
+        ends += int(info["episode_done"])
+        assert int(state.total_steps) == t + 1
+    assert ends == 2
+    pz = parallel_env("doorway", num_agents=2, time_limit=0.3)
+    pz.reset(seed=0)
+    for _ in range(3):
+        infos = pz.step({a: 0 for a in pz.agents})[4]
+    assert set(infos["robot_0"]["reward_terms"]) == {"progress", "success", "collision"}
+    pz.reset()
+    assert int(pz._state.total_steps) == 3

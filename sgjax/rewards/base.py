@@ -70,11 +70,11 @@ class Rewarder:
     def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
                  config: EnvConfig) -> tuple[Array, dict[str, Array]]:
         """``(reward [R], weighted value of each term {name: [R]})``, zero for robots that were
-        not acting at ``prev``."""
+        not acting at ``prev``; weights are read at ``prev.total_steps``."""
         acting = prev.robots.active
         parts = {}
         for term in self.terms:
-            weight = params.reward.weights[term.name](state.total_steps)
+            weight = params.reward.weights[term.name](prev.total_steps)
             value = term(prev, state, actions, params, config)
             parts[term.name] = jnp.where(acting, weight * value, 0.0)
         total = sum(parts.values(), jnp.zeros(config.max_agents, jnp.float32))
