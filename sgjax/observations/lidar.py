@@ -12,7 +12,7 @@ from jax import Array
 
 from sgjax.observations.base import OBSERVATIONS, ObservationTerm
 from sgjax.observations.others import gather_bodies
-from sgjax.terms import check_int, check_positive
+from sgjax.terms import check_bool, check_int, check_positive
 
 if TYPE_CHECKING:
     from sgjax.env import EnvConfig, EnvParams, EnvState
@@ -81,6 +81,8 @@ class Lidar(ObservationTerm):
         if self.fov > 2.0 * math.pi + 1e-9:
             raise ValueError(f"fov must be at most 2 pi rad, got {self.fov}")
         check_positive("noise", self.noise, allow_zero=True)
+        check_bool("robots", self.robots)
+        check_bool("humans", self.humans)
 
     def size(self, config: EnvConfig) -> int:
         return self.beams

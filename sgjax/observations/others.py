@@ -12,7 +12,7 @@ from jax import Array
 from sgjax.geometry import safe_norm
 from sgjax.observations.base import OBSERVATIONS, ObservationTerm
 from sgjax.observations.own import to_robot_frame
-from sgjax.terms import check_bool, check_int
+from sgjax.terms import check_bool, check_int, check_positive
 
 if TYPE_CHECKING:
     from sgjax.env import EnvConfig, EnvParams, EnvState
@@ -116,6 +116,8 @@ class Others(ObservationTerm):
                 raise ValueError(f"features: unknown feature {f!r}; valid: {list(FEATURES)}")
         for field in ("robots", "humans", "line_of_sight", "relative_velocity"):
             check_bool(field, getattr(self, field))
+        if self.max_range is not None:
+            check_positive("max_range", self.max_range)
 
     @property
     def width(self) -> int:
