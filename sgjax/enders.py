@@ -17,7 +17,15 @@ from flax import struct
 from jax import Array
 
 from sgjax.rewards.navigation import collided
-from sgjax.terms import ConfigError, Registry, check_bool, check_choice, check_int, check_positive
+from sgjax.terms import (
+    ConfigError,
+    Registry,
+    check_bool,
+    check_choice,
+    check_int,
+    check_positive,
+    check_unique,
+)
 
 if TYPE_CHECKING:
     from sgjax.env import EnvConfig, EnvParams, EnvState
@@ -148,9 +156,7 @@ class Enders:
 
     def __post_init__(self) -> None:
         names = [t.name for t in self.terms]
-        repeated = sorted({n for n in names if names.count(n) > 1})
-        if repeated:
-            raise ConfigError(f"enders: each ender may appear once; repeated: {repeated}")
+        check_unique("enders", names)
         if "success" not in names:
             raise ConfigError("enders: 'success' is required (a robot at its goal leaves the "
                               f"world); got {names}")

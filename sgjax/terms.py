@@ -80,6 +80,13 @@ def _freeze(value: Any) -> Any:
     return value
 
 
+def check_unique(section: str, names: list[str]) -> None:
+    """Raise if a term name appears more than once in a section."""
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise ConfigError(f"{section}: each term may appear once; repeated: {repeated}")
+
+
 def check_choice(field: str, value: Any, choices: tuple) -> None:
     if value not in choices:
         raise ValueError(f"{field} must be one of {choices}, got {value!r}")

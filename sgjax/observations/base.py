@@ -15,7 +15,7 @@ import jax
 import jax.numpy as jnp
 from jax import Array
 
-from sgjax.terms import ConfigError, Registry
+from sgjax.terms import ConfigError, Registry, check_unique
 
 if TYPE_CHECKING:
     from sgjax.env import EnvConfig, EnvParams, EnvState
@@ -48,9 +48,7 @@ class Observer:
 
     def __post_init__(self) -> None:
         names = [t.name for t in self.terms]
-        repeated = sorted({n for n in names if names.count(n) > 1})
-        if repeated:
-            raise ConfigError(f"observations: each term may appear once; repeated: {repeated}")
+        check_unique("observations", names)
         if not self.terms:
             raise ConfigError("observations: at least one term is needed; valid terms are: "
                               + ", ".join(OBSERVATIONS.names()))

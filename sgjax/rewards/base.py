@@ -18,7 +18,7 @@ from flax import struct
 from jax import Array
 
 from sgjax.rewards.schedules import Schedule, parse_schedule
-from sgjax.terms import ConfigError, Registry
+from sgjax.terms import ConfigError, Registry, check_unique
 
 if TYPE_CHECKING:
     from sgjax.env import EnvConfig, EnvParams, EnvState
@@ -53,9 +53,7 @@ class Rewarder:
 
     def __post_init__(self) -> None:
         names = [t.name for t in self.terms]
-        repeated = sorted({n for n in names if names.count(n) > 1})
-        if repeated:
-            raise ConfigError(f"rewards: each term may appear once; repeated: {repeated}")
+        check_unique("rewards", names)
 
     @property
     def names(self) -> tuple[str, ...]:
