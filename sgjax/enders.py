@@ -20,11 +20,11 @@ from sgjax.rewards.navigation import collided
 from sgjax.terms import (
     ConfigError,
     Registry,
+    TermSet,
     check_bool,
     check_choice,
     check_int,
     check_positive,
-    check_unique,
 )
 
 if TYPE_CHECKING:
@@ -149,21 +149,17 @@ class CollisionEnder(Ender):
 
 
 @dataclasses.dataclass(frozen=True)
-class Enders:
+class Enders(TermSet):
     """The episode's enders (``success`` always among them)."""
 
     terms: tuple[Ender, ...]
+    section = "enders"
 
     def __post_init__(self) -> None:
-        names = [t.name for t in self.terms]
-        check_unique("enders", names)
-        if "success" not in names:
+        super().__post_init__()
+        if "success" not in self.names:
             raise ConfigError("enders: 'success' is required (a robot at its goal leaves the "
-                              f"world); got {names}")
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        return tuple(t.name for t in self.terms)
+                              f"world); got {list(self.names)}")
 
     @property
     def window(self) -> int:

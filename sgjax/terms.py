@@ -6,7 +6,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 from collections.abc import Mapping
-from typing import Any, TypeVar
+from typing import Any, ClassVar, TypeVar
 
 T = TypeVar("T")
 
@@ -85,6 +85,21 @@ def check_unique(section: str, names: list[str]) -> None:
     repeated = sorted({n for n in names if names.count(n) > 1})
     if repeated:
         raise ConfigError(f"{section}: each term may appear once; repeated: {repeated}")
+
+
+@dataclasses.dataclass(frozen=True)
+class TermSet:
+    """An ordered tuple of terms with distinct names (base of Observer, Rewarder, Enders)."""
+
+    terms: tuple
+    section: ClassVar[str] = ""
+
+    def __post_init__(self) -> None:
+        check_unique(self.section, list(self.names))
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(t.name for t in self.terms)
 
 
 def check_choice(field: str, value: Any, choices: tuple) -> None:

@@ -15,7 +15,7 @@ import jax
 import jax.numpy as jnp
 from jax import Array
 
-from sgjax.terms import ConfigError, Registry, check_unique
+from sgjax.terms import ConfigError, Registry, TermSet
 
 if TYPE_CHECKING:
     from sgjax.env import EnvConfig, EnvParams, EnvState
@@ -41,21 +41,17 @@ class ObservationTerm:
 
 
 @dataclasses.dataclass(frozen=True)
-class Observer:
+class Observer(TermSet):
     """An ordered tuple of observation terms with distinct names."""
 
     terms: tuple[ObservationTerm, ...]
+    section = "observations"
 
     def __post_init__(self) -> None:
-        names = [t.name for t in self.terms]
-        check_unique("observations", names)
+        super().__post_init__()
         if not self.terms:
             raise ConfigError("observations: at least one term is needed; valid terms are: "
                               + ", ".join(OBSERVATIONS.names()))
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        return tuple(t.name for t in self.terms)
 
     @property
     def needs_key(self) -> bool:

@@ -18,7 +18,7 @@ from flax import struct
 from jax import Array
 
 from sgjax.rewards.schedules import Schedule, parse_schedule
-from sgjax.terms import ConfigError, Registry, check_unique
+from sgjax.terms import ConfigError, Registry, TermSet
 
 if TYPE_CHECKING:
     from sgjax.env import EnvConfig, EnvParams, EnvState
@@ -46,18 +46,11 @@ class RewardParams:
 
 
 @dataclasses.dataclass(frozen=True)
-class Rewarder:
+class Rewarder(TermSet):
     """Terms with distinct names; ``reward = sum_i weight_i(t) * term_i``."""
 
     terms: tuple[RewardTerm, ...]
-
-    def __post_init__(self) -> None:
-        names = [t.name for t in self.terms]
-        check_unique("rewards", names)
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        return tuple(t.name for t in self.terms)
+    section = "rewards"
 
     def check_params(self, reward: RewardParams) -> None:
         """Raise if ``params.reward`` does not carry exactly one weight per term."""
