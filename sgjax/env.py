@@ -114,8 +114,10 @@ class CollisionCounts:
 
 @struct.dataclass
 class History:
-    """Recent values for observation terms with a history: ``[K, R]`` each, row 0 the latest
-    (``K = observer.history_length``; at reset every row holds the initial value)."""
+    """Past values for observation terms with a history: ``[K - 1, R]`` each, row 0 the step
+    before the current one (``K = observer.history_length``; the current values are read from
+    the state itself, so with K = 1 the arrays are empty). At reset every row holds the initial
+    value."""
 
     vx: Array  # m/s, world frame
     vy: Array
@@ -153,7 +155,7 @@ class EnvState:
     collisions: CollisionCounts
     humans: HumanState  # pedestrians [H]
     time: Array  # int32 steps since reset
-    history: History  # [K, R] recent velocities and goal distances
+    history: History  # [K - 1, R] past velocities and goal distances
     zones: ZoneState  # [R, Z] conflict-zone bookkeeping
     moved: Array  # [T, R] m travelled per step over the stuck detector's window (ring buffer)
     total_steps: Array  # int32 steps since the first reset, kept across auto-resets (schedules)
@@ -335,7 +337,7 @@ class SocialNavEnv:
             collisions=CollisionCounts(robot=none, wall=none, human=none),
             humans=humans,
             time=jnp.zeros((), jnp.int32),
-            history=History.start(self.config.observer.history_length, robots, distance),
+            history=History.start(self.config.observer.history_length - 1, robots, distance),
             zones=zones,
             moved=jnp.zeros((self.config.enders.window, num_robots), jnp.float32),
             total_steps=jnp.zeros((), jnp.int32),
@@ -449,7 +451,7 @@ class SocialNavEnv:
             collisions=collisions,
             humans=humans,
             time=time,
-            history=state.history.push(new_robots, distance),
+            history=self._push_history(state),
             zones=update_zones(state.zones, x, y, rp.radius,
                                cfg.tracked_zones(params.map.zone_rect), time),
             moved=moved,
@@ -475,6 +477,13 @@ class SocialNavEnv:
         }
         obs = self.observe(next_state, params, key_obs)
         return obs, next_state, reward, terminated, truncated, info
+
+    def _push_history(self, state: EnvState) -> History:
+        """The history after a step: the values ``state`` (before the step) had, pushed in."""
+        if not state.history.goal_distance.shape[0]:
+            return state.history
+        r, route = state.robots, state.route
+        return state.history.push(r, safe_norm(route.goal_x - r.x, route.goal_y - r.y))
 
     def _commands(
         self, state: EnvState, actions: Array, params: EnvParams

@@ -64,5 +64,5 @@ def place(env, params, xs, ys, headings=None, speeds=None, starts=None, goals=No
     zones = start_zones(jax.random.key(key), state.route.x, state.route.y, robots.x, robots.y,
                         params.robots.radius, present,
                         env.config.tracked_zones(params.map.zone_rect))
-    history = History.start(env.config.observer.history_length, robots, distance)
+    history = History.start(env.config.observer.history_length - 1, robots, distance)
     return state.replace(history=history, zones=zones)

@@ -42,15 +42,21 @@ def test_velocity_frames_and_history():
     world = term_value({"velocity": {"frame": "world", "turn_rate": False}}, env, params, state)
     np.testing.assert_allclose(body[0], [1, 0, 0], atol=1e-6)
     np.testing.assert_allclose(world[0], [0, 1], atol=1e-6)
-    # History: push a new velocity; latest first, then the initial one.
-    faster = state.robots.replace(kin=state.robots.kin.replace(v_forward=jnp.full(1, 0.5)))
-    hist = state.history.push(faster, jnp.zeros(1))
-    state = state.replace(history=hist)
+    # History: the robot slows to 0.5 m/s; latest first, then the initial one.
+    slower = state.robots.replace(kin=state.robots.kin.replace(v_forward=jnp.full(1, 0.5)))
+    hist = state.history.push(state.robots, jnp.zeros(1))
+    state = state.replace(robots=slower, history=hist)
     value = term_value({"velocity": {"history": 2, "turn_rate": False}}, env, params, state)
     np.testing.assert_allclose(value[0], [0.5, 0, 1, 0], atol=1e-6)
     assert parse_observations([{"velocity": {"history": 3}}]).terms[0].size(env.config) == 9
     with pytest.raises(ValueError, match="keeps a history of 2 steps"):
         term_value({"velocity": {"history": 3}}, env, params, state)
+    # Through the step: the row after the current one is what the robot had before the step.
+    before = place(env, params, [0.0], [0.0], [math.pi / 2], speeds=[1.0])
+    _, after, *_ = env.step_env(KEY, before, jnp.ones(1, jnp.int32), params)
+    value = term_value({"velocity": {"history": 2}}, env, params, after)[0]
+    np.testing.assert_allclose(value[3:], [1, 0, 0], atol=1e-6)
+    assert value[0] < 1.0  # STOP braked
 
 
 def test_goal_frames_and_distance(room):

@@ -16,14 +16,15 @@ if TYPE_CHECKING:
     from sgjax.env import EnvConfig, EnvParams, EnvState
 
 
-def recent(values: Array, steps: int, term: str) -> Array:
-    """The latest ``steps`` rows of a ``[K, R]`` history, with a clear error if ``K`` is short
-    (the environment keeps as much history as its own observer needs)."""
-    if values.shape[0] < steps:
+def with_past(now: Array, past: Array, steps: int, term: str) -> Array:
+    """``[steps, R]``: the current values ``now [R]`` then the latest ``steps - 1`` rows of a
+    ``[K - 1, R]`` history, with a clear error if the environment keeps too little (it keeps as
+    much as its own observer needs)."""
+    if past.shape[0] < steps - 1:
         raise ValueError(f"observation term {term!r} reads {steps} steps, but this environment "
-                         f"keeps a history of {values.shape[0]} steps (its observer's longest); "
-                         "build the environment with this term in its observations")
-    return values[:steps]
+                         f"keeps a history of {past.shape[0] + 1} steps (its observer's "
+                         "longest); build the environment with this term in its observations")
+    return jnp.concatenate([now[None], past[: steps - 1]], axis=0)
 
 
 def to_robot_frame(heading: Array, dx: Array, dy: Array) -> tuple[Array, Array]:
@@ -76,10 +77,14 @@ class Velocity(ObservationTerm):
 
     def __call__(self, state: EnvState, params: EnvParams, config: EnvConfig, key: Array
                  ) -> Array:
-        h, k = state.history, self.history
-        a, b = (h.v_forward, h.v_lateral) if self.frame == "body" else (h.vx, h.vy)
-        parts = [a, b] + ([h.omega] if self.turn_rate else [])
-        parts = [recent(p, k, self.name) for p in parts]
+        h, k, kin = state.history, self.history, state.robots.kin
+        if self.frame == "body":
+            pairs = [(kin.v_forward, h.v_forward), (kin.v_lateral, h.v_lateral)]
+        else:
+            v = state.robots.velocity
+            pairs = [(v[:, 0], h.vx), (v[:, 1], h.vy)]
+        pairs += [(kin.omega, h.omega)] if self.turn_rate else []
+        parts = [with_past(now, past, k, self.name) for now, past in pairs]
         stacked = jnp.stack(parts, axis=-1)  # [k, R, c]
         return jnp.moveaxis(stacked, 0, 1).reshape(stacked.shape[1], -1)
 
@@ -124,7 +129,8 @@ class GoalDistance(ObservationTerm):
 
     def __call__(self, state: EnvState, params: EnvParams, config: EnvConfig, key: Array
                  ) -> Array:
-        return recent(state.history.goal_distance, self.history, self.name).T
+        return with_past(goal_distance(state), state.history.goal_distance, self.history,
+                         self.name).T
 
 
 @OBSERVATIONS.register
