@@ -195,12 +195,14 @@ class EnvConfig:
     enders: Enders = dataclasses.field(
         default_factory=lambda: parse_enders(REWARD_PRESETS["default"]["enders"]))
     num_zones: int = 0  # conflict zones on the map (sizes the zone terms)
+    track_zones: bool = False  # keep zone books even when no term reads them (for metrics)
 
     @property
     def uses_zones(self) -> bool:
-        """Whether any term reads the zone bookkeeping (else ``state.zones`` is ``[R, 0]``)."""
-        return self.num_zones > 0 and any(
-            t.uses_zones for t in self.observer.terms + self.rewarder.terms)
+        """Whether the step keeps zone books: a term reads them, or ``track_zones`` asks for
+        them (else ``state.zones`` is ``[R, 0]``)."""
+        return self.num_zones > 0 and (self.track_zones or any(
+            t.uses_zones for t in self.observer.terms + self.rewarder.terms))
 
     def tracked_zones(self, zone_rect: Array) -> Array:
         """The zone rectangles the step keeps books on: all of them, or none (``[0, 4]``)."""

@@ -1,13 +1,19 @@
-"""Host-side rendering with matplotlib (Agg, headless): map pictures, frames and GIFs.
+"""Host-side rendering with matplotlib (Agg, headless): map pictures, frames, animations
+(GIF with pillow, MP4 with ffmpeg when it is installed) and trajectory plots.
 
 Nothing here runs inside ``jit``; pass states (or slices of a stacked rollout) as arrays.
+Robots are coloured by id; their outline says their status: white while driving, red while in
+contact (a collision), hollow once arrived, grey with a cross once ended by an ender.
 """
 
 from __future__ import annotations
 
+import shutil
+import subprocess
 from collections.abc import Sequence
 from pathlib import Path
 
+import jax
 import matplotlib
 
 matplotlib.use("Agg")
@@ -21,6 +27,8 @@ from sgjax.maps.arrays import spawn_groups  # noqa: E402
 from sgjax.maps.schema import MapSpec  # noqa: E402
 
 ROBOT_COLOURS = plt.get_cmap("tab10").colors
+CONTACT_COLOUR = "#e31a1c"
+ENDED_COLOUR = "#7f7f7f"
 
 
 def _figure(spec: MapSpec, width_px: int) -> tuple[plt.Figure, plt.Axes]:
@@ -86,16 +94,21 @@ def render_frame(
     humans: np.ndarray | None = None,
     human_velocity: np.ndarray | None = None,
     human_radius: float = 0.25,
+    touching: np.ndarray | None = None,
+    ended: np.ndarray | None = None,
+    graph: bool = True,
 ) -> np.ndarray:
     """One top-down frame as an ``H x W x 3`` uint8 array.
 
     ``position [R, 2]``, ``heading [R]``, ``radius [R]``, ``present``/``succeeded [R]`` bool,
-    ``goal [R, 2]``; ``trail [T, R, 2]`` optional recent positions. Robots are coloured by id;
-    finished robots are drawn hollow at their goal. ``humans [H, 2]`` (active pedestrians only)
+    ``goal [R, 2]``; ``trail [T, R, 2]`` optional recent positions; ``touching [R]`` (in contact
+    now) and ``ended [R]`` (ended without arriving) bool, optional. Robots are coloured by id
+    (status in the outline, see the module doc). ``humans [H, 2]`` (active pedestrians only)
     are grey discs of ``human_radius`` m, with a 0.5 s velocity tick from ``human_velocity``.
+    ``graph`` draws the navigation graph.
     """
     fig, ax = _figure(spec, width_px)
-    _draw_map(ax, spec, graph=True, zones=True)
+    _draw_map(ax, spec, graph=graph, zones=True)
     if humans is not None:
         for k, centre in enumerate(humans):
             ax.add_patch(Circle(tuple(centre), human_radius, facecolor="#9e9e9e",
@@ -110,11 +123,18 @@ def render_frame(
             ax.plot(trail[:, i, 0], trail[:, i, 1], color=colour, alpha=0.5, lw=1.0, zorder=4)
         ax.scatter([goal[i, 0]], [goal[i, 1]], marker="x", s=40, color=colour, zorder=4)
         done = bool(succeeded[i])
-        ax.add_patch(Circle(tuple(position[i]), float(radius[i]), facecolor="none" if done
-                            else colour, edgecolor=colour, lw=1.5, zorder=5))
+        stopped = ended is not None and bool(ended[i])
+        contact = touching is not None and bool(touching[i]) and not done
+        face = "none" if done else (ENDED_COLOUR if stopped else colour)
+        edge = CONTACT_COLOUR if contact else colour
+        ax.add_patch(Circle(tuple(position[i]), float(radius[i]), facecolor=face,
+                            edgecolor=edge, lw=2.5 if contact else 1.5, zorder=5))
         tip = position[i] + float(radius[i]) * np.array([np.cos(heading[i]), np.sin(heading[i])])
         ax.plot([position[i, 0], tip[0]], [position[i, 1], tip[1]], color="white" if not done
                 else colour, lw=1.2, zorder=6)
+        if stopped:
+            ax.scatter([position[i, 0]], [position[i, 1]], marker="x", s=30, color="black",
+                       zorder=6)
         ax.text(position[i, 0], position[i, 1] + float(radius[i]) * 1.4, str(i), fontsize=7,
                 ha="center", zorder=6)
     if title:
@@ -124,12 +144,14 @@ def render_frame(
 
 def render_state(
     spec: MapSpec, state, radius: np.ndarray, trail: np.ndarray | None = None, title: str = "",
-    width_px: int = 480, human_radius: float = 0.25,
+    width_px: int = 480, human_radius: float = 0.25, graph: bool = True,
 ) -> np.ndarray:
     """:func:`render_frame` of one (unbatched) ``EnvState`` with its active pedestrians;
     ``radius [R]`` from ``params.robots.radius``, ``human_radius`` (m) from
     ``params.humans.radius``."""
     robots = state.robots
+    touching = (np.asarray(state.touching_robot) | np.asarray(state.touching_wall)
+                | np.asarray(state.touching_human))
     goal = np.stack([np.asarray(state.route.goal_x), np.asarray(state.route.goal_y)], -1)
     active = np.asarray(state.humans.active)
     return render_frame(spec, np.asarray(robots.position), np.asarray(robots.heading),
@@ -137,7 +159,8 @@ def render_state(
                         np.asarray(robots.succeeded), goal, trail=trail, title=title,
                         width_px=width_px, humans=np.asarray(state.humans.position)[active],
                         human_velocity=np.asarray(state.humans.velocity)[active],
-                        human_radius=float(human_radius))
+                        human_radius=float(human_radius), touching=touching,
+                        ended=np.asarray(robots.ended), graph=graph)
 
 
 def save_gif(frames: Sequence[np.ndarray], path: str | Path, fps: int = 10) -> Path:
@@ -150,3 +173,110 @@ def save_gif(frames: Sequence[np.ndarray], path: str | Path, fps: int = 10) -> P
     images[0].save(path, save_all=True, append_images=images[1:], duration=int(1000 / fps),
                    loop=0, optimize=False)
     return path
+
+
+def save_mp4(frames: Sequence[np.ndarray], path: str | Path, fps: int = 10) -> Path:
+    """Write frames (``H x W x 3`` uint8) to an H.264 MP4 by piping them to ``ffmpeg``."""
+    if not frames:
+        raise ValueError("save_mp4: no frames to write")
+    ffmpeg = shutil.which("ffmpeg")
+    if ffmpeg is None:
+        raise RuntimeError(f"save_mp4: writing {path} needs ffmpeg on the PATH, which was not "
+                           "found; install ffmpeg or write a .gif instead")
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    height, width = frames[0].shape[:2]
+    command = [ffmpeg, "-y", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24",
+               "-s", f"{width}x{height}", "-r", str(fps), "-i", "-",
+               "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-pix_fmt", "yuv420p", str(path)]
+    data = b"".join(np.ascontiguousarray(f, np.uint8).tobytes() for f in frames)
+    result = subprocess.run(command, input=data, capture_output=True, check=False)
+    if result.returncode != 0:
+        raise RuntimeError(f"save_mp4: ffmpeg failed writing {path}: "
+                           f"{result.stderr.decode(errors='replace').strip()}")
+    return path
+
+
+def save_animation(frames: Sequence[np.ndarray], path: str | Path, fps: int = 10) -> Path:
+    """Write frames to ``path``: ``.gif`` (pillow) or ``.mp4`` (ffmpeg)."""
+    suffix = Path(path).suffix.lower()
+    if suffix == ".gif":
+        return save_gif(frames, path, fps)
+    if suffix == ".mp4":
+        return save_mp4(frames, path, fps)
+    raise ValueError(f"animation path {str(path)!r}: the file name must end in .gif or .mp4")
+
+
+def episode_frames(
+    spec: MapSpec, states, params, length: int, title: str = "", width_px: int = 480,
+    max_frames: int = 300, trail_steps: int = 15,
+) -> tuple[list[np.ndarray], int]:
+    """Frames of one recorded episode: ``states`` stacked ``[T, ...]`` (one environment, step
+    0 first) of which the first ``length + 1`` are drawn, every ``stride``-th so that at most
+    ``max_frames`` remain. Returns ``(frames, stride)``."""
+    count = min(length + 1, int(np.shape(states.time)[0]))
+    stride = max(1, -(-count // max_frames))
+    positions = np.stack([np.asarray(states.robots.x[:count]),
+                          np.asarray(states.robots.y[:count])], axis=-1)  # [T, R, 2]
+    radius = np.asarray(params.robots.radius)
+    dt = float(params.dt)
+    frames = []
+    for t in range(0, count, stride):
+        state = _index(states, t)
+        label = f"{title}  t = {t * dt:.1f} s" if title else f"t = {t * dt:.1f} s"
+        frames.append(render_state(spec, state, radius,
+                                   trail=positions[max(0, t - trail_steps):t + 1], title=label,
+                                   width_px=width_px,
+                                   human_radius=float(np.asarray(params.humans.radius))))
+    return frames, stride
+
+
+def plot_trajectories(
+    spec: MapSpec, states, params, length: int, title: str = "", width_px: int = 640,
+) -> np.ndarray:
+    """A picture of a whole recorded episode (``states`` as in :func:`episode_frames`): each
+    robot's path from its start (dot) to where it ended (its disc: hollow if it arrived, grey
+    with a cross if ended), its goal (x), and the pedestrians' paths in grey. RGB uint8."""
+    count = min(length + 1, int(np.shape(states.time)[0]))
+    x, y = np.asarray(states.robots.x[:count]), np.asarray(states.robots.y[:count])
+    last = _index(states, count - 1)
+    robots = last.robots
+    present = np.asarray(robots.present)
+    radius = np.asarray(params.robots.radius)
+    goal = np.stack([np.asarray(last.route.goal_x), np.asarray(last.route.goal_y)], -1)
+    fig, ax = _figure(spec, width_px)
+    _draw_map(ax, spec, graph=False, zones=True)
+    humans_active = np.asarray(states.humans.active[:count])
+    if humans_active.size:
+        hx, hy = np.asarray(states.humans.x[:count]), np.asarray(states.humans.y[:count])
+        for k in np.flatnonzero(humans_active.any(axis=0)):
+            seen = humans_active[:, k]
+            ax.plot(hx[seen, k], hy[seen, k], color="#9e9e9e", lw=0.8, alpha=0.7, zorder=2)
+    for i in np.flatnonzero(present):
+        colour = ROBOT_COLOURS[i % len(ROBOT_COLOURS)]
+        ax.plot(x[:, i], y[:, i], color=colour, lw=1.6, zorder=4)
+        ax.scatter([x[0, i]], [y[0, i]], s=18, color=colour, zorder=5)
+        ax.scatter([goal[i, 0]], [goal[i, 1]], marker="x", s=40, color=colour, zorder=4)
+        arrived, ended = bool(robots.succeeded[i]), bool(robots.ended[i])
+        face = "none" if arrived else (ENDED_COLOUR if ended else colour)
+        ax.add_patch(Circle((x[-1, i], y[-1, i]), float(radius[i]), facecolor=face,
+                            edgecolor=colour, lw=1.5, zorder=5))
+        ax.text(x[0, i], y[0, i] + float(radius[i]) * 1.4, str(i), fontsize=7, ha="center",
+                zorder=6)
+    label = f"{title}  {count - 1} steps" if title else f"{count - 1} steps"
+    ax.text(0.01, 0.99, label, transform=ax.transAxes, va="top", fontsize=9)
+    return _to_rgb(fig)
+
+
+def save_png(image: np.ndarray, path: str | Path) -> Path:
+    """Write an ``H x W x 3`` uint8 image as PNG (pillow)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(np.asarray(image, np.uint8)).save(path)
+    return path
+
+
+
+def _index(tree, t: int):
+    """Step ``t`` of a stacked pytree."""
+    return jax.tree.map(lambda leaf: leaf[t], tree)

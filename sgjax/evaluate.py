@@ -1,0 +1,243 @@
+"""Evaluation: policies x scenarios x robot counts x episodes, one batched computation each.
+
+Python::
+
+    from sgjax.evaluate import evaluate
+    results = evaluate(["doorway"], ["only_local"], num_agents=[3, 4], episodes=25,
+                       out="runs/eval")
+
+Command line: ``sgjax evaluate --scenario doorway --policy only_local --num-agents 3 4
+--episodes 25 --out runs/eval`` (see :mod:`sgjax.cli`). Each configuration runs its episodes as
+one ``jit(scan(vmap(step_env)))`` for the time limit; an episode's state is frozen once it ends,
+and :mod:`sgjax.metrics` accumulates inside the scan. Results are summarised per metric over
+episodes: mean, a 95% confidence interval (Wilson for yes/no episode metrics, Student t for the
+rest) and the number of episodes with a value.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from scipy import stats as scipy_stats
+
+import sgjax
+from sgjax import metrics
+from sgjax.env import EnvParams, SocialNavEnv
+from sgjax.policies import Policy, load_policy
+
+DEFAULT_NUM_AGENTS = (3, 4, 5, 7, 10)
+DEFAULT_EPISODES = 25
+CONFIDENCE = 0.95
+
+
+def with_zone_books(env: SocialNavEnv) -> SocialNavEnv:
+    """The same environment, keeping conflict-zone books for the order-violation metrics."""
+    if env.config.track_zones:
+        return env
+    return SocialNavEnv(dataclasses.replace(env.config, track_zones=True), env.default_params)
+
+
+@dataclasses.dataclass
+class Episodes:
+    """Host results of a batch of ``E`` episodes."""
+
+    values: dict[str, np.ndarray]  # per-episode value of every metric, [E]
+    robot: dict[str, np.ndarray]  # per-robot values of robot-level metrics, [E, R]
+    states: Any = None  # with record=True: EnvState stacked [T + 1, E, ...] (T = time limit)
+
+
+def episode_runner(
+    env: SocialNavEnv, params: EnvParams, policy: Policy, num_episodes: int,
+    constants: metrics.MetricConstants = metrics.DEFAULT_CONSTANTS, record: bool = False,
+) -> Callable[[jax.Array], tuple]:
+    """A jitted ``run(key) -> (values, robot, states)`` playing ``num_episodes`` episodes of
+    ``env`` under ``policy`` for the time limit (``states`` is None unless ``record``)."""
+    env = with_zone_books(env)
+    num_steps = int(params.max_steps)
+    reset = jax.vmap(env.reset, in_axes=(0, None))
+    step = jax.vmap(env.step_env, in_axes=(0, 0, 0, None))
+    act = jax.vmap(policy, in_axes=(0, 0, 0, None))
+    done_of = jax.vmap(metrics.episode_done)
+    update = jax.vmap(lambda m, s0, s1, info, done: metrics.update(
+        m, s0, s1, info, done, params, env.config, constants))
+    finalize = jax.vmap(lambda m, s: metrics.finalize(m, s, params, constants))
+
+    def one_step(carry, key):
+        obs, state, tally = carry
+        k_act, k_step = jax.random.split(key)
+        actions = act(obs, jax.random.split(k_act, num_episodes), state, params)
+        next_obs, next_state, _, term, trunc, info = step(
+            jax.random.split(k_step, num_episodes), state, actions, params)
+        tally_next = update(tally, state, next_state, info, done_of(next_state, term, trunc))
+
+        def keep(new, old):  # ended episodes stay as they ended
+            running = tally.running.reshape((-1,) + (1,) * (new.ndim - 1))
+            return jnp.where(running, new, old)
+
+        carry = (keep(next_obs, obs), jax.tree.map(keep, next_state, state), tally_next)
+        return carry, (carry[1] if record else None)
+
+    @jax.jit
+    def run(key: jax.Array) -> tuple:
+        k_reset, k_steps = jax.random.split(key)
+        obs, state = reset(jax.random.split(k_reset, num_episodes), params)
+        tally = jax.vmap(lambda _: metrics.start(env.max_agents, constants))(
+            jnp.arange(num_episodes))
+        (_, final, tally), states = jax.lax.scan(
+            one_step, (obs, state, tally), jax.random.split(k_steps, num_steps))
+        robot, episode = finalize(tally, final)
+        values = jax.vmap(metrics.per_episode)(robot, episode)
+        if record:
+            states = jax.tree.map(lambda first, rest: jnp.concatenate([first[None], rest]),
+                                  state, states)
+        return values, robot, states
+
+    return run
+
+
+def run_episodes(
+    env: SocialNavEnv, params: EnvParams, policy: Policy | str, key: jax.Array,
+    num_episodes: int, constants: metrics.MetricConstants = metrics.DEFAULT_CONSTANTS,
+    record: bool = False,
+) -> Episodes:
+    """Play ``num_episodes`` episodes at once and return their metrics on the host."""
+    if num_episodes < 1:
+        raise ValueError(f"num_episodes must be at least 1, got {num_episodes}")
+    env.check_params(params)
+    run = episode_runner(env, params, load_policy(policy, env), num_episodes, constants, record)
+    values, robot, states = jax.device_get(run(key))
+    return Episodes(values={k: np.asarray(v) for k, v in values.items()},
+                    robot={k: np.asarray(v) for k, v in robot.items()}, states=states)
+
+
+@dataclasses.dataclass(frozen=True)
+class Summary:
+    """Mean of a metric over the episodes that have a value, with its 95% interval."""
+
+    mean: float
+    ci_low: float
+    ci_high: float
+    std: float
+    n: int
+
+    def as_dict(self) -> dict[str, float | int | None]:
+        def clean(v: float) -> float | None:
+            return None if math.isnan(v) else float(v)
+        return {"mean": clean(self.mean), "ci_low": clean(self.ci_low),
+                "ci_high": clean(self.ci_high), "std": clean(self.std), "n": self.n}
+
+
+def wilson_interval(successes: float, n: int, confidence: float = CONFIDENCE
+                    ) -> tuple[float, float]:
+    """Wilson score interval of a proportion ``successes / n``."""
+    if n == 0:
+        return math.nan, math.nan
+    z = float(scipy_stats.norm.ppf(0.5 + confidence / 2))
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def t_interval(values: np.ndarray, confidence: float = CONFIDENCE) -> tuple[float, float]:
+    """Student-t interval of the mean of ``values`` (NaN with fewer than two)."""
+    n = len(values)
+    if n < 2:
+        return math.nan, math.nan
+    mean = float(np.mean(values))
+    half = float(scipy_stats.t.ppf(0.5 + confidence / 2, n - 1)) * float(
+        np.std(values, ddof=1)) / math.sqrt(n)
+    return mean - half, mean + half
+
+
+def summarize(values: np.ndarray, binary: bool, fraction: bool = False) -> Summary:
+    """Summary over episodes of one metric's per-episode values (NaNs are left out). Every
+    metric is non-negative, so the interval is clipped at 0, and at 1 for ``fraction``s."""
+    x = np.asarray(values, np.float64)
+    x = x[np.isfinite(x)]
+    n = len(x)
+    if n == 0:
+        return Summary(math.nan, math.nan, math.nan, math.nan, 0)
+    low, high = wilson_interval(float(np.sum(x)), n) if binary else t_interval(x)
+    low, high = max(low, 0.0), (min(high, 1.0) if fraction else high)
+    std = float(np.std(x, ddof=1)) if n > 1 else math.nan
+    return Summary(float(np.mean(x)), low, high, std, n)
+
+
+@dataclasses.dataclass
+class ConfigResult:
+    """One configuration's summaries (``metrics`` in :data:`sgjax.metrics.METRICS` order)."""
+
+    scenario: str
+    policy: str
+    num_agents: int
+    episodes: int
+    seed: int
+    dt: float
+    max_steps: int
+    metrics: dict[str, Summary]
+    seconds: float  # wall time, compile included
+
+    def as_dict(self) -> dict[str, Any]:
+        out = {k: v for k, v in dataclasses.asdict(self).items() if k != "metrics"}
+        out["metrics"] = {name: s.as_dict() for name, s in self.metrics.items()}
+        return out
+
+
+def summarize_episodes(episodes: Episodes) -> dict[str, Summary]:
+    return {info.name: summarize(episodes.values[info.name], info.binary,
+                                 info.unit == "fraction") for info in metrics.METRICS}
+
+
+def evaluate(
+    scenarios: Sequence[str], policies: Sequence[str | Policy],
+    num_agents: Sequence[int] = DEFAULT_NUM_AGENTS, episodes: int = DEFAULT_EPISODES,
+    seed: int = 0, out: str | Path | None = None, make_kwargs: dict[str, Any] | None = None,
+    constants: metrics.MetricConstants = metrics.DEFAULT_CONSTANTS,
+    log: Callable[[str], None] | None = print,
+) -> list[ConfigResult]:
+    """Evaluate every policy on every scenario and robot count; with ``out``, write
+    ``metrics.json``, ``metrics.csv``, ``table.md`` and PNG charts there (:mod:`sgjax.report`).
+
+    ``policies`` are baseline names, ``"module:function"`` specs or policy callables (named
+    ``policy<i>`` in the outputs); ``make_kwargs`` go to :func:`sgjax.make` (observation preset,
+    robots, time limit, ...). Every configuration uses the same ``seed``."""
+    if not scenarios or not policies or not num_agents:
+        raise ValueError("evaluate: scenarios, policies and num_agents must not be empty")
+    if episodes < 1:
+        raise ValueError(f"evaluate: episodes must be at least 1, got {episodes}")
+    results = []
+    for scenario in scenarios:
+        for p, policy in enumerate(policies):
+            name = policy if isinstance(policy, str) else f"policy{p}"
+            for n in num_agents:
+                t0 = time.perf_counter()
+                env, params = sgjax.make(scenario, num_agents=n, **(make_kwargs or {}))
+                batch = run_episodes(env, params, policy, jax.random.key(seed), episodes,
+                                     constants)
+                result = ConfigResult(
+                    scenario=str(scenario), policy=name, num_agents=n, episodes=episodes,
+                    seed=seed, dt=float(params.dt), max_steps=int(params.max_steps),
+                    metrics=summarize_episodes(batch), seconds=time.perf_counter() - t0)
+                results.append(result)
+                if log is not None:
+                    m = result.metrics
+                    log(f"{scenario:>12} {name:>18} {n:>3} robots: team success "
+                        f"{m['team_success'].mean:.2f}, success {m['success'].mean:.2f}, "
+                        f"collisions {m['collisions'].mean:.2f}, length "
+                        f"{m['episode_length'].mean:.0f} steps ({result.seconds:.1f} s)")
+    if out is not None:
+        from sgjax.report import write_all
+
+        paths = write_all(results, Path(out), constants)
+        if log is not None:
+            log("wrote " + ", ".join(str(p) for p in paths))
+    return results

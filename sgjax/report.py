@@ -1,0 +1,169 @@
+"""Evaluation outputs: ``metrics.json``, ``metrics.csv``, ``table.md`` and PNG charts.
+
+``table.md`` follows the SocialGym 2.0 paper's two tables (its Tables 3 and 4): the headline
+metrics per scenario, policy and robot count, and team success (%) by robot count with the
+average; then every metric of every configuration with its 95% interval.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+import sgjax  # noqa: E402
+from sgjax.evaluate import CONFIDENCE, ConfigResult, Summary  # noqa: E402
+from sgjax.metrics import METRICS, METRICS_BY_NAME, MetricConstants  # noqa: E402
+
+# The paper's Table 3 columns, then success.
+HEADLINE = (("episode_length", "Avg. length (steps)"), ("collisions", "Coll. rate"),
+            ("stop_time", "Stop time (s)"), ("velocity_change_max", "Max dV (m/s)"),
+            ("team_success", "Team success"), ("success", "Robot success"))
+CHARTED = ("team_success", "success", "collisions", "episode_length", "stop_time",
+           "velocity_change_max", "min_distance_robot", "spl", "deadlock")
+
+
+def write_all(results: Sequence[ConfigResult], out: Path,
+              constants: MetricConstants) -> list[Path]:
+    """Write every output into ``out`` (created); returns the paths written."""
+    out.mkdir(parents=True, exist_ok=True)
+    return [write_json(results, out / "metrics.json", constants),
+            write_csv(results, out / "metrics.csv"),
+            write_table(results, out / "table.md"),
+            plot_success(results, out / "success_by_robots.png"),
+            plot_metrics(results, out / "metrics_by_robots.png")]
+
+
+def write_json(results: Sequence[ConfigResult], path: Path, constants: MetricConstants) -> Path:
+    document = {
+        "sgjax_version": sgjax.__version__,
+        "confidence": CONFIDENCE,
+        "interval": "Wilson score for yes/no episode metrics (binary), Student t otherwise, "
+                    "clipped to [0, 1] for fractions and at 0 below; "
+                    "over episodes, NaN values (metric undefined) left out",
+        "constants": constants.as_dict(),
+        "definitions": {m.name: {"unit": m.unit, "level": m.level, "reduce": m.reduce,
+                                 "binary": m.binary, "definition": m.definition,
+                                 "source": m.source} for m in METRICS},
+        "results": [r.as_dict() for r in results],
+    }
+    path.write_text(json.dumps(document, indent=1))
+    return path
+
+
+def write_csv(results: Sequence[ConfigResult], path: Path) -> Path:
+    with path.open("w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["scenario", "policy", "num_agents", "episodes", "metric", "unit",
+                         "mean", "ci_low", "ci_high", "std", "n"])
+        for r in results:
+            for name, s in r.metrics.items():
+                d = s.as_dict()
+                writer.writerow([r.scenario, r.policy, r.num_agents, r.episodes, name,
+                                 METRICS_BY_NAME[name].unit,
+                                 *("" if d[k] is None else d[k]
+                                   for k in ("mean", "ci_low", "ci_high", "std", "n"))])
+    return path
+
+
+def _cell(s: Summary, percent: bool = False) -> str:
+    if s.n == 0 or math.isnan(s.mean):
+        return "n/a"
+    scale = 100.0 if percent else 1.0
+    digits = 0 if percent else (0 if abs(s.mean) >= 100 else 2)
+    text = f"{s.mean * scale:.{digits}f}"
+    if not math.isnan(s.ci_low):
+        half = max(s.mean - s.ci_low, s.ci_high - s.mean) * scale
+        text += f" ± {half:.{digits}f}"
+    return text
+
+
+def write_table(results: Sequence[ConfigResult], path: Path) -> Path:
+    lines = [f"# Evaluation (sgjax {sgjax.__version__})", "",
+             f"Means over episodes ± the larger half of the {CONFIDENCE:.0%} interval; "
+             "definitions in docs/metrics.md.", "",
+             "## Metrics per scenario and policy", "",
+             "| Scenario | Policy | Robots | Episodes | "
+             + " | ".join(title for _, title in HEADLINE) + " |",
+             "|---|---|---|---|" + "---|" * len(HEADLINE)]
+    for r in results:
+        lines.append(f"| {r.scenario} | {r.policy} | {r.num_agents} | {r.episodes} | "
+                     + " | ".join(_cell(r.metrics[name]) for name, _ in HEADLINE) + " |")
+    counts = sorted({r.num_agents for r in results})
+    lines += ["", "## Team success (%) by robot count", "",
+              "| Scenario | Policy | " + " | ".join(f"{n}A" for n in counts) + " | Avg. |",
+              "|---|---|" + "---|" * (len(counts) + 1)]
+    for scenario, policy in dict.fromkeys((r.scenario, r.policy) for r in results):
+        by_count = {r.num_agents: r.metrics["team_success"] for r in results
+                    if (r.scenario, r.policy) == (scenario, policy)}
+        means = [s.mean for s in by_count.values() if s.n]
+        average = f"{100 * sum(means) / len(means):.0f}" if means else "n/a"
+        lines.append(f"| {scenario} | {policy} | " + " | ".join(
+            _cell(by_count[n], percent=True) if n in by_count else "" for n in counts)
+            + f" | {average} |")
+    lines += ["", "## Every metric", ""]
+    for r in results:
+        lines += [f"### {r.scenario}, {r.policy}, {r.num_agents} robots ({r.episodes} episodes,"
+                  f" seed {r.seed})", "", "| Metric | Unit | Mean | 95% interval | n |",
+                  "|---|---|---|---|---|"]
+        for name, s in r.metrics.items():
+            interval = ("n/a" if math.isnan(s.ci_low) else f"[{s.ci_low:.3g}, {s.ci_high:.3g}]")
+            mean = "n/a" if math.isnan(s.mean) else f"{s.mean:.3g}"
+            lines.append(f"| {name} | {METRICS_BY_NAME[name].unit} | {mean} | {interval} |"
+                         f" {s.n} |")
+        lines.append("")
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _series(results: Sequence[ConfigResult], metric: str):
+    for scenario, policy in dict.fromkeys((r.scenario, r.policy) for r in results):
+        rows = sorted((r for r in results if (r.scenario, r.policy) == (scenario, policy)),
+                      key=lambda r: r.num_agents)
+        s = [r.metrics[metric] for r in rows]
+        yield (f"{scenario} / {policy}", [r.num_agents for r in rows], [x.mean for x in s],
+               [[max(0.0, x.mean - x.ci_low) if x.n > 1 else 0.0 for x in s],
+                [max(0.0, x.ci_high - x.mean) if x.n > 1 else 0.0 for x in s]])
+
+
+def _plot(ax: plt.Axes, results: Sequence[ConfigResult], metric: str) -> None:
+    for label, xs, ys, err in _series(results, metric):
+        err = [[0.0 if math.isnan(e) else e for e in side] for side in err]
+        ax.errorbar(xs, ys, yerr=err, marker="o", capsize=3, label=label)
+    info = METRICS_BY_NAME[metric]
+    ax.set_title(f"{metric} ({info.unit})", fontsize=9)
+    ax.set_xlabel("robots", fontsize=8)
+    ax.tick_params(labelsize=7)
+    ax.grid(alpha=0.3)
+
+
+def plot_success(results: Sequence[ConfigResult], path: Path) -> Path:
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.6), dpi=100)
+    for ax, metric in zip(axes, ("team_success", "success"), strict=True):
+        _plot(ax, results, metric)
+        ax.set_ylim(-0.05, 1.05)
+    axes[0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def plot_metrics(results: Sequence[ConfigResult], path: Path) -> Path:
+    cols = 3
+    rows = math.ceil(len(CHARTED) / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(11, 3.0 * rows), dpi=100)
+    for ax, metric in zip(axes.flat, CHARTED, strict=False):
+        _plot(ax, results, metric)
+    axes.flat[0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
