@@ -1,0 +1,144 @@
+"""The evaluation runner, its outputs, the baselines, and ``sgjax render`` end to end."""
+
+import csv
+import json
+import math
+import shutil
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from PIL import Image
+from scenes import make_room, place
+
+import sgjax
+from sgjax import metrics
+from sgjax.cli import main
+from sgjax.evaluate import run_episodes
+from sgjax.policies import GO, STOP, load_policy, stop_when_blocked
+from sgjax.render import save_animation
+
+
+def go_everywhere(obs, key):
+    """A policy from observations, imported by the tests below as ``test_evaluate:...``."""
+    return jnp.zeros(obs.shape[0], jnp.int32)
+
+
+def test_evaluate_command_end_to_end(tmp_path, capsys):
+    main(["evaluate", "--scenario", "open", "--policy", "only_local", "stop_when_blocked",
+          "--num-agents", "2", "3", "--episodes", "3", "--out", str(tmp_path)])
+    assert "team success" in capsys.readouterr().out
+    document = json.loads((tmp_path / "metrics.json").read_text())
+    assert document["constants"]["space_radii"] == [0.45, 1.2, 3.6]
+    assert set(document["definitions"]) == set(metrics.METRIC_NAMES)
+    results = document["results"]
+    assert [(r["policy"], r["num_agents"]) for r in results] == [
+        ("only_local", 2), ("only_local", 3), ("stop_when_blocked", 2),
+        ("stop_when_blocked", 3)]
+    for r in results:
+        s = r["metrics"]["success"]
+        assert s["n"] == 3 and 0.0 <= s["ci_low"] <= s["mean"] <= s["ci_high"] <= 1.0
+        assert r["metrics"]["min_distance_human"]["mean"] is None  # no pedestrians
+    with (tmp_path / "metrics.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 4 * len(metrics.METRICS)
+    table = (tmp_path / "table.md").read_text()
+    assert "| open | only_local | 2 |" in table and "Team success (%) by robot count" in table
+    for png in ("success_by_robots.png", "metrics_by_robots.png"):
+        with Image.open(tmp_path / png) as image:
+            assert image.size[0] > 100
+
+
+def test_runner_agrees_with_a_manual_loop():
+    """The batched, frozen-after-the-end runner against eager step_env calls."""
+    env, params = sgjax.make("hallway", num_agents=2)
+    batch = run_episodes(env, params, "only_local", jax.random.key(3), 2, record=True)
+    states = batch.states
+    step = jax.jit(env.step_env)
+    for e in range(2):
+        state = jax.tree.map(lambda leaf, e=e: leaf[0, e], states)
+        steps = 0
+        for t in range(int(params.max_steps)):
+            _, state, _, term, trunc, _ = step(
+                jax.random.key(t), state, jnp.zeros(2, jnp.int32), params)
+            steps += 1
+            if bool(metrics.episode_done(state, term, trunc)):
+                break
+        assert batch.values["episode_length"][e] == steps
+        recorded = jax.tree.map(lambda leaf, e=e: leaf[-1, e], states)
+        assert np.allclose(recorded.robots.x, state.robots.x, atol=1e-4)
+        assert batch.robot["success"][e].tolist() == np.asarray(
+            state.robots.succeeded, float).tolist()
+
+
+def test_policy_specs_and_errors():
+    env, params = sgjax.make("open", num_agents=2)
+    obs, state = env.reset(jax.random.key(0), params)
+    fn = load_policy("test_evaluate:go_everywhere", env)
+    assert fn(obs, jax.random.key(0), state, params).tolist() == [GO, GO]
+    with pytest.raises(ValueError, match="not known"):
+        load_policy("only_locl", env)
+    with pytest.raises(ValueError, match="no function"):
+        load_policy("test_evaluate:missing", env)
+    continuous, _ = sgjax.make("open", num_agents=2, action_mode="continuous")
+    with pytest.raises(ValueError, match="go_stop"):
+        load_policy("only_local", continuous)
+    assert load_policy("random", continuous)(obs, jax.random.key(1), state, params).shape == (
+        2, continuous.config.action_dim)
+
+
+def test_stop_when_blocked_yields_to_the_lower_index():
+    env, params = make_room(num_agents=2)
+    # Robot 1 faces robot 0, 0.8 m ahead: it yields; robot 0 has priority and goes.
+    state = place(env, params, [0.0, -0.8 - 2 * float(params.robots.radius[0])], [0.0, 0.0],
+                  headings=[0.0, 0.0])
+    actions = stop_when_blocked(env)(None, jax.random.key(0), state, params)
+    assert actions.tolist() == [GO, STOP]
+    far = place(env, params, [0.0, -3.0], [0.0, 0.0])
+    assert stop_when_blocked(env)(None, jax.random.key(0), far, params).tolist() == [GO, GO]
+
+
+def test_render_command_writes_animation_and_trajectory(tmp_path, capsys):
+    gif = tmp_path / "episode.gif"
+    main(["render", "--scenario", "open", "--num-agents", "2", "--width", "160",
+          "--max-frames", "12", "--out", str(gif)])
+    assert "arrived" in capsys.readouterr().out
+    with Image.open(gif) as animation:
+        assert 2 <= animation.n_frames <= 12
+        first = np.asarray(animation.convert("RGB"))
+        animation.seek(animation.n_frames - 1)
+        last = np.asarray(animation.convert("RGB"))
+    assert first.shape[1] == 160 and not np.array_equal(first, last)
+    with Image.open(tmp_path / "episode.png") as picture:
+        assert picture.size[0] == 160
+
+
+def test_mp4_needs_ffmpeg_or_is_written(tmp_path):
+    frames = [np.full((30, 41, 3), v, np.uint8) for v in (0, 128, 255)]
+    if shutil.which("ffmpeg") is None:
+        with pytest.raises(RuntimeError, match="ffmpeg"):
+            save_animation(frames, tmp_path / "a.mp4")
+    else:
+        assert (save_animation(frames, tmp_path / "a.mp4")).stat().st_size > 0
+    with pytest.raises(ValueError, match=".gif or .mp4"):
+        save_animation(frames, tmp_path / "a.avi")
+
+
+def test_bad_render_output_name_is_an_error():
+    with pytest.raises(SystemExit, match=".gif or .mp4"):
+        main(["render", "--out", "episode.webm"])
+
+
+def test_metrics_are_finite_where_defined():
+    env, params = sgjax.make("doorway", num_agents=3)
+    batch = run_episodes(env, params, "random", jax.random.key(0), 4)
+    for name, values in batch.values.items():
+        info = metrics.METRICS_BY_NAME[name]
+        if name in ("time_to_goal", "aggregated_time") or "human" in name:
+            continue
+        assert np.isfinite(values).all(), name
+        assert (values >= 0).all(), name
+        if info.unit == "fraction":
+            assert (values <= 1).all(), name
+    assert not math.isnan(batch.values["order_violations_entry"][0])  # zone books were kept
