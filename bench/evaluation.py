@@ -1,0 +1,101 @@
+"""Throughput of the evaluation runner, with and without the metric accumulators.
+
+``sgjax.evaluate`` plays a batch of episodes as ``jit(scan(vmap(step_env)))`` for the time limit,
+freezing ended episodes and updating ``sgjax.metrics`` every step. This prints agent-steps/s,
+compile time and peak memory (XLA's memory analysis) for the full runner and for the same loop
+with no metrics (a no-op policy cost is the same in both), so the price of the metrics shows.
+
+    python bench/evaluation.py --episodes 256 1024 --robots 4 10
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import jax
+
+import sgjax
+from sgjax import metrics
+from sgjax.evaluate import episode_runner
+from sgjax.policies import only_local
+
+
+def without_metrics(env, params, policy, num_episodes: int):
+    """The runner's loop (freeze on end included) with the metric update replaced by nothing
+    but the episode-done flag."""
+    steps = int(params.max_steps)
+    reset = jax.vmap(env.reset, in_axes=(0, None))
+    step = jax.vmap(env.step_env, in_axes=(0, 0, 0, None))
+    act = jax.vmap(policy, in_axes=(0, 0, 0, None))
+    done_of = jax.vmap(metrics.episode_done)
+
+    def one_step(carry, key):
+        obs, state, running = carry
+        k_act, k_step = jax.random.split(key)
+        actions = act(obs, jax.random.split(k_act, num_episodes), state, params)
+        nobs, nstate, _, term, trunc, _ = step(jax.random.split(k_step, num_episodes), state,
+                                               actions, params)
+
+        def keep(new, old):
+            return jax.numpy.where(running.reshape((-1,) + (1,) * (new.ndim - 1)), new, old)
+
+        done = done_of(nstate, term, trunc)
+        return (keep(nobs, obs), jax.tree.map(keep, nstate, state), running & ~done), None
+
+    @jax.jit
+    def run(key):
+        obs, state = reset(jax.random.split(key, num_episodes), params)
+        running = jax.numpy.ones(num_episodes, bool)
+        (_, state, running), _ = jax.lax.scan(one_step, (obs, state, running),
+                                              jax.random.split(key, steps))
+        return state.time, running
+
+    return run
+
+
+def measure(run, repeats: int) -> tuple[float, float, float]:
+    """(compile s, best run s, peak MB)."""
+    key = jax.random.key(0)
+    t0 = time.perf_counter()
+    compiled = run.lower(key).compile()
+    compile_s = time.perf_counter() - t0
+    mem = compiled.memory_analysis()
+    peak = 0.0
+    if mem is not None:
+        peak = (mem.argument_size_in_bytes + mem.output_size_in_bytes
+                + mem.temp_size_in_bytes) / 2**20
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        jax.block_until_ready(compiled(key))
+        best = min(best, time.perf_counter() - t0)
+    return compile_s, best, peak
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--scenario", default="doorway")
+    parser.add_argument("--episodes", nargs="+", type=int, default=[256, 1024])
+    parser.add_argument("--robots", nargs="+", type=int, default=[4, 10])
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    print(f"jax {jax.__version__} on {jax.devices()[0].platform}, {args.scenario}, "
+          f"only_local, one time limit per run")
+    print(f"{'robots':>6}{'episodes':>9}{'variant':>16}{'agent-steps/s':>15}{'compile s':>11}"
+          f"{'peak MB':>9}")
+    for robots in args.robots:
+        env, params = sgjax.make(args.scenario, num_agents=robots)
+        steps = int(params.max_steps)
+        for episodes in args.episodes:
+            runs = {"with metrics": episode_runner(env, params, only_local(env), episodes),
+                    "no metrics": without_metrics(env, params, only_local(env), episodes)}
+            for name, run in runs.items():
+                compile_s, best, peak = measure(run, args.repeats)
+                rate = steps * episodes * robots / best
+                print(f"{robots:>6}{episodes:>9}{name:>16}{rate:>15,.0f}{compile_s:>11.1f}"
+                      f"{peak:>9.1f}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
