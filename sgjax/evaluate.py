@@ -31,7 +31,7 @@ from scipy import stats as scipy_stats
 import sgjax
 from sgjax import metrics
 from sgjax.env import EnvParams, SocialNavEnv
-from sgjax.policies import Policy, load_policy
+from sgjax.policies import Policy, RecurrentPolicy, checkpoint_make_kwargs, load_policy
 
 DEFAULT_NUM_AGENTS = (3, 4, 5, 7, 10)
 DEFAULT_EPISODES = 25
@@ -55,7 +55,7 @@ class Episodes:
 
 
 def episode_runner(
-    env: SocialNavEnv, params: EnvParams, policy: Policy, num_episodes: int,
+    env: SocialNavEnv, params: EnvParams, policy: Policy | RecurrentPolicy, num_episodes: int,
     constants: metrics.MetricConstants = metrics.DEFAULT_CONSTANTS, record: bool = False,
 ) -> Callable[[jax.Array], tuple]:
     """A jitted ``run(key) -> (values, robot, states)`` playing ``num_episodes`` episodes of
@@ -64,16 +64,22 @@ def episode_runner(
     num_steps = int(params.max_steps)
     reset = jax.vmap(env.reset, in_axes=(0, None))
     step = jax.vmap(env.step_env, in_axes=(0, 0, 0, None))
-    act = jax.vmap(policy, in_axes=(0, 0, 0, None))
+    if isinstance(policy, RecurrentPolicy):
+        act = jax.vmap(policy.step, in_axes=(0, 0, 0, 0, None))
+        first_memory = jax.vmap(lambda _: policy.init(env.max_agents))(jnp.arange(num_episodes))
+    else:
+        plain = jax.vmap(policy, in_axes=(0, 0, 0, None))
+        act = lambda memory, *args: (memory, plain(*args))  # noqa: E731
+        first_memory = jnp.zeros(num_episodes)
     done_of = jax.vmap(metrics.episode_done)
     update = jax.vmap(lambda m, s0, s1, info, done: metrics.update(
         m, s0, s1, info, done, params, env.config, constants))
     finalize = jax.vmap(lambda m, s: metrics.finalize(m, s, params, constants))
 
     def one_step(carry, key):
-        obs, state, tally = carry
+        obs, state, tally, memory = carry
         k_act, k_step = jax.random.split(key)
-        actions = act(obs, jax.random.split(k_act, num_episodes), state, params)
+        memory, actions = act(memory, obs, jax.random.split(k_act, num_episodes), state, params)
         next_obs, next_state, _, term, trunc, info = step(
             jax.random.split(k_step, num_episodes), state, actions, params)
         tally_next = update(tally, state, next_state, info, done_of(next_state, term, trunc))
@@ -82,7 +88,7 @@ def episode_runner(
             running = tally.running.reshape((-1,) + (1,) * (new.ndim - 1))
             return jnp.where(running, new, old)
 
-        carry = (keep(next_obs, obs), jax.tree.map(keep, next_state, state), tally_next)
+        carry = (keep(next_obs, obs), jax.tree.map(keep, next_state, state), tally_next, memory)
         return carry, (carry[1] if record else None)
 
     @jax.jit
@@ -91,8 +97,8 @@ def episode_runner(
         obs, state = reset(jax.random.split(k_reset, num_episodes), params)
         tally = jax.vmap(lambda _: metrics.start(env.max_agents, constants))(
             jnp.arange(num_episodes))
-        (_, final, tally), states = jax.lax.scan(
-            one_step, (obs, state, tally), jax.random.split(k_steps, num_steps))
+        (_, final, tally, _), states = jax.lax.scan(
+            one_step, (obs, state, tally, first_memory), jax.random.split(k_steps, num_steps))
         robot, episode = finalize(tally, final)
         values = jax.vmap(metrics.per_episode)(robot, episode)
         if record:
@@ -104,7 +110,7 @@ def episode_runner(
 
 
 def run_episodes(
-    env: SocialNavEnv, params: EnvParams, policy: Policy | str, key: jax.Array,
+    env: SocialNavEnv, params: EnvParams, policy: Policy | RecurrentPolicy | str, key: jax.Array,
     num_episodes: int, constants: metrics.MetricConstants = metrics.DEFAULT_CONSTANTS,
     record: bool = False,
 ) -> Episodes:
@@ -198,18 +204,21 @@ def summarize_episodes(episodes: Episodes) -> dict[str, Summary]:
 
 
 def evaluate(
-    scenarios: Sequence[str], policies: Sequence[str | Policy],
+    scenarios: Sequence[str], policies: Sequence[str | Policy | RecurrentPolicy],
     num_agents: Sequence[int] = DEFAULT_NUM_AGENTS, episodes: int = DEFAULT_EPISODES,
     seed: int = 0, out: str | Path | None = None, make_kwargs: dict[str, Any] | None = None,
     constants: metrics.MetricConstants = metrics.DEFAULT_CONSTANTS,
     log: Callable[[str], None] | None = print,
+    policy_names: Sequence[str] | None = None,
 ) -> list[ConfigResult]:
     """Evaluate every policy on every scenario and robot count; with ``out``, write
     ``metrics.json``, ``metrics.csv``, ``table.md`` and PNG charts there (:mod:`sgjax.report`).
 
-    ``policies`` are baseline names, ``"module:function"`` specs or policy callables (named
-    ``policy<i>`` in the outputs); ``make_kwargs`` go to :func:`sgjax.make` (observation preset,
-    robots, time limit, ...). Every configuration uses the same ``seed``."""
+    ``policies`` are baseline names, ``"module:function"`` specs, trainer checkpoints or
+    policy objects (named ``policy<i>`` in the outputs); ``make_kwargs`` go to
+    :func:`sgjax.make` (observation preset, robots, time limit, ...) on top of the settings a
+    checkpoint was trained with; ``policy_names`` name them in the outputs. Every
+    configuration uses the same ``seed``."""
     if not scenarios or not policies or not num_agents:
         raise ValueError("evaluate: scenarios, policies and num_agents must not be empty")
     if episodes < 1:
@@ -217,10 +226,12 @@ def evaluate(
     results = []
     for scenario in scenarios:
         for p, policy in enumerate(policies):
-            name = policy if isinstance(policy, str) else f"policy{p}"
+            name = (policy_names[p] if policy_names is not None
+                    else policy if isinstance(policy, str) else f"policy{p}")
             for n in num_agents:
                 t0 = time.perf_counter()
-                env, params = sgjax.make(scenario, num_agents=n, **(make_kwargs or {}))
+                kwargs = {**checkpoint_make_kwargs(policy), **(make_kwargs or {})}
+                env, params = sgjax.make(scenario, num_agents=n, **kwargs)
                 batch = run_episodes(env, params, policy, jax.random.key(seed), episodes,
                                      constants)
                 result = ConfigResult(

@@ -17,10 +17,11 @@ Built-in baselines (:data:`BASELINES`):
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import math
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import jax
 import jax.numpy as jnp
@@ -32,6 +33,16 @@ if TYPE_CHECKING:
     from sgjax.env import EnvParams, EnvState, SocialNavEnv
 
 Policy = Callable[[Array, Array, "EnvState", "EnvParams"], Array]
+
+
+@dataclasses.dataclass(frozen=True)
+class RecurrentPolicy:
+    """A policy with memory (a recurrent network): ``init(num_robots) -> carry`` at the start of
+    an episode, then ``step(carry, obs, key, state, params) -> (carry, actions)``."""
+
+    init: Callable[[int], Any]
+    step: Callable[..., tuple[Any, Array]]
+
 BASELINES = ("only_local", "random", "stop_when_blocked")
 STOP_DISTANCE = 1.0  # m, body to body
 STOP_HALF_ANGLE = math.pi / 3  # rad either side of the heading
@@ -101,11 +112,17 @@ _BUILDERS = {"only_local": only_local, "random": random_policy,
              "stop_when_blocked": stop_when_blocked}
 
 
-def load_policy(spec: str | Policy, env: SocialNavEnv) -> Policy:
+def load_policy(spec: str | Policy | RecurrentPolicy, env: SocialNavEnv
+                ) -> Policy | RecurrentPolicy:
     """A policy for ``env`` from a baseline name, ``"package.module:function"`` naming a
-    function ``fn(obs, key) -> actions``, or a policy callable (returned as is)."""
-    if callable(spec):
+    function ``fn(obs, key) -> actions``, a trainer checkpoint (a ``.msgpack`` file or a run
+    folder, see ``train.checkpoint``), or a policy (returned as is)."""
+    if callable(spec) or isinstance(spec, RecurrentPolicy):
         return spec
+    if is_checkpoint(spec):
+        from train.checkpoint import load_policy as load_checkpoint_policy
+
+        return load_checkpoint_policy(spec, env)
     if spec in _BUILDERS:
         return _BUILDERS[spec](env)
     if ":" in spec:
@@ -120,4 +137,25 @@ def load_policy(spec: str | Policy, env: SocialNavEnv) -> Policy:
             raise ValueError(f"policy {spec!r}: module {module_name!r} has no function {attr!r}")
         return from_observations(fn)
     raise ValueError(f"policy {spec!r} is not known: use a baseline ({', '.join(BASELINES)}), "
-                     "or 'package.module:function' for a function (obs, key) -> actions")
+                     "'package.module:function' for a function (obs, key) -> actions, or a "
+                     "trainer checkpoint (.msgpack file or run folder)")
+
+
+def is_checkpoint(spec: Any) -> bool:
+    """Whether ``spec`` names a trainer checkpoint file or run folder."""
+    from pathlib import Path
+
+    if not isinstance(spec, str) or spec in _BUILDERS:
+        return False
+    path = Path(spec)
+    return path.suffix == ".msgpack" or (path.is_dir() and (
+        (path / "checkpoints").is_dir() or any(path.glob("*.msgpack"))))
+
+
+def checkpoint_make_kwargs(spec: Any) -> dict[str, Any]:
+    """The ``sgjax.make`` settings a checkpoint was trained with ({} for other policies)."""
+    if not is_checkpoint(spec):
+        return {}
+    from train.checkpoint import make_kwargs
+
+    return make_kwargs(spec)

@@ -1,0 +1,309 @@
+"""``python -m train --config train/configs/doorway.yaml`` (also ``sgjax-train``): train, show
+progress, evaluate periodically, keep the best checkpoint, and finish with the metrics table
+beside the baseline and a GIF of an evaluation episode.
+
+Writes into ``logging.out`` (or ``--out``): ``config.yaml``, ``progress.csv``, TensorBoard events
+under ``tb/``, ``checkpoints/{latest,best}.msgpack``, and ``eval/`` (``metrics.json``,
+``metrics.csv``, ``table.md``, charts, ``episode.gif``). ``--resume`` continues from
+``checkpoints/latest.msgpack``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import yaml
+
+import sgjax
+from sgjax.evaluate import episode_runner, evaluate
+from sgjax.terms import ConfigError
+from train import checkpoint
+from train.config import TrainConfig, load_config
+from train.ppo import Trainer, seed_keys
+from train.sharding import device_mesh, shard_runner
+
+COLUMNS = ("steps", "updates", "wall_s", "env_steps_per_s", "agent_steps_per_s", "num_agents",
+           "episodes", "team_success", "robot_success", "mean_return", "policy_loss",
+           "value_loss", "entropy", "approx_kl", "eval_team_success", "eval_robot_success")
+
+
+class Logger:
+    """Scalars to ``progress.csv`` and, when tensorboardX is installed and asked for,
+    TensorBoard event files."""
+
+    def __init__(self, out: Path, tensorboard: bool, append: bool):
+        path = out / "progress.csv"
+        fresh = not (append and path.is_file())
+        self._file = path.open("w" if fresh else "a", newline="")
+        self._csv = csv.DictWriter(self._file, fieldnames=COLUMNS)
+        if fresh:
+            self._csv.writeheader()
+        self._tb = None
+        if tensorboard:
+            try:
+                from tensorboardX import SummaryWriter
+            except ImportError:
+                print("note: tensorboardX is not installed (pip install -e '.[train]'); "
+                      "logging to progress.csv only")
+            else:
+                self._tb = SummaryWriter(str(out / "tb"))
+
+    def log(self, row: dict[str, Any]) -> None:
+        self._csv.writerow({k: row.get(k, "") for k in COLUMNS})
+        self._file.flush()
+        if self._tb is not None:
+            for name, value in row.items():
+                if name != "steps" and isinstance(value, int | float) and math.isfinite(value):
+                    self._tb.add_scalar(f"train/{name}", value, int(row["steps"]))
+            self._tb.flush()
+
+    def close(self) -> None:
+        self._file.close()
+        if self._tb is not None:
+            self._tb.close()
+
+
+class Progress:
+    """A tqdm bar over environment steps (a plain line per chunk without tqdm)."""
+
+    def __init__(self, total: int, initial: int, enabled: bool):
+        self._bar = None
+        if enabled:
+            try:
+                from tqdm import tqdm
+            except ImportError:
+                pass
+            else:
+                self._bar = tqdm(total=total, initial=initial, unit="step", unit_scale=True,
+                                 dynamic_ncols=True)
+        self._total = total
+
+    def update(self, done: int, advanced: int, text: str) -> None:
+        if self._bar is not None:
+            self._bar.update(advanced)
+            self._bar.set_postfix_str(text)
+        else:
+            print(f"step {done:>10,}/{self._total:,}  {text}", flush=True)
+
+    def write(self, text: str) -> None:
+        if self._bar is not None:
+            self._bar.write(text)
+        else:
+            print(text, flush=True)
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+
+
+def _updates_per_chunk(config: TrainConfig) -> int:
+    a, e, lg = config.algorithm, config.evaluation, config.logging
+    interval = min(e.every, lg.checkpoint_every, max(a.total_steps // 20, 1))
+    return max(1, min(a.num_updates, interval // a.steps_per_update))
+
+
+def make_evaluator(trainer: Trainer, scenario: str, num_agents: int, episodes: int):
+    """A jitted ``(network params, obs stats, key) -> (values, robot)`` for one seed: the
+    evaluation runner compiled once with the policy's weights as arguments."""
+    env, params = sgjax.make(scenario, num_agents=num_agents,
+                             **trainer.config.env.make_kwargs())
+
+    @jax.jit
+    def run(net_params, obs_stats, key):
+        policy = trainer.policy(net_params, obs_stats, trainer.config.evaluation.deterministic)
+        values, robot, _ = episode_runner(env, params, policy, episodes)(key)
+        return values, robot
+
+    return run
+
+
+def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any]:
+    """Run the whole command; returns the final summary (also printed)."""
+    a = config.algorithm
+    out.mkdir(parents=True, exist_ok=True)
+    devices = jax.devices()
+    trainer = Trainer(config)
+    print(f"sgjax {sgjax.__version__}, jax {jax.__version__} on {len(devices)} "
+          f"{devices[0].platform} device(s): {a.name.upper()} on {', '.join(config.env.scenarios)},"
+          f" robots {config.env.curriculum} in {trainer.slots} slots, {trainer.num_envs} envs, "
+          f"{a.total_steps:,} env steps, {config.num_seeds} seed(s), network "
+          f"{config.network.kind}/{config.network.others_encoder}, "
+          f"{config.env.action_mode} actions")
+    (out / "config.yaml").write_text(yaml.safe_dump(config.to_dict(), sort_keys=False))
+    latest, best_path = out / "checkpoints" / "latest.msgpack", out / "checkpoints" / "best.msgpack"
+
+    keys = seed_keys(config)
+    meta = {"updates": 0, "steps": 0, "best_success": -1.0, "best_seed": 0, "wall_s": 0.0}
+    if resume:
+        if not latest.is_file():
+            raise ConfigError(f"--resume: no checkpoint at {latest}")
+        runner, meta = checkpoint.restore(latest, trainer)
+        print(f"resumed from {latest} at step {meta['steps']:,} (update {meta['updates']})")
+    else:
+        runner = jax.jit(jax.vmap(trainer.init))(keys)
+    if len(devices) > 1:
+        runner = shard_runner(runner, device_mesh(devices), trainer.num_envs)
+
+    per_chunk = _updates_per_chunk(config)
+    chunk = jax.jit(jax.vmap(lambda r: trainer.update_chunk(r, per_chunk)), donate_argnums=0)
+    t0 = time.perf_counter()
+    compiled = chunk.lower(runner).compile()
+    print(f"compiled {per_chunk} updates ({per_chunk * a.steps_per_update:,} env steps) per "
+          f"call in {time.perf_counter() - t0:.1f} s")
+
+    scenario = config.env.scenarios[0]
+    evaluators: dict[int, Any] = {}
+    logger = Logger(out, config.logging.tensorboard, append=resume)
+    progress = Progress(a.num_updates * a.steps_per_update, meta["steps"],
+                        config.logging.progress)
+    next_eval = (meta["steps"] // config.evaluation.every + 1) * config.evaluation.every
+    next_save = (meta["steps"] // config.logging.checkpoint_every + 1) * \
+        config.logging.checkpoint_every
+    wall = meta["wall_s"]
+    while meta["updates"] < a.num_updates:
+        if meta["updates"] + per_chunk > a.num_updates:  # the last, shorter chunk
+            per_chunk = a.num_updates - meta["updates"]
+            compiled = jax.jit(jax.vmap(lambda r, n=per_chunk: trainer.update_chunk(r, n)))
+        t0 = time.perf_counter()
+        runner, logs = compiled(runner)
+        logs = jax.device_get(logs)
+        elapsed = time.perf_counter() - t0
+        wall += elapsed
+        meta["updates"] += per_chunk
+        advanced = per_chunk * a.steps_per_update * config.num_seeds
+        meta["steps"] = int(np.max(logs["steps"]))
+        row = _row(logs, meta, wall, advanced / elapsed, trainer)
+        if meta["steps"] >= next_eval or meta["updates"] >= a.num_updates:
+            next_eval += config.evaluation.every
+            n = int(np.max(logs["num_agents"]))
+            if n not in evaluators:
+                evaluators[n] = make_evaluator(trainer, scenario, n, config.evaluation.episodes)
+            team, robot = _evaluate_seeds(evaluators[n], runner, config)
+            row["eval_team_success"], row["eval_robot_success"] = float(np.mean(team)), float(
+                np.mean(robot))
+            progress.write(f"step {meta['steps']:,}: evaluation ({config.evaluation.episodes} "
+                           f"episodes, {n} robots, {scenario}) team success "
+                           f"{np.mean(team):.3f}, robot success {np.mean(robot):.3f}")
+            if np.mean(team) > meta["best_success"]:
+                meta["best_success"], meta["best_seed"] = float(np.mean(team)), int(
+                    np.argmax(team))
+                meta["wall_s"] = wall
+                checkpoint.save(best_path, config, runner, meta)
+        logger.log(row)
+        progress.update(meta["steps"], advanced // config.num_seeds,
+                        f"{row['env_steps_per_s']:,.0f} env-steps/s, "
+                        f"{row['agent_steps_per_s']:,.0f} agent-steps/s, success "
+                        f"{row['team_success']:.2f} team / {row['robot_success']:.2f} robot")
+        if meta["steps"] >= next_save or meta["updates"] >= a.num_updates:
+            next_save += config.logging.checkpoint_every
+            meta["wall_s"] = wall
+            checkpoint.save(latest, config, runner, meta)
+    progress.close()
+    logger.close()
+    print(f"trained {meta['steps']:,} env steps in {wall:.0f} s "
+          f"({meta['steps'] * trainer.slots / max(wall, 1e-9):,.0f} agent-steps/s incl. "
+          f"evaluation); best evaluation team success {meta['best_success']:.3f} -> {best_path}")
+    return final_evaluation(config, out, best_path if best_path.is_file() else latest)
+
+
+def _row(logs: dict, meta: dict, wall: float, env_rate: float, trainer: Trainer) -> dict:
+    episodes = float(np.sum(logs["episodes"]))
+    robots = float(np.sum(logs["robots"]))
+    count = float(np.mean(logs["num_agents"]))
+    return {
+        "steps": meta["steps"], "updates": meta["updates"], "wall_s": wall,
+        "env_steps_per_s": env_rate, "agent_steps_per_s": env_rate * count,
+        "num_agents": count, "episodes": episodes,
+        "team_success": float(np.sum(logs["team_successes"])) / max(episodes, 1.0),
+        "robot_success": float(np.sum(logs["robot_successes"])) / max(robots, 1.0),
+        "mean_return": float(np.sum(logs["return_sum"])) / max(robots, 1.0),
+        **{k: float(np.mean(logs[k])) for k in ("policy_loss", "value_loss", "entropy",
+                                                "approx_kl")},
+    }
+
+
+def _evaluate_seeds(evaluator, runner, config: TrainConfig) -> tuple[np.ndarray, np.ndarray]:
+    team, robot = [], []
+    for i in range(config.num_seeds):
+        pick = lambda x, i=i: x[i]  # noqa: E731
+        values, _ = evaluator(jax.tree.map(pick, runner.params),
+                              jax.tree.map(pick, runner.obs_stats), jax.random.PRNGKey(1234))
+        team.append(float(jnp.mean(values["team_success"])))
+        robot.append(float(jnp.nanmean(values["success"])))
+    return np.asarray(team), np.asarray(robot)
+
+
+def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, Any]:
+    """Evaluate the checkpoint at every evaluation robot count beside the baseline; print the
+    tables, write them and a GIF of one episode."""
+    from sgjax.render import episode_frames, save_gif
+    from sgjax.report import write_all, write_table
+
+    e = config.evaluation
+    policy = checkpoint.load_policy(path, deterministic=e.deterministic)
+    print(f"\nfinal evaluation of {path} ({e.episodes} episodes per configuration)")
+    kwargs = config.env.make_kwargs()
+    results = evaluate(config.env.scenarios, [policy], num_agents=e.num_agents,
+                       episodes=e.episodes, seed=config.seed + 1, make_kwargs=kwargs,
+                       log=None, policy_names=[f"trained ({config.algorithm.name})"])
+    if e.baseline is not None:
+        results += evaluate(config.env.scenarios, [e.baseline], num_agents=e.num_agents,
+                            episodes=e.episodes, seed=config.seed + 1,
+                            make_kwargs={**kwargs, "action_mode": "go_stop"}, log=None)
+    from sgjax.metrics import DEFAULT_CONSTANTS
+
+    write_all(results, out / "eval", DEFAULT_CONSTANTS)
+    table = write_table(results, out / "eval" / "table.md").read_text()
+    print(table.split("## Every metric")[0].split("\n", 2)[2].strip())
+    summary = {(r.policy, r.num_agents, r.scenario): r.metrics["team_success"].mean
+               for r in results}
+    trained_name = f"trained ({config.algorithm.name})"
+    count = config.env.curriculum[-1][1]
+    scenario = config.env.scenarios[0]
+    mine = summary.get((trained_name, count, scenario))
+    base = summary.get((e.baseline, count, scenario))
+    if e.gif:
+        env, params = sgjax.make(scenario, num_agents=count, **kwargs)
+        from sgjax.evaluate import run_episodes
+
+        batch = run_episodes(env, params, policy, jax.random.PRNGKey(config.seed + 2), 1,
+                             record=True)
+        states = jax.tree.map(lambda leaf: leaf[:, 0], batch.states)
+        frames, stride = episode_frames(sgjax.maps.load(scenario), states, params,
+                                        int(batch.values["episode_length"][0]),
+                                        title=f"{scenario} / trained", width_px=400)
+        gif = save_gif(frames, out / "eval" / "episode.gif",
+                       fps=max(1, round(1 / (float(params.dt) * stride))))
+        print(f"wrote {gif}")
+    if mine is not None and base is not None:
+        print(f"\n{scenario}, {count} robots: team success {mine:.3f} trained vs {base:.3f} "
+              f"{e.baseline}")
+    return {"trained_team_success": mine, "baseline_team_success": base, "results": results}
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(prog="python -m train", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--config", required=True, help="YAML file (train/configs/*.yaml)")
+    parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                        help="override one config key (repeatable), e.g. algorithm.total_steps=1e6")
+    parser.add_argument("--out", default=None, help="run folder (default: logging.out)")
+    parser.add_argument("--resume", action="store_true",
+                        help="continue from <out>/checkpoints/latest.msgpack")
+    args = parser.parse_args(argv)
+    try:
+        config = load_config(args.config, args.set)
+        train(config, Path(args.out or config.logging.out), resume=args.resume)
+    except (ConfigError, ValueError) as err:
+        raise SystemExit(f"train: {err}") from err
+
+
+if __name__ == "__main__":
+    main()

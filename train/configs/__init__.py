@@ -1,0 +1,1 @@
+"""Shipped training configurations (one per mini-game; see docs/training.md)."""

@@ -1,0 +1,208 @@
+"""Actor-critic networks (Flax linen) for robots that share one set of weights.
+
+Inputs are sequences: ``obs [T, B, D]`` for ``B`` robots (environments x robot slots, flattened)
+and ``starts [T, B]`` (the step begins an episode, so recurrent state is reset). Layers:
+
+1. optional *others encoder* pooling the ``others`` observation block (``k`` bodies x ``width``
+   features, nearest first) into a fixed vector: ``attention`` (a query from the robot's own
+   features, masked softmax over the bodies) or ``lstm`` (an LSTM over the bodies farthest first,
+   so the nearest is read last, as CADRL-LSTM / SocialGym's custom layer);
+2. optional GRU (``kind: gru``), its state reset where ``starts``;
+3. an MLP, then the head: GO/STOP logits, or a Gaussian mean in [-1, 1] (tanh) with a learned
+   state-independent log standard deviation; the critic's head is one value.
+
+The actor and the critic are separate towers; under MAPPO the critic reads the global state.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+import flax.linen as nn
+import jax
+import jax.numpy as jnp
+from jax import Array
+
+from train.config import NetworkConfig
+
+
+@dataclasses.dataclass(frozen=True)
+class OthersLayout:
+    """Where the ``others`` block sits in the observation vector."""
+
+    start: int
+    k: int
+    width: int
+    mask_column: int | None  # column of the 0/1 mask feature, if observed
+
+    @property
+    def stop(self) -> int:
+        return self.start + self.k * self.width
+
+
+def others_layout(env) -> OthersLayout | None:
+    """The layout of ``env``'s ``others`` observation term, or None without one."""
+    terms = {t.name: t for t in env.config.observer.terms}
+    if "others" not in terms:
+        return None
+    term = terms["others"]
+    block = env.observation_slices()["others"]
+    from sgjax.observations.others import FEATURES
+
+    column, mask_column = 0, None
+    for name in term.features:
+        if name == "mask":
+            mask_column = column
+        column += FEATURES[name]
+    return OthersLayout(block.start, term.k, term.width, mask_column)
+
+
+def _activation(name: str):
+    return nn.tanh if name == "tanh" else nn.relu
+
+
+def _dense(size: int, scale: float = 2 ** 0.5) -> nn.Dense:
+    return nn.Dense(size, kernel_init=nn.initializers.orthogonal(scale),
+                    bias_init=nn.initializers.zeros)
+
+
+class OthersEncoder(nn.Module):
+    """``[..., D] -> [..., own + size]``: own features, and the others block pooled."""
+
+    layout: OthersLayout
+    kind: str
+    size: int
+
+    @nn.compact
+    def __call__(self, obs: Array) -> Array:
+        lay = self.layout
+        own = jnp.concatenate([obs[..., :lay.start], obs[..., lay.stop:]], axis=-1)
+        bodies = obs[..., lay.start:lay.stop].reshape(obs.shape[:-1] + (lay.k, lay.width))
+        if lay.mask_column is None:
+            valid = jnp.any(bodies != 0.0, axis=-1)
+        else:
+            valid = bodies[..., lay.mask_column] > 0.5
+        if self.kind == "attention":
+            embedded = nn.tanh(_dense(self.size)(bodies))  # [..., k, size]
+            query = _dense(self.size)(own)[..., None, :]
+            scores = jnp.sum(embedded * query, axis=-1) / jnp.sqrt(self.size)
+            scores = jnp.where(valid, scores, -1e9)
+            weights = jax.nn.softmax(scores, axis=-1) * valid
+            values = _dense(self.size)(embedded)
+            pooled = jnp.sum(weights[..., None] * values, axis=-2)
+        else:  # LSTM over the bodies, farthest first; empty slots leave the state unchanged
+            cell = nn.OptimizedLSTMCell(self.size)
+            carry = cell.initialize_carry(jax.random.key(0), bodies[..., 0, :].shape)
+            for j in reversed(range(lay.k)):
+                new_carry, _ = cell(carry, bodies[..., j, :])
+                keep = valid[..., j, None]
+                carry = jax.tree.map(lambda n, o, keep=keep: jnp.where(keep, n, o),
+                                     new_carry, carry)
+            pooled = carry[1]
+        return jnp.concatenate([own, pooled], axis=-1)
+
+
+class ResetGRU(nn.Module):
+    """A GRU over ``[T, B, F]`` whose state is zeroed where ``starts [T, B]``."""
+
+    size: int
+
+    @functools.partial(nn.scan, variable_broadcast="params", in_axes=0, out_axes=0,
+                       split_rngs={"params": False})
+    @nn.compact
+    def __call__(self, carry: Array, inputs: tuple[Array, Array]) -> tuple[Array, Array]:
+        x, starts = inputs
+        carry = jnp.where(starts[:, None], jnp.zeros_like(carry), carry)
+        carry, y = nn.GRUCell(self.size)(carry, x)
+        return carry, y
+
+
+class Tower(nn.Module):
+    """Encoder, optional GRU and MLP: ``(carry [B, H], x [T, B, D], starts) -> (carry,
+    features [T, B, F])``."""
+
+    config: NetworkConfig
+    layout: OthersLayout | None
+
+    @nn.compact
+    def __call__(self, carry: Array, x: Array, starts: Array) -> tuple[Array, Array]:
+        c = self.config
+        act = _activation(c.activation)
+        if self.layout is not None and c.others_encoder != "none":
+            x = OthersEncoder(self.layout, c.others_encoder, c.encoder_size)(x)
+        if c.kind == "gru":
+            x = act(_dense(c.recurrent_size)(x))
+            carry, x = ResetGRU(c.recurrent_size)(carry, (x, starts))
+        for size in c.hidden:
+            x = act(_dense(size)(x))
+        return carry, x
+
+
+class ActorCritic(nn.Module):
+    """``(carry, actor_in [T, B, D], critic_in [T, B, G], starts [T, B]) -> (carry, out,
+    value [T, B])`` with ``out`` the logits ``[T, B, 2]`` (discrete) or the mean
+    ``[T, B, A]`` (continuous; ``log_std`` is a parameter). ``act`` runs the actor alone."""
+
+    config: NetworkConfig
+    action_dim: int
+    discrete: bool
+    layout: OthersLayout | None
+    centralised: bool = False
+
+    def setup(self) -> None:
+        self.actor = Tower(self.config, self.layout)
+        self.critic = Tower(self.config, None if self.centralised else self.layout)
+        self.actor_head = _dense(self.action_dim, 0.01)
+        self.critic_head = _dense(1, 1.0)
+        if not self.discrete:
+            self.log_std = self.param("log_std", nn.initializers.constant(-0.5),
+                                      (self.action_dim,))
+
+    def __call__(self, carry: tuple[Array, Array], actor_in: Array, critic_in: Array,
+                 starts: Array) -> tuple[tuple[Array, Array], Array, Array]:
+        actor_carry, out = self.act(carry[0], actor_in, starts)
+        critic_carry, critic = self.critic(carry[1], critic_in, starts)
+        return (actor_carry, critic_carry), out, self.critic_head(critic)[..., 0]
+
+    def act(self, carry: Array, actor_in: Array, starts: Array) -> tuple[Array, Array]:
+        carry, actor = self.actor(carry, actor_in, starts)
+        out = self.actor_head(actor)
+        return carry, (out if self.discrete else nn.tanh(out))
+
+
+def initial_carry(config: NetworkConfig, batch: int) -> tuple[Array, Array]:
+    """Zero recurrent state for ``batch`` robots (a 1-wide dummy for MLPs)."""
+    size = config.recurrent_size if config.kind == "gru" else 1
+    zeros = jnp.zeros((batch, size), jnp.float32)
+    return zeros, zeros
+
+
+# ----------------------------------------------------------------------------- distributions
+def log_prob(out: Array, log_std: Array | None, action: Array, discrete: bool) -> Array:
+    """Log-probability of ``action`` under the head's output (``[...]``)."""
+    if discrete:
+        logp = jax.nn.log_softmax(out)
+        return jnp.take_along_axis(logp, action[..., None].astype(jnp.int32), axis=-1)[..., 0]
+    var = jnp.exp(2.0 * log_std)
+    return jnp.sum(-0.5 * jnp.square(action - out) / var - log_std
+                   - 0.5 * jnp.log(2.0 * jnp.pi), axis=-1)
+
+
+def entropy(out: Array, log_std: Array | None, discrete: bool) -> Array:
+    if discrete:
+        logp = jax.nn.log_softmax(out)
+        return -jnp.sum(jnp.exp(logp) * logp, axis=-1)
+    return jnp.broadcast_to(jnp.sum(0.5 + 0.5 * jnp.log(2.0 * jnp.pi) + log_std),
+                            out.shape[:-1])
+
+
+def sample(key: Array, out: Array, log_std: Array | None, discrete: bool) -> Array:
+    if discrete:
+        return jax.random.categorical(key, out).astype(jnp.int32)
+    return out + jnp.exp(log_std) * jax.random.normal(key, out.shape)
+
+
+def greedy(out: Array, discrete: bool) -> Array:
+    """The most likely action (evaluation)."""
+    return jnp.argmax(out, axis=-1).astype(jnp.int32) if discrete else out

@@ -1,0 +1,410 @@
+"""IPPO and MAPPO with parameter sharing, as jitted functions (the purejaxrl shape).
+
+Every robot slot of every environment is one agent of a shared network; agents are laid out
+``B = num_envs x slots``. One update collects ``num_steps`` steps of the whole batch with
+``lax.scan`` (auto-reset inside the environment), computes GAE, and runs ``update_epochs``
+passes of ``num_minibatches`` minibatches over agent sequences. Robots that are absent or have
+finished (``info["acting"]`` false) are masked out of every loss and statistic.
+
+* IPPO: actor and critic read the robot's own observation (plus a one-hot id with
+  ``network.agent_id``). MAPPO: the critic reads the global state, every robot's observation of
+  its environment concatenated, plus the robot's one-hot id.
+* Truncated robots (time limit, stuck ender) are bootstrapped with the critic's value of
+  ``info["final_observation"]``; terminated ones are not.
+* Observations are normalised by running statistics of the acting robots' observations, rewards
+  scaled by the running spread of each robot's discounted return (SB3 ``VecNormalize``).
+
+``Trainer(config).train(key)`` is a whole run in one jitted function (``vmap`` it over seeds);
+``init`` + ``update_chunk`` give the same run in pieces for the command line's progress bar,
+evaluation and checkpoints.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import optax
+from flax import struct
+from jax import Array
+
+import sgjax
+from sgjax.policies import RecurrentPolicy
+from sgjax.terms import ConfigError
+from train.config import TrainConfig
+from train.networks import (
+    ActorCritic,
+    entropy,
+    greedy,
+    initial_carry,
+    log_prob,
+    others_layout,
+    sample,
+)
+from train.normalize import RunningStats
+
+
+class EnvBatch:
+    """Several scenarios trained at once, each on a fixed share of the environment batch (so
+    every update sees all of them; an environment keeps its scenario across episodes)."""
+
+    def __init__(self, config: TrainConfig):
+        e = config.env
+        count = len(e.scenarios)
+        if config.algorithm.num_envs < count:
+            raise ConfigError(f"algorithm.num_envs ({config.algorithm.num_envs}) must be at "
+                              f"least the number of scenarios ({count})")
+        base, extra = divmod(config.algorithm.num_envs, count)
+        self.sizes = tuple(base + (i < extra) for i in range(count))
+        pairs = [sgjax.make(s, num_agents=e.curriculum[0][1], max_agents=e.slots,
+                            **e.make_kwargs()) for s in e.scenarios]
+        self.envs = tuple(env for env, _ in pairs)
+        self.params = tuple(params for _, params in pairs)
+        first = self.envs[0]
+        for scenario, env in zip(e.scenarios, self.envs, strict=True):
+            if env.observation_size != first.observation_size:
+                raise ConfigError(f"env.scenarios: {scenario!r} has observations of size "
+                                  f"{env.observation_size}, {e.scenarios[0]!r} of "
+                                  f"{first.observation_size}; use the same terms and zones")
+        self.slots = e.slots
+        self.obs_size = first.observation_size
+        self.discrete = first.config.action_mode == "go_stop"
+        self.action_dim = 2 if self.discrete else first.config.action_dim
+
+    @property
+    def env(self) -> sgjax.SocialNavEnv:
+        return self.envs[0]
+
+    def _params(self, num_agents: Array) -> tuple:
+        return tuple(p.replace(num_agents=num_agents) for p in self.params)
+
+    def _split(self, x: Array) -> list[Array]:
+        out, start = [], 0
+        for size in self.sizes:
+            out.append(x[start:start + size])
+            start += size
+        return out
+
+    def reset(self, key: Array, num_agents: Array) -> tuple[Array, tuple]:
+        keys = self._split(jax.random.split(key, sum(self.sizes)))
+        obs, states = [], []
+        for env, params, k in zip(self.envs, self._params(num_agents), keys, strict=True):
+            o, s = jax.vmap(env.reset, in_axes=(0, None))(k, params)
+            obs.append(o)
+            states.append(s)
+        return jnp.concatenate(obs), tuple(states)
+
+    def step(self, key: Array, states: tuple, actions: Array, num_agents: Array
+             ) -> tuple[Array, tuple, Array, Array, Array, dict]:
+        keys = self._split(jax.random.split(key, sum(self.sizes)))
+        parts = []
+        for env, params, k, s, a in zip(self.envs, self._params(num_agents), keys, states,
+                                        self._split(actions), strict=True):
+            obs, state, reward, term, trunc, info = jax.vmap(
+                env.step, in_axes=(0, 0, 0, None))(k, s, a, params)
+            final = info["final_robots"]
+            parts.append((obs, state, reward, term, trunc, {
+                "acting": info["acting"], "episode_done": info["episode_done"],
+                "final_observation": info["final_observation"],
+                "final_present": final.present, "final_succeeded": final.succeeded}))
+        cat = lambda *xs: jnp.concatenate(xs)  # noqa: E731
+        obs, _, reward, term, trunc, info = jax.tree.map(
+            cat, *[(p[0], None, p[2], p[3], p[4], p[5]) for p in parts])
+        return obs, tuple(p[1] for p in parts), reward, term, trunc, info
+
+    def acting(self, states: tuple) -> Array:
+        return jnp.concatenate([s.robots.active for s in states])
+
+
+@struct.dataclass
+class RunnerState:
+    params: Any
+    opt_state: Any
+    obs_stats: RunningStats
+    return_stats: RunningStats
+    returns: Array  # [E, R] running discounted return (reward scaling)
+    episode_return: Array  # [E, R] undiscounted return of the current episode (logging)
+    env_states: tuple
+    obs: Array  # [E, R, D] raw
+    carry: tuple  # network memory, [B, H] each
+    starts: Array  # [E, R] bool: the next step is an episode's first
+    key: Array
+    steps: Array  # int32: environment steps so far (whole batch)
+
+
+@struct.dataclass
+class Transition:
+    actor_in: Array  # [B, D]
+    critic_in: Array  # [B, G]
+    starts: Array  # [B]
+    action: Array  # [B] or [B, A]
+    logp: Array
+    value: Array
+    reward: Array  # scaled
+    terminated: Array
+    truncated: Array
+    final_value: Array  # critic's value of the final observation (for truncation)
+    active: Array
+
+
+class Trainer:
+    """Builds the environment batch, the network and the optimiser from a ``TrainConfig``."""
+
+    def __init__(self, config: TrainConfig):
+        self.config = config
+        a = config.algorithm
+        self.batch = EnvBatch(config)
+        self.num_envs = sum(self.batch.sizes)
+        self.slots = self.batch.slots
+        self.num_agents = self.num_envs * self.slots
+        if self.num_agents % a.num_minibatches:
+            raise ConfigError(f"algorithm.num_minibatches ({a.num_minibatches}) must divide "
+                              f"num_envs x robot slots ({self.num_agents})")
+        self.mappo = a.name == "mappo"
+        self.network = ActorCritic(config.network, self.batch.action_dim, self.batch.discrete,
+                                   others_layout(self.batch.env), centralised=self.mappo)
+        updates = a.num_updates * a.update_epochs * a.num_minibatches
+        lr = (optax.linear_schedule(a.learning_rate, 0.0, updates) if a.anneal_lr
+              else a.learning_rate)
+        self.optimizer = optax.chain(optax.clip_by_global_norm(a.max_grad_norm),
+                                     optax.adam(lr, eps=1e-5))
+        stages = config.env.curriculum
+        self._stage_steps = jnp.asarray([s for s, _ in stages], jnp.int32)
+        self._stage_counts = jnp.asarray([n for _, n in stages], jnp.int32)
+
+    # ------------------------------------------------------------------ inputs
+    def num_agents_at(self, steps: Array) -> Array:
+        stage = jnp.sum(steps >= self._stage_steps) - 1
+        return self._stage_counts[stage]
+
+    def actor_input(self, obs_stats: RunningStats, obs: Array) -> Array:
+        """``obs [..., R, D]`` -> normalised actor input ``[..., R, D (+ R)]``."""
+        x = obs_stats.normalize(obs) if self.config.algorithm.normalize_observations else obs
+        if self.config.network.agent_id:
+            ids = jnp.broadcast_to(jnp.eye(self.slots), x.shape[:-1] + (self.slots,))
+            x = jnp.concatenate([x, ids], axis=-1)
+        return x
+
+    def inputs(self, obs_stats: RunningStats, obs: Array) -> tuple[Array, Array]:
+        """Actor and critic inputs ``[B, .]`` for a batch ``obs [E, R, D]``."""
+        actor = self.actor_input(obs_stats, obs)
+        if self.mappo:
+            x = (obs_stats.normalize(obs) if self.config.algorithm.normalize_observations
+                 else obs)
+            joint = x.reshape(x.shape[0], 1, -1)
+            ids = jnp.broadcast_to(jnp.eye(self.slots), x.shape[:-1] + (self.slots,))
+            critic = jnp.concatenate(
+                [jnp.broadcast_to(joint, x.shape[:-1] + joint.shape[-1:]), ids], axis=-1)
+        else:
+            critic = actor
+        flat = lambda v: v.reshape((-1, v.shape[-1]))  # noqa: E731
+        return flat(actor), flat(critic)
+
+    # ------------------------------------------------------------------ init
+    def init(self, key: Array) -> RunnerState:
+        k_net, k_env, k_run = jax.random.split(key, 3)
+        steps = jnp.zeros((), jnp.int32)
+        obs, states = self.batch.reset(k_env, self.num_agents_at(steps))
+        obs_stats = RunningStats.start(self.batch.obs_size)
+        actor, critic = self.inputs(obs_stats, obs)
+        carry = initial_carry(self.config.network, self.num_agents)
+        starts = jnp.ones((self.num_envs, self.slots), bool)
+        params = self.network.init(k_net, carry, actor[None], critic[None],
+                                   starts.reshape(1, -1))
+        zeros = jnp.zeros((self.num_envs, self.slots))
+        return RunnerState(
+            params=params, opt_state=self.optimizer.init(params), obs_stats=obs_stats,
+            return_stats=RunningStats.start(1), returns=zeros, episode_return=zeros,
+            env_states=states, obs=obs, carry=carry, starts=starts, key=k_run, steps=steps)
+
+    # ------------------------------------------------------------------ rollout
+    def _log_std(self, params: Any) -> Array | None:
+        return None if self.batch.discrete else params["params"]["log_std"]
+
+    def _env_step(self, runner: RunnerState, _: Any) -> tuple[RunnerState, tuple]:
+        a = self.config.algorithm
+        key, k_act, k_env = jax.random.split(runner.key, 3)
+        active = self.batch.acting(runner.env_states)  # [E, R]
+        obs_stats = runner.obs_stats
+        if a.normalize_observations:
+            obs_stats = obs_stats.update(runner.obs.reshape(-1, self.batch.obs_size),
+                                         active.reshape(-1))
+        actor_in, critic_in = self.inputs(obs_stats, runner.obs)
+        starts = runner.starts.reshape(-1)
+        carry, out, value = self.network.apply(runner.params, runner.carry, actor_in[None],
+                                               critic_in[None], starts[None])
+        out, value = out[0], value[0]
+        log_std = self._log_std(runner.params)
+        action = sample(k_act, out, log_std, self.batch.discrete)
+        logp = log_prob(out, log_std, action, self.batch.discrete)
+        if self.batch.discrete:
+            env_action = action.reshape(self.num_envs, self.slots)
+        else:
+            env_action = jnp.clip(action, -1.0, 1.0).reshape(self.num_envs, self.slots, -1)
+        num_agents = self.num_agents_at(runner.steps)
+        obs, states, reward, term, trunc, info = self.batch.step(
+            k_env, runner.env_states, env_action, num_agents)
+
+        done = term | trunc
+        returns = runner.returns * a.gamma + reward
+        return_stats = runner.return_stats
+        if a.normalize_rewards:
+            return_stats = return_stats.update(returns.reshape(-1, 1), active.reshape(-1))
+            scaled = return_stats.scale(reward, a.reward_clip)
+        else:
+            scaled = reward
+        returns = jnp.where(done | ~active, 0.0, returns)
+
+        final_actor, final_critic = self.inputs(obs_stats, info["final_observation"])
+        _, _, final_value = self.network.apply(runner.params, carry, final_actor[None],
+                                               final_critic[None], jnp.zeros_like(starts)[None])
+        episode_done = info["episode_done"]
+        transition = Transition(
+            actor_in=actor_in, critic_in=critic_in, starts=starts, action=action, logp=logp,
+            value=value, reward=scaled.reshape(-1), terminated=term.reshape(-1),
+            truncated=trunc.reshape(-1), final_value=final_value[0],
+            active=active.reshape(-1))
+
+        episode_return = runner.episode_return + jnp.where(active, reward, 0.0)
+        present, succeeded = info["final_present"], info["final_succeeded"]
+        team = jnp.all(succeeded | ~present, axis=1) & jnp.any(present, axis=1)
+        ended = episode_done.astype(jnp.float32)
+        log = {
+            "episodes": jnp.sum(ended),
+            "team_successes": jnp.sum(ended * team),
+            "robots": jnp.sum(ended[:, None] * present),
+            "robot_successes": jnp.sum(ended[:, None] * (present & succeeded)),
+            "return_sum": jnp.sum(ended[:, None] * present * episode_return),
+        }
+        runner = runner.replace(
+            obs_stats=obs_stats, return_stats=return_stats, returns=returns,
+            episode_return=jnp.where(episode_done[:, None], 0.0, episode_return),
+            env_states=states, obs=obs, carry=carry,
+            starts=jnp.broadcast_to(episode_done[:, None], (self.num_envs, self.slots)),
+            key=key, steps=runner.steps + self.num_envs)
+        return runner, (transition, log)
+
+    def _advantages(self, traj: Transition, last_value: Array) -> tuple[Array, Array]:
+        a = self.config.algorithm
+
+        def back(carry, t):
+            advantage, next_value = carry
+            bootstrap = jnp.where(t.truncated, t.final_value, next_value)
+            delta = t.reward + a.gamma * bootstrap * (1.0 - t.terminated) - t.value
+            done = (t.terminated | t.truncated).astype(jnp.float32)
+            advantage = delta + a.gamma * a.gae_lambda * (1.0 - done) * advantage
+            return (advantage, t.value), advantage
+
+        _, advantages = jax.lax.scan(back, (jnp.zeros_like(last_value), last_value), traj,
+                                     reverse=True)
+        return advantages, advantages + traj.value
+
+    def _loss(self, params: Any, carry: tuple, traj: Transition, advantages: Array,
+              targets: Array) -> tuple[Array, dict]:
+        a = self.config.algorithm
+        _, out, value = self.network.apply(params, carry, traj.actor_in, traj.critic_in,
+                                           traj.starts)
+        log_std = self._log_std(params)
+        logp = log_prob(out, log_std, traj.action, self.batch.discrete)
+        mask = traj.active.astype(jnp.float32)
+        count = jnp.maximum(jnp.sum(mask), 1.0)
+
+        def mean(x: Array) -> Array:
+            return jnp.sum(x * mask) / count
+
+        adv_mean = mean(advantages)
+        adv_std = jnp.sqrt(mean(jnp.square(advantages - adv_mean)))
+        adv = (advantages - adv_mean) / (adv_std + 1e-8)
+        ratio = jnp.exp(logp - traj.logp)
+        policy_loss = -mean(jnp.minimum(ratio * adv, jnp.clip(ratio, 1.0 - a.clip_eps,
+                                                              1.0 + a.clip_eps) * adv))
+        clipped = traj.value + jnp.clip(value - traj.value, -a.clip_eps, a.clip_eps)
+        value_loss = 0.5 * mean(jnp.maximum(jnp.square(value - targets),
+                                            jnp.square(clipped - targets)))
+        ent = mean(entropy(out, log_std, self.batch.discrete))
+        total = policy_loss + a.vf_coef * value_loss - a.ent_coef * ent
+        approx_kl = mean((ratio - 1.0) - jnp.log(ratio))
+        return total, {"policy_loss": policy_loss, "value_loss": value_loss, "entropy": ent,
+                       "approx_kl": approx_kl}
+
+    def update(self, runner: RunnerState) -> tuple[RunnerState, dict]:
+        """One PPO update: collect ``num_steps`` steps, then learn from them."""
+        a = self.config.algorithm
+        start_carry = runner.carry
+        runner, (traj, logs) = jax.lax.scan(self._env_step, runner, None, a.num_steps)
+        actor_in, critic_in = self.inputs(runner.obs_stats, runner.obs)
+        _, _, last_value = self.network.apply(runner.params, runner.carry, actor_in[None],
+                                              critic_in[None], runner.starts.reshape(1, -1))
+        advantages, targets = self._advantages(traj, last_value[0])
+        size = self.num_agents // a.num_minibatches
+        grad_fn = jax.value_and_grad(self._loss, has_aux=True)
+
+        def minibatch(carry, index):
+            params, opt_state = carry
+            pick = lambda x: x[:, index]  # noqa: E731 (time-major)
+            (_, aux), grads = grad_fn(params, jax.tree.map(lambda c: c[index], start_carry),
+                                      jax.tree.map(pick, traj), pick(advantages),
+                                      pick(targets))
+            updates, opt_state = self.optimizer.update(grads, opt_state, params)
+            return (optax.apply_updates(params, updates), opt_state), aux
+
+        def epoch(carry, key):
+            order = jax.random.permutation(key, self.num_agents).reshape(a.num_minibatches,
+                                                                         size)
+            return jax.lax.scan(minibatch, carry, order)
+
+        key, k_epochs = jax.random.split(runner.key)
+        (params, opt_state), aux = jax.lax.scan(
+            epoch, (runner.params, runner.opt_state), jax.random.split(k_epochs, a.update_epochs))
+        runner = runner.replace(params=params, opt_state=opt_state, key=key)
+        metrics = {name: jnp.sum(v) for name, v in logs.items()}
+        metrics.update({name: jnp.mean(v) for name, v in aux.items()})
+        metrics["steps"] = runner.steps
+        metrics["num_agents"] = self.num_agents_at(runner.steps)
+        return runner, metrics
+
+    def update_chunk(self, runner: RunnerState, count: int) -> tuple[RunnerState, dict]:
+        """``count`` updates in one ``lax.scan`` (metrics stacked ``[count]``)."""
+        return jax.lax.scan(lambda r, _: self.update(r), runner, None, count)
+
+    def train(self, key: Array) -> tuple[RunnerState, dict]:
+        """A whole run: ``init`` then every update, one jittable function of the key."""
+        return self.update_chunk(self.init(key), self.config.algorithm.num_updates)
+
+    # ------------------------------------------------------------------ acting
+    def policy(self, params: Any, obs_stats: RunningStats, deterministic: bool = False
+               ) -> RecurrentPolicy:
+        """The trained actor as an ``sgjax.evaluate`` policy (any robot count; with
+        ``agent_id`` at most the trained number of slots)."""
+        trainer = self
+
+        def init(num_robots: int) -> Array:
+            if self.config.network.agent_id and num_robots > self.slots:
+                raise ValueError(f"this policy was trained with a robot id for "
+                                 f"{self.slots} slots; it cannot act for {num_robots} robots")
+            return initial_carry(self.config.network, num_robots)[0]
+
+        def step(carry: Array, obs: Array, key: Array, state: Any, params_env: Any):
+            num_robots = obs.shape[0]
+            x = obs_stats.normalize(obs) if (
+                trainer.config.algorithm.normalize_observations) else obs
+            if trainer.config.network.agent_id:
+                x = jnp.concatenate([x, jnp.eye(num_robots, trainer.slots)], axis=-1)
+            starts = jnp.zeros((1, num_robots), bool)
+            carry, out = trainer.network.apply(params, carry, x[None], starts,
+                                               method=ActorCritic.act)
+            out = out[0]
+            if deterministic:
+                action = greedy(out, trainer.batch.discrete)
+            else:
+                action = sample(key, out, trainer._log_std(params), trainer.batch.discrete)
+            return carry, (action if trainer.batch.discrete else jnp.clip(action, -1.0, 1.0))
+
+        return RecurrentPolicy(init=init, step=step)
+
+
+def seed_keys(config: TrainConfig) -> Array:
+    """One key per seed, ``[num_seeds, 2]`` (seed ``config.seed + i``)."""
+    return jax.vmap(jax.random.PRNGKey)(config.seed + jnp.arange(config.num_seeds))
+
