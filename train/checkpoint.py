@@ -107,4 +107,5 @@ def load_policy(path: str | Path, env: Any = None, seed_index: int | None = None
     if deterministic is None:
         deterministic = config.evaluation.deterministic
     return trainer.policy(jax.tree.map(pick, runner.params),
-                          jax.tree.map(pick, runner.obs_stats), deterministic)
+                          jax.tree.map(pick, runner.obs_stats), deterministic,
+                          pick(runner.obs_mask))

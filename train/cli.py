@@ -111,14 +111,15 @@ def _updates_per_chunk(config: TrainConfig) -> int:
 
 
 def make_evaluator(trainer: Trainer, scenario: str, num_agents: int, episodes: int):
-    """A jitted ``(network params, obs stats, key) -> (values, robot)`` for one seed: the
+    """A jitted ``(network params, obs stats, obs mask, key) -> (values, robot)`` for one seed: the
     evaluation runner compiled once with the policy's weights as arguments."""
     env, params = sgjax.make(scenario, num_agents=num_agents,
                              **trainer.config.env.make_kwargs())
 
     @jax.jit
-    def run(net_params, obs_stats, key):
-        policy = trainer.policy(net_params, obs_stats, trainer.config.evaluation.deterministic)
+    def run(net_params, obs_stats, obs_mask, key):
+        policy = trainer.policy(net_params, obs_stats, trainer.config.evaluation.deterministic,
+                                obs_mask)
         values, robot, _ = episode_runner(env, params, policy, episodes)(key)
         return values, robot
 
@@ -235,7 +236,8 @@ def _evaluate_seeds(evaluator, runner, config: TrainConfig) -> tuple[np.ndarray,
     for i in range(config.num_seeds):
         pick = lambda x, i=i: x[i]  # noqa: E731
         values, _ = evaluator(jax.tree.map(pick, runner.params),
-                              jax.tree.map(pick, runner.obs_stats), jax.random.PRNGKey(1234))
+                              jax.tree.map(pick, runner.obs_stats), pick(runner.obs_mask),
+                              jax.random.PRNGKey(1234))
         team.append(float(jnp.mean(values["team_success"])))
         robot.append(float(jnp.nanmean(values["success"])))
     return np.asarray(team), np.asarray(robot)

@@ -106,6 +106,7 @@ class EnvBatch:
             final = info["final_robots"]
             parts.append((obs, state, reward, term, trunc, {
                 "acting": info["acting"], "episode_done": info["episode_done"],
+                "reward_terms": info["reward_terms"],
                 "final_observation": info["final_observation"],
                 "final_present": final.present, "final_succeeded": final.succeeded}))
         cat = lambda *xs: jnp.concatenate(xs)  # noqa: E731
@@ -115,6 +116,16 @@ class EnvBatch:
 
     def acting(self, states: tuple) -> Array:
         return jnp.concatenate([s.robots.active for s in states])
+
+    def reward_term_names(self) -> tuple[str, ...]:
+        """Names in ``info["reward_terms"]`` (reward terms, and enders that pay, e.g. stuck)."""
+        env, params = self.env, self.params[0]
+        key = jax.random.PRNGKey(0)
+        _, state = jax.eval_shape(env.reset, key, params)
+        action = (jnp.zeros(env.max_agents, jnp.int32) if self.discrete
+                  else jnp.zeros((env.max_agents, self.action_dim)))
+        info = jax.eval_shape(env.step_env, key, state, action, params)[-1]
+        return tuple(info["reward_terms"])
 
 
 @struct.dataclass
@@ -131,6 +142,8 @@ class RunnerState:
     starts: Array  # [E, R] bool: the next step is an episode's first
     key: Array
     steps: Array  # int32: environment steps so far (whole batch)
+    term_weights: dict  # {reward term: multiplier} on info["reward_terms"] (1: as configured)
+    obs_mask: Array  # [D] multiplier on every observation (1: all features seen)
 
 
 @struct.dataclass
@@ -202,10 +215,23 @@ class Trainer:
         return flat(actor), flat(critic)
 
     # ------------------------------------------------------------------ init
-    def init(self, key: Array) -> RunnerState:
+    def init(self, key: Array, term_weights: dict | None = None, obs_mask: Array | None = None
+             ) -> RunnerState:
+        """A fresh run. ``term_weights`` ({reward term: multiplier}, default 1 each) and
+        ``obs_mask`` (``[D]``, default ones) are arrays in the state, so a ``vmap`` over them
+        trains reward and observation ablations at once (``notebooks/ablation.ipynb``)."""
+        names = self.batch.reward_term_names()
+        weights = {name: jnp.float32(1.0) for name in names}
+        for name, value in (term_weights or {}).items():
+            if name not in weights:
+                raise ConfigError(f"term_weights: unknown reward term {name!r}; this "
+                                  f"configuration pays {list(names)}")
+            weights[name] = jnp.asarray(value, jnp.float32)
+        mask = jnp.ones(self.batch.obs_size) if obs_mask is None else jnp.asarray(obs_mask)
         k_net, k_env, k_run = jax.random.split(key, 3)
         steps = jnp.zeros((), jnp.int32)
         obs, states = self.batch.reset(k_env, self.num_agents_at(steps))
+        obs = obs * mask
         obs_stats = RunningStats.start(self.batch.obs_size)
         actor, critic = self.inputs(obs_stats, obs)
         carry = initial_carry(self.config.network, self.num_agents)
@@ -216,7 +242,8 @@ class Trainer:
         return RunnerState(
             params=params, opt_state=self.optimizer.init(params), obs_stats=obs_stats,
             return_stats=RunningStats.start(1), returns=zeros, episode_return=zeros,
-            env_states=states, obs=obs, carry=carry, starts=starts, key=k_run, steps=steps)
+            env_states=states, obs=obs, carry=carry, starts=starts, key=k_run, steps=steps,
+            term_weights=weights, obs_mask=mask)
 
     # ------------------------------------------------------------------ rollout
     def _log_std(self, params: Any) -> Array | None:
@@ -243,8 +270,11 @@ class Trainer:
         else:
             env_action = jnp.clip(action, -1.0, 1.0).reshape(self.num_envs, self.slots, -1)
         num_agents = self.num_agents_at(runner.steps)
-        obs, states, reward, term, trunc, info = self.batch.step(
+        obs, states, _, term, trunc, info = self.batch.step(
             k_env, runner.env_states, env_action, num_agents)
+        obs = obs * runner.obs_mask
+        reward = sum(runner.term_weights[name] * value
+                     for name, value in info["reward_terms"].items())
 
         done = term | trunc
         returns = runner.returns * a.gamma + reward
@@ -256,7 +286,8 @@ class Trainer:
             scaled = reward
         returns = jnp.where(done | ~active, 0.0, returns)
 
-        final_actor, final_critic = self.inputs(obs_stats, info["final_observation"])
+        final_actor, final_critic = self.inputs(
+            obs_stats, info["final_observation"] * runner.obs_mask)
         _, _, final_value = self.network.apply(runner.params, carry, final_actor[None],
                                                final_critic[None], jnp.zeros_like(starts)[None])
         episode_done = info["episode_done"]
@@ -373,10 +404,10 @@ class Trainer:
         return self.update_chunk(self.init(key), self.config.algorithm.num_updates)
 
     # ------------------------------------------------------------------ acting
-    def policy(self, params: Any, obs_stats: RunningStats, deterministic: bool = False
-               ) -> RecurrentPolicy:
+    def policy(self, params: Any, obs_stats: RunningStats, deterministic: bool = False,
+               obs_mask: Array | None = None) -> RecurrentPolicy:
         """The trained actor as an ``sgjax.evaluate`` policy (any robot count; with
-        ``agent_id`` at most the trained number of slots)."""
+        ``agent_id`` at most the trained number of slots). ``obs_mask`` as in training."""
         trainer = self
 
         def init(num_robots: int) -> Array:
@@ -387,6 +418,8 @@ class Trainer:
 
         def step(carry: Array, obs: Array, key: Array, state: Any, params_env: Any):
             num_robots = obs.shape[0]
+            if obs_mask is not None:
+                obs = obs * obs_mask
             x = obs_stats.normalize(obs) if (
                 trainer.config.algorithm.normalize_observations) else obs
             if trainer.config.network.agent_id:

@@ -1,0 +1,208 @@
+"""The trainer: it learns, checkpoints round-trip and resume the same run, configs are
+validated, sharded equals unsharded, a vmap over seeds equals separate seeds."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+import yaml
+from PIL import Image
+
+from sgjax.terms import ConfigError
+from train import checkpoint
+from train.cli import main as train_main
+from train.config import config_from_dict, load_config
+from train.networks import ResetGRU
+from train.ppo import Trainer, seed_keys
+
+ROOT = Path(__file__).resolve().parent.parent
+
+TINY = {
+    "env": {"scenarios": ["open"], "curriculum": [[0, 2]], "observations": "default"},
+    "algorithm": {"num_envs": 8, "num_steps": 8, "total_steps": 8 * 8 * 3, "update_epochs": 2,
+                  "num_minibatches": 2},
+    "network": {"hidden": [32]},
+}
+
+
+def tiny(**sections):
+    data = {k: dict(v) for k, v in TINY.items()}
+    for section, values in sections.items():
+        if isinstance(values, dict):
+            data.setdefault(section, {}).update(values)
+        else:
+            data[section] = values
+    return config_from_dict(data, "test")
+
+
+def leaves_close(a, b, **tol):
+    return all(np.allclose(x, y, **tol) for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b),
+                                                          strict=True))
+
+
+def test_a_tiny_run_learns_to_reach_the_goal():
+    """One robot in the open with continuous actions: success rises from near zero."""
+    config = tiny(env={"curriculum": [[0, 1]], "action_mode": "continuous", "time_limit": 20.0,
+                       "observations": "default"},
+                  algorithm={"num_envs": 64, "num_steps": 32, "total_steps": 64 * 32 * 60,
+                             "learning_rate": 1e-3, "ent_coef": 0.0, "update_epochs": 4,
+                             "num_minibatches": 4})
+    trainer = Trainer(config)
+    chunk = jax.jit(lambda r: trainer.update_chunk(r, 15))
+    runner = trainer.init(jax.random.PRNGKey(0))
+    rates = []
+    for _ in range(4):
+        runner, logs = chunk(runner)
+        rates.append(float(logs["robot_successes"].sum() / max(logs["robots"].sum(), 1)))
+    assert rates[0] < 0.35 and rates[-1] > 0.85, rates
+
+
+@pytest.mark.parametrize("data, message", [
+    ({"algorithm": {"totl_steps": 5}}, "did you mean 'total_steps'"),
+    ({"algorthm": {}}, "did you mean 'algorithm'"),
+    ({"algorithm": {"num_envs": "many"}}, "algorithm.num_envs: expected int"),
+    ({"env": {"curriculum": [[5, 2]]}}, "curriculum must be"),
+    ({"network": {"kind": "transformer"}}, "kind must be one of"),
+])
+def test_the_config_validator_rejects_bad_keys(data, message):
+    with pytest.raises(ConfigError, match=message):
+        config_from_dict(data, "bad.yaml")
+
+
+def test_command_line_overrides_and_shipped_configs():
+    config = load_config(ROOT / "train/configs/doorway.yaml",
+                         ["algorithm.total_steps=1000", "env.curriculum=[[0, 3], [500, 5]]"])
+    assert config.algorithm.total_steps == 1000 and config.env.slots == 5
+    assert config.env.num_agents_at(499) == 3 and config.env.num_agents_at(500) == 5
+    for path in sorted((ROOT / "train/configs").glob("*.yaml")):
+        loaded = load_config(path)
+        Trainer(loaded)  # builds every scenario and checks the shapes fit
+    with pytest.raises(ConfigError, match="no such config"):
+        load_config(ROOT / "train/configs/nope.yaml")
+
+
+@pytest.fixture(scope="module")
+def two_seeds():
+    """Two seeds of a GRU + attention network, and one update vmapped over them (compiled
+    once for the tests below)."""
+    config = tiny(num_seeds=2, env={"observations": "navigation"},
+                  network={"kind": "gru", "recurrent_size": 16, "hidden": [16],
+                           "others_encoder": "attention", "encoder_size": 8})
+    trainer = Trainer(config)
+    step = lambda r: trainer.update_chunk(r, 1)  # noqa: E731
+    return config, trainer, step, jax.jit(jax.vmap(step))
+
+
+def test_multi_seed_vmap_matches_separate_seeds(two_seeds):
+    config, trainer, step, vstep = two_seeds
+    keys = seed_keys(config)
+    together, _ = vstep(jax.vmap(trainer.init)(keys))
+    single = jax.jit(step)
+    for i in range(2):
+        alone, _ = single(trainer.init(keys[i]))
+        mine = jax.tree.map(lambda x, i=i: x[i], together.params)
+        assert leaves_close(mine, alone.params, rtol=1e-4, atol=1e-6)
+
+
+def test_checkpoint_round_trip_and_resume_continue_the_same_run(two_seeds, tmp_path):
+    config, trainer, _, one = two_seeds
+    start = jax.vmap(trainer.init)(seed_keys(config))
+    straight, _ = one(one(start)[0])
+    half, _ = one(start)
+    path = checkpoint.save(tmp_path / "c.msgpack", config, half, {"steps": 1, "updates": 1})
+    restored, meta = checkpoint.restore(path, trainer)
+    assert meta["updates"] == 1 and leaves_close(restored, half, rtol=0, atol=0)
+    resumed, _ = one(restored)
+    assert leaves_close(resumed.params, straight.params, rtol=0, atol=0)
+    assert not list(tmp_path.glob("*.tmp"))  # written atomically
+
+
+def test_mappo_with_lstm_encoder_and_continuous_actions_updates():
+    config = tiny(algorithm={"name": "mappo"},
+                  network={"others_encoder": "lstm", "encoder_size": 8, "agent_id": True},
+                  env={"action_mode": "continuous", "observations": "navigation"})
+    trainer = Trainer(config)
+    runner = trainer.init(jax.random.PRNGKey(1))
+    after, logs = jax.jit(lambda r: trainer.update_chunk(r, 2))(runner)
+    assert all(np.isfinite(np.asarray(v)).all() for v in logs.values())
+    assert not leaves_close(after.params, runner.params)
+    kernel = after.params["params"]["critic"]["Dense_0"]["kernel"]
+    assert kernel.shape[0] == trainer.slots * (trainer.batch.obs_size + 1)  # global state + id
+
+
+def test_gru_state_resets_at_episode_starts():
+    gru = ResetGRU(4)
+    x = jax.random.normal(jax.random.PRNGKey(0), (3, 2, 5))
+    params = gru.init(jax.random.PRNGKey(1), jnp.zeros((2, 4)), (x, jnp.zeros((3, 2), bool)))
+    carry = jnp.ones((2, 4))
+    starts = jnp.asarray([[True, False], [False, False], [False, False]])
+    _, ys = gru.apply(params, carry, (x, starts))
+    _, fresh = gru.apply(params, jnp.zeros((2, 4)), (x, starts))
+    assert np.allclose(ys[:, 0], fresh[:, 0])  # robot 0 was reset at step 0
+    assert not np.allclose(ys[:, 1], fresh[:, 1])  # robot 1 kept its memory
+
+
+SHARDED = """
+import jax, numpy as np
+from train.config import config_from_dict
+from train.ppo import Trainer, seed_keys
+from train.sharding import device_mesh, shard_runner
+assert jax.device_count() == 2, jax.devices()
+config = config_from_dict({"env": {"scenarios": ["open"], "curriculum": [[0, 2]]},
+    "algorithm": {"num_envs": 8, "num_steps": 4, "total_steps": 32, "update_epochs": 1,
+                  "num_minibatches": 2}, "network": {"hidden": [16]}})
+trainer = Trainer(config)
+step = jax.jit(jax.vmap(lambda r: trainer.update_chunk(r, 1)))
+runner = jax.vmap(trainer.init)(seed_keys(config))
+plain, _ = step(runner)
+sharded_in = shard_runner(runner, device_mesh(), trainer.num_envs)
+assert len(sharded_in.obs.sharding.device_set) == 2
+sharded, _ = step(sharded_in)
+diff = max(float(np.max(np.abs(np.asarray(a) - np.asarray(b))))
+           for a, b in zip(jax.tree.leaves(plain.params), jax.tree.leaves(sharded.params)))
+print("max difference", diff)
+assert diff < 1e-5, diff
+"""
+
+
+def test_sharded_and_unsharded_runs_agree_on_one_step():
+    env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=2",
+           "JAX_PLATFORMS": "cpu", "PYTHONPATH": str(ROOT)}
+    result = subprocess.run([sys.executable, "-c", SHARDED], env=env, capture_output=True,
+                            text=True, timeout=600)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert "max difference" in result.stdout
+
+
+def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
+    config = tmp_path / "tiny.yaml"
+    config.write_text(yaml.safe_dump({
+        **TINY, "evaluation": {"every": 64, "episodes": 2, "num_agents": [2]},
+        "logging": {"out": str(tmp_path / "run"), "checkpoint_every": 64,
+                    "tensorboard": False, "progress": False},
+        "env": {**TINY["env"], "time_limit": 10.0}}))
+    train_main(["--config", str(config)])
+    out = capsys.readouterr().out
+    assert "trained (ippo)" in out and "only_local" in out and "team success" in out
+    run = tmp_path / "run"
+    rows = (run / "progress.csv").read_text().splitlines()
+    assert rows[0].startswith("steps,") and len(rows) == 4  # header + 3 updates
+    with Image.open(run / "eval" / "episode.gif") as gif:
+        assert gif.n_frames > 1
+    assert (run / "checkpoints" / "best.msgpack").is_file()
+    from sgjax.cli import main as sgjax_main
+
+    sgjax_main(["evaluate", "--scenario", "open", "--policy", str(run), "--num-agents", "2",
+                "--episodes", "2", "--out", str(tmp_path / "eval")])
+    assert "team success" in capsys.readouterr().out
+    # Resume with a larger budget: continues from update 3.
+    train_main(["--config", str(config), "--resume", "--set", "algorithm.total_steps=320",
+                "--set", "evaluation.baseline=null", "--set", "evaluation.gif=false"])
+    out = capsys.readouterr().out
+    assert "resumed from" in out and "update 3" in out
+    assert len((run / "progress.csv").read_text().splitlines()) == 6
