@@ -16,7 +16,8 @@ def readme_commands() -> list[str]:
 def test_readme_has_exactly_two_setup_commands():
     commands = readme_commands()
     assert len(commands) == 2
-    assert "sgjax-rollout" in commands[0] and "pytest" in commands[1]
+    assert "python -m train --config train/configs/doorway.yaml" in commands[0]
+    assert "pytest" in commands[1]
 
 
 def test_ci_runs_the_readme_test_command():

@@ -371,19 +371,28 @@ class Trainer:
         size = self.num_agents // a.num_minibatches
         grad_fn = jax.value_and_grad(self._loss, has_aux=True)
 
-        def minibatch(carry, index):
+        def minibatch(carry, batch):
             params, opt_state = carry
-            pick = lambda x: x[:, index]  # noqa: E731 (time-major)
-            (_, aux), grads = grad_fn(params, jax.tree.map(lambda c: c[index], start_carry),
-                                      jax.tree.map(pick, traj), pick(advantages),
-                                      pick(targets))
+            memory, sub, adv, target = batch
+            (_, aux), grads = grad_fn(params, memory, sub, adv, target)
             updates, opt_state = self.optimizer.update(grads, opt_state, params)
             return (optax.apply_updates(params, updates), opt_state), aux
 
         def epoch(carry, key):
-            order = jax.random.permutation(key, self.num_agents).reshape(a.num_minibatches,
-                                                                         size)
-            return jax.lax.scan(minibatch, carry, order)
+            # Shuffle the agents once (one gather), then cut contiguous minibatches.
+            order = jax.random.permutation(key, self.num_agents)
+            memory = jax.tree.map(lambda c: jnp.take(c, order, axis=0), start_carry)
+            data = jax.tree.map(lambda x: jnp.take(x, order, axis=1),
+                                (traj, advantages, targets))
+
+            def cut_time_major(x):  # [T, B, ...] -> [M, T, B / M, ...]
+                x = x.reshape((x.shape[0], a.num_minibatches, size) + x.shape[2:])
+                return jnp.swapaxes(x, 0, 1)
+
+            memory = jax.tree.map(
+                lambda c: c.reshape((a.num_minibatches, size) + c.shape[1:]), memory)
+            return jax.lax.scan(minibatch, carry,
+                                (memory,) + jax.tree.map(cut_time_major, data))
 
         key, k_epochs = jax.random.split(runner.key)
         (params, opt_state), aux = jax.lax.scan(

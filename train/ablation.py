@@ -1,0 +1,123 @@
+"""Reward and observation ablations trained as one ``vmap`` (the paper's Table 4).
+
+A *variant* switches reward terms off (a multiplier of 0 on ``info["reward_terms"]``) and hides
+observation features (a 0 in the observation mask). Reward weights and the mask are arrays in
+the runner state, so every variant x seed is one lane of a single jitted training run; only
+the network architecture (MLP or GRU) needs a run of its own.
+
+    variants = {"baseline": Variant(), "no collision": Variant(rewards_off=("collision",)),
+                "no velocities": Variant(hide=("velocity", "others.velocity"))}
+    trainer = Trainer(config)
+    runner, logs = train_variants(trainer, variants, seeds=3)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from sgjax.observations.others import FEATURES
+from sgjax.terms import ConfigError
+from train.ppo import Trainer
+
+
+@dataclasses.dataclass(frozen=True)
+class Variant:
+    """Reward terms to switch off, and observation features to hide: a term name
+    (``"velocity"``), ``"others.<feature>"`` (that feature of every body in the ``others``
+    block) or ``"pose.heading"`` (the pose term's cos/sin)."""
+
+    rewards_off: tuple[str, ...] = ()
+    hide: tuple[str, ...] = ()
+
+
+def observation_mask(env: Any, hide: Sequence[str]) -> np.ndarray:
+    """``[D]`` ones, with zeros on the hidden features of ``env``'s observation."""
+    mask = np.ones(env.observation_size, np.float32)
+    slices = env.observation_slices()
+    terms = {t.name: t for t in env.config.observer.terms}
+    for item in hide:
+        term, _, feature = item.partition(".")
+        if term not in slices:
+            raise ConfigError(f"hide {item!r}: no observation term {term!r}; this "
+                              f"observation has {list(slices)}")
+        block = slices[term]
+        if not feature:
+            mask[block] = 0.0
+        elif term == "others" and feature in terms["others"].features:
+            others = terms["others"]
+            start = 0
+            for name in others.features:
+                if name == feature:
+                    break
+                start += FEATURES[name]
+            for body in range(others.k):
+                first = block.start + body * others.width + start
+                mask[first:first + FEATURES[feature]] = 0.0
+        elif term == "pose" and feature == "heading" and getattr(terms["pose"], "heading",
+                                                                  False):
+            mask[block.stop - 2:block.stop] = 0.0
+        else:
+            raise ConfigError(f"hide {item!r}: cannot hide {feature!r} of {term!r} (use a term, "
+                              "others.<feature> or pose.heading)")
+    return mask
+
+
+def variant_inputs(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
+                   ) -> tuple[jax.Array, dict, jax.Array, list[tuple[str, int]]]:
+    """Keys, term weights and masks stacked over lanes (variant x seed), and the lane labels."""
+    names = trainer.batch.reward_term_names()
+    keys, weights, masks, labels = [], [], [], []
+    for label, variant in variants.items():
+        for off in variant.rewards_off:
+            if off not in names:
+                raise ConfigError(f"variant {label!r}: no reward term {off!r}; this "
+                                  f"configuration pays {list(names)}")
+        mask = observation_mask(trainer.batch.env, variant.hide)
+        for seed in range(seeds):
+            keys.append(jax.random.PRNGKey(trainer.config.seed + seed))
+            weights.append({n: 0.0 if n in variant.rewards_off else 1.0 for n in names})
+            masks.append(mask)
+            labels.append((label, seed))
+    stacked = {n: jnp.asarray([w[n] for w in weights]) for n in names}
+    return jnp.stack(keys), stacked, jnp.asarray(np.stack(masks)), labels
+
+
+def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
+                   ) -> tuple[Any, dict, list[tuple[str, int]]]:
+    """Train every variant x seed in one jitted ``vmap``; returns the lane-batched runner, the
+    per-update logs ``[lanes, updates]`` and the lane labels ``(variant, seed)``."""
+    keys, weights, masks, labels = variant_inputs(trainer, variants, seeds)
+    updates = trainer.config.algorithm.num_updates
+
+    def run(key, weight, mask):
+        return trainer.update_chunk(trainer.init(key, weight, mask), updates)
+
+    runner, logs = jax.jit(jax.vmap(run))(keys, weights, masks)
+    return runner, logs, labels
+
+
+def lane_policy(trainer: Trainer, runner: Any, lane: int, deterministic: bool = False):
+    """The policy of one lane, for ``sgjax.evaluate``."""
+    pick = lambda x: x[lane]  # noqa: E731
+    return trainer.policy(jax.tree.map(pick, runner.params), jax.tree.map(pick, runner.obs_stats),
+                          deterministic, pick(runner.obs_mask))
+
+
+def evaluate_lanes(trainer: Trainer, runner: Any, env: Any, env_params: Any, episodes: int,
+                   key: jax.Array) -> np.ndarray:
+    """Team success of every lane over ``episodes`` episodes of ``env``: one compiled
+    evaluation, ``vmap``-ed over the lanes. Returns ``[lanes]``."""
+    from sgjax.evaluate import episode_runner
+
+    def one(net_params: Any, obs_stats: Any, obs_mask: jax.Array) -> jax.Array:
+        policy = trainer.policy(net_params, obs_stats, False, obs_mask)
+        values, _, _ = episode_runner(env, env_params, policy, episodes)(key)
+        return jnp.mean(values["team_success"])
+
+    return np.asarray(jax.jit(jax.vmap(one))(runner.params, runner.obs_stats, runner.obs_mask))

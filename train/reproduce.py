@@ -1,0 +1,202 @@
+"""Reproduce the SocialGym 2.0 paper's benchmark: its baselines on the five mini-games, several
+seeds each, evaluated at 3, 4, 5, 7 and 10 robots; writes its two tables with 95% intervals
+over seeds.
+
+    python -m train.reproduce --seeds 3 --total-steps 2000000 --out runs/reproduce
+
+Baselines (the paper's section V): ``cadrl`` (the CADRL reward preset, MLP), ``cadrl_lstm``
+(the same with the LSTM-over-others encoder, the paper's CADRL(L)), ``any_order`` and
+``enforced_order`` (its conflict-zone rewards with the zone observations), and ``only_local``
+(always GO, not trained). Training follows the paper's setting where sgjax can: PPO, GO/STOP
+over the local planner, observation and reward normalisation, 3 robots then 4 (the curriculum
+switches at a tenth of the steps; the paper's "trained with up to 4 agents"). Each seed is one
+``vmap`` lane of one jitted run.
+
+Outputs in ``--out``: ``metrics_table.md`` (the paper's Table 3: length, collisions, stop time,
+max delta-V and team success per scenario and baseline, at ``--table-robots``),
+``success_table.md`` (its Table 4: team success % by robot count, with the average),
+``results.json`` (every seed's value of every metric, per configuration).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import jax
+import numpy as np
+
+import sgjax
+from sgjax.evaluate import run_episodes, t_interval
+from train.config import config_from_dict
+from train.ppo import Trainer, seed_keys
+
+MINI_GAMES = ("open", "doorway", "hallway", "intersection", "roundabout")
+BASELINES = {
+    "cadrl": {"env": {"preset": "cadrl"}, "network": {}},
+    "cadrl_lstm": {"env": {"preset": "cadrl"},
+                   "network": {"others_encoder": "lstm", "encoder_size": 64}},
+    "any_order": {"env": {"preset": "any_order"}, "network": {}},
+    "enforced_order": {"env": {"preset": "enforced_order"}, "network": {}},
+    "only_local": None,
+}
+TABLE_METRICS = (("episode_length", "Avg. length (steps)"), ("collisions", "Coll. rate"),
+                 ("stop_time", "Stop time (s)"), ("velocity_change_max", "Max dV (m/s)"),
+                 ("team_success", "Team success"))
+
+
+def baseline_config(name: str, scenario: str, seeds: int, total_steps: int, num_envs: int,
+                    seed: int) -> Any:
+    spec = BASELINES[name]
+    return config_from_dict({
+        "seed": seed, "num_seeds": seeds,
+        "env": {"scenarios": [scenario], "curriculum": [[0, 3], [total_steps // 10, 4]],
+                **spec["env"]},
+        "algorithm": {"total_steps": total_steps, "num_envs": num_envs},
+        "network": spec["network"],
+    }, f"reproduce:{name}")
+
+
+def train_baseline(config: Any) -> tuple[Trainer, Any, float]:
+    """Train every seed of ``config`` at once; returns the trainer, the seed-batched runner
+    and the wall time."""
+    trainer = Trainer(config)
+    t0 = time.perf_counter()
+    runner, _ = jax.jit(jax.vmap(trainer.train))(seed_keys(config))
+    jax.block_until_ready(runner.params)
+    return trainer, runner, time.perf_counter() - t0
+
+
+def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: int,
+                   trainer: Trainer | None, runner: Any, seeds: int,
+                   make_kwargs: dict[str, Any]) -> dict[int, dict[str, list[float]]]:
+    """``{robots: {metric: [per-seed mean over episodes]}}``."""
+    out: dict[int, dict[str, list[float]]] = {}
+    for n in counts:
+        env, params = sgjax.make(scenario, num_agents=n, **make_kwargs)
+        per_metric: dict[str, list[float]] = {}
+        for i in range(seeds if trainer is not None else 1):
+            if trainer is None:
+                policy = "only_local"
+            else:
+                pick = lambda x, i=i: x[i]  # noqa: E731
+                policy = trainer.policy(jax.tree.map(pick, runner.params),
+                                        jax.tree.map(pick, runner.obs_stats),
+                                        obs_mask=pick(runner.obs_mask))
+            batch = run_episodes(env, params, policy, jax.random.PRNGKey(seed + 1000), episodes)
+            for name, values in batch.values.items():
+                finite = values[np.isfinite(values)]
+                per_metric.setdefault(name, []).append(
+                    float(np.mean(finite)) if len(finite) else math.nan)
+        out[n] = per_metric
+    return out
+
+
+def _cell(values: list[float], percent: bool = False) -> str:
+    x = np.asarray([v for v in values if math.isfinite(v)])
+    if not len(x):
+        return "n/a"
+    scale = 100.0 if percent else 1.0
+    digits = 0 if percent or abs(np.mean(x)) >= 100 else 2
+    text = f"{np.mean(x) * scale:.{digits}f}"
+    low, high = t_interval(x)
+    if math.isfinite(low):
+        text += f" ± {(high - low) / 2 * scale:.{digits}f}"
+    return text
+
+
+def write_tables(results: dict, counts: Sequence[int], table_robots: int, out: Path,
+                 seeds: int) -> list[Path]:
+    note = (f"Means over seeds (each seed: the mean over its evaluation episodes) ± the half "
+            f"width of the 95% Student-t interval over {seeds} seeds (none for only_local, "
+            "which is not trained).")
+    rows = ["# SocialGym 2.0 Table 3, reproduced with sgjax", "", note, "",
+            f"Evaluated with {table_robots} robots.", "",
+            "| Scenario | Baseline | " + " | ".join(t for _, t in TABLE_METRICS) + " |",
+            "|---|---|" + "---|" * len(TABLE_METRICS)]
+    success = ["# SocialGym 2.0 Table 4 (team success %), reproduced with sgjax", "", note, "",
+               "| Scenario | Baseline | " + " | ".join(f"{n}A" for n in counts) + " | Avg. |",
+               "|---|---|" + "---|" * (len(counts) + 1)]
+    for scenario, by_baseline in results.items():
+        for baseline, by_count in by_baseline.items():
+            at = by_count.get(table_robots)
+            if at is not None:
+                rows.append(f"| {scenario} | {baseline} | "
+                            + " | ".join(_cell(at[m]) for m, _ in TABLE_METRICS) + " |")
+            means = [np.nanmean(by_count[n]["team_success"]) for n in counts]
+            success.append(f"| {scenario} | {baseline} | "
+                           + " | ".join(_cell(by_count[n]["team_success"], percent=True)
+                                        for n in counts)
+                           + f" | {100 * np.mean(means):.0f} |")
+    out.mkdir(parents=True, exist_ok=True)
+    paths = [out / "metrics_table.md", out / "success_table.md"]
+    paths[0].write_text("\n".join(rows) + "\n")
+    paths[1].write_text("\n".join(success) + "\n")
+    return paths
+
+
+def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
+              total_steps: int, num_envs: int, counts: Sequence[int], episodes: int,
+              table_robots: int, out: Path, seed: int = 0) -> dict:
+    unknown = [b for b in baselines if b not in BASELINES]
+    if unknown:
+        raise ValueError(f"unknown baseline(s) {unknown}; choose from {list(BASELINES)}")
+    results: dict[str, dict[str, dict[int, dict[str, list[float]]]]] = {}
+    timing: dict[str, float] = {}
+    for scenario in scenarios:
+        results[scenario] = {}
+        for name in baselines:
+            if BASELINES[name] is None:
+                by_count = evaluate_seeds(scenario, counts, episodes, seed, None, None, 1, {})
+                print(f"{scenario:>12} {name:>15}: not trained", flush=True)
+            else:
+                config = baseline_config(name, scenario, seeds, total_steps, num_envs, seed)
+                trainer, runner, wall = train_baseline(config)
+                timing[f"{scenario}/{name}"] = wall
+                by_count = evaluate_seeds(scenario, counts, episodes, seed, trainer, runner,
+                                          seeds, config.env.make_kwargs())
+                print(f"{scenario:>12} {name:>15}: trained {seeds} seeds x {total_steps:,} "
+                      f"steps in {wall:.0f} s", flush=True)
+            results[scenario][name] = by_count
+            team = {n: np.nanmean(v["team_success"]) for n, v in by_count.items()}
+            print("    team success by robots: " + ", ".join(f"{n}: {t:.2f}"
+                                                          for n, t in team.items()))
+    paths = write_tables(results, counts, table_robots, out, seeds)
+    document = {"seeds": seeds, "total_steps": total_steps, "num_envs": num_envs,
+                "episodes": episodes, "counts": list(counts), "train_seconds": timing,
+                "results": {s: {b: {str(n): m for n, m in c.items()} for b, c in r.items()}
+                            for s, r in results.items()}}
+    (out / "results.json").write_text(json.dumps(document, indent=1))
+    for path in paths:
+        print(f"\n{path.read_text()}")
+    return results
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(prog="python -m train.reproduce",
+                                     description=__doc__.split("\n\n")[0])
+    parser.add_argument("--scenarios", nargs="+", default=list(MINI_GAMES))
+    parser.add_argument("--baselines", nargs="+", default=list(BASELINES))
+    parser.add_argument("--seeds", type=int, default=3)
+    parser.add_argument("--total-steps", type=int, default=2_000_000,
+                        help="environment steps per seed")
+    parser.add_argument("--num-envs", type=int, default=256)
+    parser.add_argument("--robots", nargs="+", type=int, default=[3, 4, 5, 7, 10],
+                        help="evaluation robot counts")
+    parser.add_argument("--episodes", type=int, default=25, help="per seed and robot count")
+    parser.add_argument("--table-robots", type=int, default=4,
+                        help="robot count of the metrics table")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--out", default="runs/reproduce")
+    args = parser.parse_args(argv)
+    reproduce(args.scenarios, args.baselines, args.seeds, args.total_steps, args.num_envs,
+              args.robots, args.episodes, args.table_robots, Path(args.out), args.seed)
+
+
+if __name__ == "__main__":
+    main()
