@@ -29,7 +29,7 @@ def test_notebook_runs(name, monkeypatch):
     monkeypatch.chdir(ROOT)
     namespace = run_notebook(ROOT / "notebooks" / name)
     if name == "ablation.ipynb":
-        assert len(namespace["scores"]) == 8 * namespace["SEEDS"]
+        assert len(namespace["scores"]) == (len(namespace["variants"]) + 1) * namespace["SEEDS"]
     else:
         assert len(namespace["values"]) == 2
     assert os.environ["SGJAX_NOTEBOOK_SMALL"] == "1"

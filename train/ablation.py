@@ -111,13 +111,21 @@ def lane_policy(trainer: Trainer, runner: Any, lane: int, deterministic: bool = 
 
 def evaluate_lanes(trainer: Trainer, runner: Any, env: Any, env_params: Any, episodes: int,
                    key: jax.Array) -> np.ndarray:
-    """Team success of every lane over ``episodes`` episodes of ``env``: one compiled
-    evaluation, ``vmap``-ed over the lanes. Returns ``[lanes]``."""
+    """Team success of every lane over ``episodes`` episodes of ``env``. Returns ``[lanes]``."""
+    values = lane_metrics(trainer, runner, env, env_params, episodes, key)
+    return np.mean(values["team_success"], axis=1)
+
+
+def lane_metrics(trainer: Trainer, runner: Any, env: Any, env_params: Any, episodes: int,
+                 key: jax.Array) -> dict[str, np.ndarray]:
+    """Every metric's per-episode values for every lane, ``{name: [lanes, episodes]}``: one
+    compiled evaluation, ``vmap``-ed over the lanes (seeds or variants)."""
     from sgjax.evaluate import episode_runner
 
-    def one(net_params: Any, obs_stats: Any, obs_mask: jax.Array) -> jax.Array:
+    def one(net_params: Any, obs_stats: Any, obs_mask: jax.Array) -> dict:
         policy = trainer.policy(net_params, obs_stats, False, obs_mask)
         values, _, _ = episode_runner(env, env_params, policy, episodes)(key)
-        return jnp.mean(values["team_success"])
+        return values
 
-    return np.asarray(jax.jit(jax.vmap(one))(runner.params, runner.obs_stats, runner.obs_mask))
+    values = jax.jit(jax.vmap(one))(runner.params, runner.obs_stats, runner.obs_mask)
+    return {name: np.asarray(v) for name, v in values.items()}

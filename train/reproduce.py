@@ -33,6 +33,7 @@ import numpy as np
 
 import sgjax
 from sgjax.evaluate import run_episodes, t_interval
+from train.ablation import lane_metrics
 from train.config import config_from_dict
 from train.ppo import Trainer, seed_keys
 
@@ -51,12 +52,12 @@ TABLE_METRICS = (("episode_length", "Avg. length (steps)"), ("collisions", "Coll
 
 
 def baseline_config(name: str, scenario: str, seeds: int, total_steps: int, num_envs: int,
-                    seed: int) -> Any:
+                    seed: int, time_limit: float = 75.0) -> Any:
     spec = BASELINES[name]
     return config_from_dict({
         "seed": seed, "num_seeds": seeds,
         "env": {"scenarios": [scenario], "curriculum": [[0, 3], [total_steps // 10, 4]],
-                **spec["env"]},
+                "time_limit": time_limit, **spec["env"]},
         "algorithm": {"total_steps": total_steps, "num_envs": num_envs},
         "network": spec["network"],
     }, f"reproduce:{name}")
@@ -73,27 +74,20 @@ def train_baseline(config: Any) -> tuple[Trainer, Any, float]:
 
 
 def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: int,
-                   trainer: Trainer | None, runner: Any, seeds: int,
-                   make_kwargs: dict[str, Any]) -> dict[int, dict[str, list[float]]]:
-    """``{robots: {metric: [per-seed mean over episodes]}}``."""
+                   trainer: Trainer | None, runner: Any, make_kwargs: dict[str, Any]
+                   ) -> dict[int, dict[str, list[float]]]:
+    """``{robots: {metric: [per-seed mean over episodes]}}`` (one seed for Only Local)."""
     out: dict[int, dict[str, list[float]]] = {}
+    key = jax.random.PRNGKey(seed + 1000)
     for n in counts:
         env, params = sgjax.make(scenario, num_agents=n, **make_kwargs)
-        per_metric: dict[str, list[float]] = {}
-        for i in range(seeds if trainer is not None else 1):
-            if trainer is None:
-                policy = "only_local"
-            else:
-                pick = lambda x, i=i: x[i]  # noqa: E731
-                policy = trainer.policy(jax.tree.map(pick, runner.params),
-                                        jax.tree.map(pick, runner.obs_stats),
-                                        obs_mask=pick(runner.obs_mask))
-            batch = run_episodes(env, params, policy, jax.random.PRNGKey(seed + 1000), episodes)
-            for name, values in batch.values.items():
-                finite = values[np.isfinite(values)]
-                per_metric.setdefault(name, []).append(
-                    float(np.mean(finite)) if len(finite) else math.nan)
-        out[n] = per_metric
+        if trainer is None:
+            batch = run_episodes(env, params, "only_local", key, episodes)
+            values = {name: v[None] for name, v in batch.values.items()}
+        else:
+            values = lane_metrics(trainer, runner, env, params, episodes, key)
+        out[n] = {name: [float(np.nanmean(row)) if np.isfinite(row).any() else math.nan
+                         for row in v] for name, v in values.items()}
     return out
 
 
@@ -142,7 +136,7 @@ def write_tables(results: dict, counts: Sequence[int], table_robots: int, out: P
 
 def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
               total_steps: int, num_envs: int, counts: Sequence[int], episodes: int,
-              table_robots: int, out: Path, seed: int = 0) -> dict:
+              table_robots: int, out: Path, seed: int = 0, time_limit: float = 75.0) -> dict:
     unknown = [b for b in baselines if b not in BASELINES]
     if unknown:
         raise ValueError(f"unknown baseline(s) {unknown}; choose from {list(BASELINES)}")
@@ -152,14 +146,16 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
         results[scenario] = {}
         for name in baselines:
             if BASELINES[name] is None:
-                by_count = evaluate_seeds(scenario, counts, episodes, seed, None, None, 1, {})
+                by_count = evaluate_seeds(scenario, counts, episodes, seed, None, None,
+                                          {"time_limit": time_limit})
                 print(f"{scenario:>12} {name:>15}: not trained", flush=True)
             else:
-                config = baseline_config(name, scenario, seeds, total_steps, num_envs, seed)
+                config = baseline_config(name, scenario, seeds, total_steps, num_envs, seed,
+                                         time_limit)
                 trainer, runner, wall = train_baseline(config)
                 timing[f"{scenario}/{name}"] = wall
                 by_count = evaluate_seeds(scenario, counts, episodes, seed, trainer, runner,
-                                          seeds, config.env.make_kwargs())
+                                          config.env.make_kwargs())
                 print(f"{scenario:>12} {name:>15}: trained {seeds} seeds x {total_steps:,} "
                       f"steps in {wall:.0f} s", flush=True)
             results[scenario][name] = by_count
@@ -192,10 +188,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--table-robots", type=int, default=4,
                         help="robot count of the metrics table")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--time-limit", type=float, default=75.0, help="seconds per episode")
     parser.add_argument("--out", default="runs/reproduce")
     args = parser.parse_args(argv)
     reproduce(args.scenarios, args.baselines, args.seeds, args.total_steps, args.num_envs,
-              args.robots, args.episodes, args.table_robots, Path(args.out), args.seed)
+              args.robots, args.episodes, args.table_robots, Path(args.out), args.seed,
+              args.time_limit)
 
 
 if __name__ == "__main__":
