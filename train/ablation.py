@@ -2,8 +2,8 @@
 
 A *variant* switches reward terms off (a multiplier of 0 on ``info["reward_terms"]``) and hides
 observation features (a 0 in the observation mask). Reward weights and the mask are arrays in
-the runner state, so every variant x seed is one lane of a single jitted training run; only
-the network architecture (MLP or GRU) needs a run of its own.
+the runner state, so every variant x seed is one lane of one jitted, vmapped training function
+(run over groups of lanes); only the network architecture (MLP or GRU) needs its own.
 
     variants = {"baseline": Variant(), "no collision": Variant(rewards_off=("collision",)),
                 "no velocities": Variant(hide=("velocity", "others.velocity"))}
@@ -88,17 +88,29 @@ def variant_inputs(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
     return jnp.stack(keys), stacked, jnp.asarray(np.stack(masks)), labels
 
 
-def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
-                   ) -> tuple[Any, dict, list[tuple[str, int]]]:
-    """Train every variant x seed in one jitted ``vmap``; returns the lane-batched runner, the
-    per-update logs ``[lanes, updates]`` and the lane labels ``(variant, seed)``."""
+def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int,
+                   lanes_per_run: int = 4) -> tuple[Any, dict, list[tuple[str, int]]]:
+    """Train every variant x seed with one jitted ``vmap`` over ``lanes_per_run`` lanes at a
+    time (the same compiled function for every group; the last group is padded); returns the
+    lane-batched runner, the per-update logs ``[lanes, updates]`` and the lane labels
+    ``(variant, seed)``. Groups exist because a single very wide vmap of a whole training run
+    has been seen to hang on the XLA CPU backend (docs/training.md, known limits)."""
     keys, weights, masks, labels = variant_inputs(trainer, variants, seeds)
     updates = trainer.config.algorithm.num_updates
+    count = len(labels)
+    width = max(1, min(lanes_per_run, count))
 
+    @jax.jit
+    @jax.vmap
     def run(key, weight, mask):
         return trainer.update_chunk(trainer.init(key, weight, mask), updates)
 
-    runner, logs = jax.jit(jax.vmap(run))(keys, weights, masks)
+    outputs = []
+    for start in range(0, count, width):
+        index = np.minimum(np.arange(start, start + width), count - 1)
+        pick = lambda x, index=index: x[index]  # noqa: E731
+        outputs.append(run(pick(keys), jax.tree.map(pick, weights), pick(masks)))
+    runner, logs = jax.tree.map(lambda *xs: jnp.concatenate(xs)[:count], *outputs)
     return runner, logs, labels
 
 
