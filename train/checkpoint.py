@@ -50,11 +50,13 @@ def read(path: str | Path) -> tuple[TrainConfig, dict[str, Any], dict[str, Any]]
         raise ValueError(f"{path}: not a readable sgjax training checkpoint ({err})") from err
 
 
-def restore(path: str | Path, trainer: Any) -> tuple[Any, dict[str, Any]]:
-    """The seed-batched ``RunnerState`` and meta of a checkpoint, for ``trainer``."""
+def restore(path: str | Path, trainer: Any, contents: tuple | None = None
+            ) -> tuple[Any, dict[str, Any]]:
+    """The seed-batched ``RunnerState`` and meta of a checkpoint, for ``trainer``
+    (``contents``: what :func:`read` already returned for ``path``)."""
     from train.ppo import seed_keys
 
-    config, meta, raw = read(path)
+    _, meta, raw = contents if contents is not None else read(path)
     template = jax.eval_shape(jax.vmap(trainer.init), seed_keys(trainer.config))
     try:
         runner = serialization.from_state_dict(template, raw)
@@ -91,9 +93,10 @@ def load_policy(path: str | Path, env: Any = None, seed_index: int | None = None
     is ``seed_index``, else the one the checkpoint's meta names as best, else 0."""
     from train.ppo import Trainer
 
-    config, meta, _ = read(path)
+    contents = read(path)
+    config = contents[0]
     trainer = Trainer(config)
-    runner, meta = restore(path, trainer)
+    runner, meta = restore(path, trainer, contents)
     index = seed_index if seed_index is not None else int(meta.get("best_seed", 0))
     if not 0 <= index < config.num_seeds:
         raise ValueError(f"{resolve(path)}: seed index {index} out of range "

@@ -247,7 +247,7 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
     """Evaluate the checkpoint at every evaluation robot count beside the baseline; print the
     tables, write them and a GIF of one episode."""
     from sgjax.render import episode_frames, save_gif
-    from sgjax.report import write_all, write_table
+    from sgjax.report import write_all
 
     e = config.evaluation
     policy = checkpoint.load_policy(path, deterministic=e.deterministic)
@@ -263,7 +263,7 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
     from sgjax.metrics import DEFAULT_CONSTANTS
 
     write_all(results, out / "eval", DEFAULT_CONSTANTS)
-    table = write_table(results, out / "eval" / "table.md").read_text()
+    table = (out / "eval" / "table.md").read_text()
     print(table.split("## Every metric")[0].split("\n", 2)[2].strip())
     summary = {(r.policy, r.num_agents, r.scenario): r.metrics["team_success"].mean
                for r in results}
