@@ -73,7 +73,8 @@ def write_csv(results: Sequence[ConfigResult], path: Path) -> Path:
     return path
 
 
-def _cell(s: Summary, percent: bool = False) -> str:
+def format_summary(s: Summary, percent: bool = False) -> str:
+    """``"mean ± half-width"`` of a summary (``n/a`` without values), optionally in %."""
     if s.n == 0 or math.isnan(s.mean):
         return "n/a"
     scale = 100.0 if percent else 1.0
@@ -95,7 +96,7 @@ def write_table(results: Sequence[ConfigResult], path: Path) -> Path:
              "|---|---|---|---|" + "---|" * len(HEADLINE)]
     for r in results:
         lines.append(f"| {r.scenario} | {r.policy} | {r.num_agents} | {r.episodes} | "
-                     + " | ".join(_cell(r.metrics[name]) for name, _ in HEADLINE) + " |")
+                     + " | ".join(format_summary(r.metrics[name]) for name, _ in HEADLINE) + " |")
     counts = sorted({r.num_agents for r in results})
     lines += ["", "## Team success (%) by robot count", "",
               "| Scenario | Policy | " + " | ".join(f"{n}A" for n in counts) + " | Avg. |",
@@ -106,7 +107,7 @@ def write_table(results: Sequence[ConfigResult], path: Path) -> Path:
         means = [s.mean for s in by_count.values() if s.n]
         average = f"{100 * sum(means) / len(means):.0f}" if means else "n/a"
         lines.append(f"| {scenario} | {policy} | " + " | ".join(
-            _cell(by_count[n], percent=True) if n in by_count else "" for n in counts)
+            format_summary(by_count[n], percent=True) if n in by_count else "" for n in counts)
             + f" | {average} |")
     lines += ["", "## Every metric", ""]
     for r in results:

@@ -114,13 +114,6 @@ def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
     return runner, logs, labels
 
 
-def lane_policy(trainer: Trainer, runner: Any, lane: int, deterministic: bool = False):
-    """The policy of one lane, for ``sgjax.evaluate``."""
-    pick = lambda x: x[lane]  # noqa: E731
-    return trainer.policy(jax.tree.map(pick, runner.params), jax.tree.map(pick, runner.obs_stats),
-                          deterministic, pick(runner.obs_mask))
-
-
 def evaluate_lanes(trainer: Trainer, runner: Any, env: Any, env_params: Any, episodes: int,
                    key: jax.Array) -> np.ndarray:
     """Team success of every lane over ``episodes`` episodes of ``env``. Returns ``[lanes]``."""

@@ -32,7 +32,8 @@ import jax
 import numpy as np
 
 import sgjax
-from sgjax.evaluate import run_episodes, t_interval
+from sgjax.evaluate import run_episodes, summarize
+from sgjax.report import format_summary
 from train.ablation import lane_metrics
 from train.config import config_from_dict
 from train.ppo import Trainer, seed_keys
@@ -92,16 +93,8 @@ def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: in
 
 
 def _cell(values: list[float], percent: bool = False) -> str:
-    x = np.asarray([v for v in values if math.isfinite(v)])
-    if not len(x):
-        return "n/a"
-    scale = 100.0 if percent else 1.0
-    digits = 0 if percent or abs(np.mean(x)) >= 100 else 2
-    text = f"{np.mean(x) * scale:.{digits}f}"
-    low, high = t_interval(x)
-    if math.isfinite(low):
-        text += f" ± {(high - low) / 2 * scale:.{digits}f}"
-    return text
+    """Mean over seeds ± the half width of its Student-t interval."""
+    return format_summary(summarize(np.asarray(values), binary=False), percent)
 
 
 def write_tables(results: dict, counts: Sequence[int], table_robots: int, out: Path,
