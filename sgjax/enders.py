@@ -1,6 +1,6 @@
 """Episode enders: composable terminated / truncated terms.
 
-An ender maps ``(prev, state, params, config)`` to an :class:`Outcome`: which robots it
+An ender maps ``(prev, state, params, layout)`` to an :class:`Outcome`: which robots it
 terminates (they leave the world, like robots that arrived), which it truncates (the episode
 ends for them without a terminal state) and a reward adjustment (for example the stuck penalty).
 ``success`` (a robot at its goal terminates) is always on: it is what success means here.
@@ -16,7 +16,7 @@ import jax.numpy as jnp
 from flax import struct
 from jax import Array
 
-from sgjax.rewards.navigation import collided
+from sgjax.queries import collided
 from sgjax.terms import (
     ConfigError,
     Registry,
@@ -28,7 +28,7 @@ from sgjax.terms import (
 )
 
 if TYPE_CHECKING:
-    from sgjax.env import EnvConfig, EnvParams, EnvState
+    from sgjax.types import EnvParams, EnvState, Layout
 
 ENDERS = Registry("episode ender")
 
@@ -46,7 +46,7 @@ class Ender:
     window: ClassVar[int] = 0  # steps of movement history the ender reads
     pays: ClassVar[bool] = False  # adjusts rewards (reported in info["reward_terms"])
 
-    def __call__(self, prev: EnvState, state: EnvState, params: EnvParams, config: EnvConfig
+    def __call__(self, prev: EnvState, state: EnvState, params: EnvParams, layout: Layout
                  ) -> Outcome:
         raise NotImplementedError
 
@@ -63,7 +63,7 @@ class SuccessEnder(Ender):
 
     name = "success"
 
-    def __call__(self, prev: EnvState, state: EnvState, params: EnvParams, config: EnvConfig
+    def __call__(self, prev: EnvState, state: EnvState, params: EnvParams, layout: Layout
                  ) -> Outcome:
         out = _nothing(state)
         return out.replace(terminated=state.robots.succeeded & ~prev.robots.succeeded)
@@ -77,7 +77,7 @@ class TimeLimit(Ender):
 
     name = "time_limit"
 
-    def __call__(self, prev: EnvState, state: EnvState, params: EnvParams, config: EnvConfig
+    def __call__(self, prev: EnvState, state: EnvState, params: EnvParams, layout: Layout
                  ) -> Outcome:
         out = _nothing(state)
         late = state.time >= params.max_steps
@@ -108,7 +108,7 @@ class Stuck(Ender):
     def window(self) -> int:  # type: ignore[override]
         return self.steps
 
-    def __call__(self, prev: EnvState, state: EnvState, params: EnvParams, config: EnvConfig
+    def __call__(self, prev: EnvState, state: EnvState, params: EnvParams, layout: Layout
                  ) -> Outcome:
         out = _nothing(state)
         travelled = jnp.sum(state.moved[: self.steps], axis=0)  # [R] over the window
@@ -138,7 +138,7 @@ class CollisionEnder(Ender):
         for field in ("robots", "walls", "humans"):
             check_bool(field, getattr(self, field))
 
-    def __call__(self, prev: EnvState, state: EnvState, params: EnvParams, config: EnvConfig
+    def __call__(self, prev: EnvState, state: EnvState, params: EnvParams, layout: Layout
                  ) -> Outcome:
         out = _nothing(state)
         hit = collided(prev, state, self.robots, self.walls, self.humans, per_step=False)
@@ -166,13 +166,13 @@ class Enders(TermSet):
         """Steps of per-robot movement the enders need to remember."""
         return max([0] + [int(t.window) for t in self.terms])
 
-    def __call__(self, prev: EnvState, state: EnvState, params: EnvParams, config: EnvConfig
+    def __call__(self, prev: EnvState, state: EnvState, params: EnvParams, layout: Layout
                  ) -> tuple[Outcome, dict[str, Array]]:
         """Combined outcome and each ender's reward adjustment by name."""
         total = _nothing(state)
         rewards = {}
         for term in self.terms:
-            out = term(prev, state, params, config)
+            out = term(prev, state, params, layout)
             total = Outcome(total.terminated | out.terminated, total.truncated | out.truncated,
                             total.reward + out.reward)
             if term.pays:

@@ -33,147 +33,40 @@ import gymnasium
 import jax
 import jax.numpy as jnp
 import numpy as np
-from flax import struct
 from jax import Array
 
-from sgjax.contacts import clamp_to_walls, separate_robots
-from sgjax.dynamics.limits import ACKERMANN, RobotParams
-from sgjax.dynamics.models import Kinematics, decode_continuous, integrate, stop_on_contact
-from sgjax.enders import Enders, parse_enders
+from sgjax import physics
+from sgjax.dynamics.limits import ACKERMANN
+from sgjax.dynamics.models import Kinematics, decode_continuous
+from sgjax.enders import Enders, Outcome, parse_enders
 from sgjax.geometry import safe_norm
-from sgjax.humans.crowd import (
-    HumanConfig,
-    HumanParams,
-    HumanState,
-    advance_waypoints,
-    human_forces,
-    move_humans,
-    spawn_humans,
-    yield_to_robots,
-)
-from sgjax.maps.arrays import MapArrays
-from sgjax.maps.sampling import Route, build_routes, sample_starts_goals
+from sgjax.humans.crowd import HumanConfig, HumanState, advance_waypoints, spawn_humans
+from sgjax.maps.sampling import build_routes, sample_starts_goals
 from sgjax.observations import Observer, parse_observations
-from sgjax.planner import PlannerConfig, PlannerParams, carrot_point, plan, route_progress
+from sgjax.physics import Commands
+from sgjax.planner import PlannerConfig, carrot_point, plan, route_progress
 from sgjax.presets import OBSERVATION_PRESETS, REWARD_PRESETS
-from sgjax.rewards import Rewarder, RewardParams, parse_rewards
-from sgjax.zones import ZoneState, start_zones, update_zones
+from sgjax.rewards import Rewarder, parse_rewards
+from sgjax.types import (
+    ACTION_MODES,
+    GO,
+    STOP,
+    CollisionCounts,
+    EnvParams,
+    EnvState,
+    History,
+    Layout,
+    RewardParams,
+    RobotState,
+)
+from sgjax.zones import start_zones, update_zones
 
-ACTION_MODES = ("go_stop", "continuous")
-GO, STOP = 0, 1
+__all__ = [  # the datatypes live in sgjax.types; re-exported here for existing imports
+    "ACTION_MODES", "GO", "OBS_SIZE", "STOP", "CollisionCounts", "EnvConfig", "EnvParams",
+    "EnvState", "History", "Layout", "RewardParams", "RobotState", "SocialNavEnv",
+]
+
 OBS_SIZE = 10  # of the default observation preset
-
-
-@struct.dataclass
-class RobotState:
-    """Robots, each field ``[R]``. Public: ``position``, ``heading``, ``velocity``, ``active``."""
-
-    x: Array  # m, world
-    y: Array  # m, world
-    kin: Kinematics
-    present: Array  # bool: takes part in this episode
-    succeeded: Array  # bool: reached its goal (absorbing)
-    ended: Array  # bool: terminated by an ender without success, e.g. a collision (absorbing)
-
-    @property
-    def position(self) -> Array:
-        """World position ``[R, 2]`` (m)."""
-        return jnp.stack([self.x, self.y], axis=-1)
-
-    @property
-    def heading(self) -> Array:
-        """Heading ``[R]`` (rad, in (-pi, pi])."""
-        return self.kin.heading
-
-    @property
-    def velocity(self) -> Array:
-        """World-frame velocity ``[R, 2]`` (m/s)."""
-        c, s = jnp.cos(self.kin.heading), jnp.sin(self.kin.heading)
-        vf, vl = self.kin.v_forward, self.kin.v_lateral
-        return jnp.stack([vf * c - vl * s, vf * s + vl * c], axis=-1)
-
-    @property
-    def active(self) -> Array:
-        """``[R]`` bool: in the episode and not yet finished."""
-        return self.present & ~self.succeeded & ~self.ended
-
-    @property
-    def finished(self) -> Array:
-        """``[R]`` bool: terminated (arrived, or ended by an ender)."""
-        return self.succeeded | self.ended
-
-
-@struct.dataclass
-class CollisionCounts:
-    """Collision onsets per robot since the episode began, ``[R]`` int32."""
-
-    robot: Array
-    wall: Array
-    human: Array
-
-
-@struct.dataclass
-class History:
-    """Past values for observation terms with a history: ``[K - 1, R]`` each, row 0 the step
-    before the current one (``K = observer.history_length``; the current values are read from
-    the state itself, so with K = 1 the arrays are empty). At reset every row holds the initial
-    value."""
-
-    vx: Array  # m/s, world frame
-    vy: Array
-    v_forward: Array  # m/s, body frame
-    v_lateral: Array
-    omega: Array  # rad/s
-    goal_distance: Array  # m, straight line
-
-    @staticmethod
-    def of(robots: RobotState, distance: Array) -> dict[str, Array]:
-        v = robots.velocity
-        k = robots.kin
-        return {"vx": v[:, 0], "vy": v[:, 1], "v_forward": k.v_forward, "v_lateral": k.v_lateral,
-                "omega": k.omega, "goal_distance": distance}
-
-    @classmethod
-    def start(cls, length: int, robots: RobotState, distance: Array) -> History:
-        now = cls.of(robots, distance)
-        return cls(**{n: jnp.broadcast_to(v, (length,) + v.shape) for n, v in now.items()})
-
-    def push(self, robots: RobotState, distance: Array) -> History:
-        now = self.of(robots, distance)
-        return History(**{n: jnp.concatenate([v[None], getattr(self, n)[:-1]], axis=0)
-                          for n, v in now.items()})
-
-
-@struct.dataclass
-class EnvState:
-    robots: RobotState
-    route: Route
-    progress: Array  # [R] m along the route
-    touching_robot: Array  # [R] bool, at the last step (for onsets)
-    touching_wall: Array  # [R] bool
-    touching_human: Array  # [R] bool
-    collisions: CollisionCounts
-    humans: HumanState  # pedestrians [H]
-    time: Array  # int32 steps since reset
-    history: History  # [K - 1, R] past velocities and goal distances
-    zones: ZoneState  # [R, Z] conflict-zone bookkeeping
-    moved: Array  # [T, R] m travelled per step over the stuck detector's window (ring buffer)
-    total_steps: Array  # int32 steps since the first reset, kept across auto-resets (schedules)
-
-
-@struct.dataclass
-class EnvParams:
-    """Everything physical; a pytree, so ``vmap`` over it is a sweep."""
-
-    robots: RobotParams
-    map: MapArrays
-    planner: PlannerParams
-    reward: RewardParams  # weight schedules by reward-term name
-    humans: HumanParams
-    num_agents: Array  # int32 scalar: robots that take part in an episode
-    dt: Array  # s per step
-    max_steps: Array  # int32: truncation after this many steps
-    goal_tolerance: Array  # m
 
 
 @dataclasses.dataclass(frozen=True)
@@ -197,6 +90,18 @@ class EnvConfig:
     num_zones: int = 0  # conflict zones on the map (sizes the zone terms)
     track_zones: bool = False  # keep zone books even when no term reads them (for metrics)
 
+    def __post_init__(self) -> None:
+        if self.action_mode not in ACTION_MODES:
+            raise ValueError(f"action_mode must be one of {ACTION_MODES}, "
+                             f"got {self.action_mode!r}")
+
+    @property
+    def layout(self) -> Layout:
+        """The static sizes that terms and policies read."""
+        return Layout(max_agents=self.max_agents, max_humans=self.humans.max_humans,
+                      num_zones=self.num_zones, action_mode=self.action_mode,
+                      action_dim=self.action_dim)
+
     @property
     def uses_zones(self) -> bool:
         """Whether the step keeps zone books: a term reads them, or ``track_zones`` asks for
@@ -213,9 +118,6 @@ class SocialNavEnv:
     """A scenario's environment. Holds only static configuration; all arrays live in params."""
 
     def __init__(self, config: EnvConfig, default_params: EnvParams):
-        if config.action_mode not in ACTION_MODES:
-            raise ValueError(f"action_mode must be one of {ACTION_MODES}, "
-                             f"got {config.action_mode!r}")
         self.config = config
         self._default_params = default_params
 
@@ -245,15 +147,15 @@ class SocialNavEnv:
     @property
     def observation_size(self) -> int:
         """Length ``D`` of one robot's observation vector."""
-        return self.config.observer.size(self.config)
+        return self.config.observer.size(self.config.layout)
 
     def observation_slices(self) -> dict[str, slice]:
         """Which slice of the observation vector holds which term."""
-        return self.config.observer.slices(self.config)
+        return self.config.observer.slices(self.config.layout)
 
     def split_observation(self, obs: Array) -> dict[str, Array]:
         """Cut observations ``[..., D]`` into ``{term name: [..., size]}``."""
-        return self.config.observer.split(obs, self.config)
+        return self.config.observer.split(obs, self.config.layout)
 
     # ------------------------------------------------------------------ reset
     def check_params(self, params: EnvParams) -> None:
@@ -332,7 +234,7 @@ class SocialNavEnv:
                               params.robots.radius, robots.present)
         zones = start_zones(key_zones, route.x, route.y, x, y, params.robots.radius,
                             robots.present, self.config.tracked_zones(params.map.zone_rect))
-        distance = safe_norm(route.goal_x - x, route.goal_y - y)
+        distance = route.goal_distance(x, y)
         state = EnvState(
             robots=robots, route=route, progress=zeros,
             touching_robot=no, touching_wall=no, touching_human=no,
@@ -378,119 +280,95 @@ class SocialNavEnv:
     def step_env(
         self, key: Array, state: EnvState, actions: Array, params: EnvParams
     ) -> tuple[Array, EnvState, Array, Array, Array, dict]:
-        """One step without auto-reset (same returns as :meth:`step`).
+        """One step without auto-reset (same returns as :meth:`step`), phase by phase; each
+        phase runs under a ``jax.named_scope`` of its name, so profiles show where time goes.
 
         ``info["reward_terms"]`` holds each reward term's weighted value ``[R]`` (and the stuck
         penalty under ``"stuck"`` when that ender is on).
         """
-        cfg, rp = self.config, params.robots
-        key, key_obs = jax.random.split(key) if cfg.observer.needs_key else (key, key)
-        robots = state.robots
-        acting = robots.active
-        forward, lateral, turn = self._commands(state, actions, params)
-        humans = advance_waypoints(key, cfg.humans, params.humans, params.map, state.humans)
+        cfg, layout = self.config, self.config.layout
+        key_humans, key_obs = jax.random.split(key) if cfg.observer.needs_key else (key, key)
+        with jax.named_scope("decode_actions"):
+            commands = self._commands(state, actions, params)
+        with jax.named_scope("pedestrian_waypoints"):
+            humans = advance_waypoints(key_humans, cfg.humans, params.humans, params.map,
+                                       state.humans)
+        with jax.named_scope("physics"):
+            robots, humans, contacts = physics.advance(
+                state.robots, humans, commands, params, cfg.substeps, cfg.contact_passes,
+                cfg.humans)
+        with jax.named_scope("bookkeeping"):
+            moved = self._book(state, robots, humans, contacts, params)
+        with jax.named_scope("enders"):
+            outcome, ender_rewards = cfg.enders(state, moved, params, layout)
+            next_state = self._conclude(state, moved, outcome)
+        with jax.named_scope("rewards"):
+            reward, reward_terms = cfg.rewarder(state, next_state, actions, params, layout)
+            acting = state.robots.active
+            reward = reward + jnp.where(acting, outcome.reward, 0.0)
+            reward_terms.update({k: jnp.where(acting, v, 0.0) for k, v in ender_rewards.items()})
+        with jax.named_scope("observations"):
+            obs = self.observe(next_state, params, key_obs)
+        present, finished = state.robots.present, next_state.robots.finished
+        terminated = present & finished
+        truncated = present & ~finished & outcome.truncated
+        info = {
+            "acting": acting,
+            "collision_robot": contacts.robot,
+            "collision_wall": contacts.wall,
+            "collision_human": contacts.human,
+            "arrived": next_state.robots.succeeded & ~state.robots.succeeded,
+            "reward_terms": reward_terms,
+        }
+        return obs, next_state, reward, terminated, truncated, info
 
-        dt_sub = params.dt / cfg.substeps
-        x, y, kin = robots.x, robots.y, robots.kin
-        hit_robot = jnp.zeros(self.max_agents, bool)
-        hit_wall = jnp.zeros(self.max_agents, bool)
-        hit_human = jnp.zeros(self.max_agents, bool)
-        for _ in range(cfg.substeps):
-            if cfg.humans.max_humans:
-                velocity = robots.replace(kin=kin).velocity
-                fx, fy = human_forces(cfg.humans, params.humans, params.map, humans, x, y,
-                                      velocity[:, 0], velocity[:, 1], acting)
-                humans = move_humans(params.humans, params.map, humans, fx, fy, dt_sub)
-            new_kin, dx, dy = integrate(kin, forward, lateral, turn, rp, dt_sub)
-            dx, dy = jnp.where(acting, dx, 0.0), jnp.where(acting, dy, 0.0)
-            push_x, push_y, overlap = separate_robots(x + dx, y + dy, rp.radius, acting)
-            dx, dy, wall = clamp_to_walls(x, y, dx + push_x, dy + push_y, rp.radius, params.map)
-            x, y = x + dx, y + dy
-            # Optional relaxation: a robot pinned against a wall cannot take its half of a push,
-            # so the overlap left over is split again (each pass halves what a pinned pair
-            # leaves). Robots in contact also stop (below), which bounds what is left.
-            for _ in range(cfg.contact_passes - 1):
-                push_x, push_y, _ = separate_robots(x, y, rp.radius, acting)
-                push_x, push_y, pinned = clamp_to_walls(x, y, push_x, push_y, rp.radius,
-                                                        params.map)
-                x, y, wall = x + push_x, y + push_y, wall | pinned
-            if cfg.humans.max_humans:
-                humans, met = yield_to_robots(params.humans, params.map, humans, x, y,
-                                              rp.radius, acting)
-            else:
-                met = jnp.zeros(self.max_agents, bool)
-            # Bumpers: a robot touching a wall, another robot or a pedestrian stops.
-            new_kin = stop_on_contact(new_kin, wall | overlap | met, rp)
-            kin = jax.tree.map(lambda new, old: jnp.where(acting, new, old), new_kin, kin)
-            hit_robot, hit_wall = hit_robot | overlap, hit_wall | (wall & acting)
-            hit_human = hit_human | (met & acting)
-
-        route = state.route
-        distance = safe_norm(route.goal_x - x, route.goal_y - y)
-        arrived = acting & (distance < params.goal_tolerance)
-        succeeded = robots.succeeded | arrived
-        progress = jnp.where(acting, route_progress(route, x, y, state.progress), state.progress)
-        robot_onset = hit_robot & ~state.touching_robot
-        wall_onset = hit_wall & ~state.touching_wall
-        human_onset = hit_human & ~state.touching_human
+    def _book(self, state: EnvState, robots: RobotState, humans: HumanState,
+              contacts: physics.Contacts,
+              params: EnvParams) -> EnvState:
+        """The state after the motion: arrivals, route progress, collision onsets, the stuck
+        detector's window, history and zone books (the enders have not spoken yet)."""
+        active = state.robots.active
+        x, y = robots.x, robots.y
+        arrived = active & (state.route.goal_distance(x, y) < params.goal_tolerance)
+        progress = jnp.where(active, route_progress(state.route, x, y, state.progress),
+                             state.progress)
+        counts = state.collisions
         collisions = CollisionCounts(
-            robot=state.collisions.robot + robot_onset.astype(jnp.int32),
-            wall=state.collisions.wall + wall_onset.astype(jnp.int32),
-            human=state.collisions.human + human_onset.astype(jnp.int32),
+            robot=counts.robot + (contacts.robot & ~state.touching_robot).astype(jnp.int32),
+            wall=counts.wall + (contacts.wall & ~state.touching_wall).astype(jnp.int32),
+            human=counts.human + (contacts.human & ~state.touching_human).astype(jnp.int32),
         )
         time = state.time + 1
-        moved_now = jnp.where(acting, safe_norm(x - robots.x, y - robots.y), 0.0)
+        moved_now = jnp.where(active, safe_norm(x - state.robots.x, y - state.robots.y), 0.0)
         window = state.moved.shape[0]
         moved = state.moved.at[state.time % window].set(moved_now) if window else state.moved
-        new_robots = robots.replace(x=x, y=y, kin=kin, succeeded=succeeded)
-        next_state = EnvState(
-            robots=new_robots,
-            route=route,
+        return EnvState(
+            robots=robots.replace(succeeded=state.robots.succeeded | arrived),
+            route=state.route,
             progress=progress,
-            touching_robot=hit_robot,
-            touching_wall=hit_wall,
-            touching_human=hit_human,
+            touching_robot=contacts.robot,
+            touching_wall=contacts.wall,
+            touching_human=contacts.human,
             collisions=collisions,
             humans=humans,
             time=time,
-            history=self._push_history(state),
-            zones=update_zones(state.zones, x, y, rp.radius,
-                               cfg.tracked_zones(params.map.zone_rect), time),
+            history=state.history.push(state.robots, state.goal_distance),
+            zones=update_zones(state.zones, x, y, params.robots.radius,
+                               self.config.tracked_zones(params.map.zone_rect), time),
             moved=moved,
             total_steps=state.total_steps + 1,
         )
-        outcome, ender_rewards = cfg.enders(state, next_state, params, cfg)
-        ended = robots.ended | (outcome.terminated & acting & ~succeeded)
-        next_state = next_state.replace(robots=new_robots.replace(ended=ended))
-        reward, reward_terms = cfg.rewarder(state, next_state, actions, params, cfg)
-        reward = reward + jnp.where(acting, outcome.reward, 0.0)
-        reward_terms.update({k: jnp.where(acting, v, 0.0) for k, v in ender_rewards.items()})
-        present = robots.present
-        terminated = present & (succeeded | ended)
-        truncated = present & ~terminated & outcome.truncated
 
-        info = {
-            "acting": acting,
-            "collision_robot": hit_robot,
-            "collision_wall": hit_wall,
-            "collision_human": hit_human,
-            "arrived": arrived,
-            "reward_terms": reward_terms,
-        }
-        obs = self.observe(next_state, params, key_obs)
-        return obs, next_state, reward, terminated, truncated, info
+    @staticmethod
+    def _conclude(state: EnvState, moved: EnvState, outcome: Outcome) -> EnvState:
+        """Robots the enders terminate without success end (absorbing) in the next state."""
+        r = moved.robots
+        ended = r.ended | (outcome.terminated & state.robots.active & ~r.succeeded)
+        return moved.replace(robots=r.replace(ended=ended))
 
-    def _push_history(self, state: EnvState) -> History:
-        """The history after a step: the values ``state`` (before the step) had, pushed in."""
-        if not state.history.goal_distance.shape[0]:
-            return state.history
-        r, route = state.robots, state.route
-        return state.history.push(r, safe_norm(route.goal_x - r.x, route.goal_y - r.y))
-
-    def _commands(
-        self, state: EnvState, actions: Array, params: EnvParams
-    ) -> tuple[Array, Array, Array]:
-        """Decode actions into ``(forward, lateral, turn)`` commands ``[R]``."""
+    def _commands(self, state: EnvState, actions: Array, params: EnvParams) -> Commands:
+        """Decode actions into per-robot commands: continuous actions directly, GO through the
+        local planner, STOP as braking at the deceleration limit."""
         cfg, rp, robots = self.config, params.robots, state.robots
         actions = jnp.asarray(actions)
         if cfg.action_mode == "continuous":
@@ -498,7 +376,7 @@ class SocialNavEnv:
             if actions.shape != expected:
                 raise ValueError(f"actions: expected shape {expected} (robots, action dim) for "
                                  f"continuous actions, got {actions.shape}")
-            return decode_continuous(actions, rp, cfg.action_dim)
+            return Commands(*decode_continuous(actions, rp, cfg.action_dim))
         if actions.shape != (self.max_agents,):
             raise ValueError(f"actions: expected shape ({self.max_agents},) of GO(0)/STOP(1) "
                              f"ints, got {actions.shape}")
@@ -513,7 +391,7 @@ class SocialNavEnv:
         go = actions == GO
         # STOP: brake to rest; Ackermann robots hold their steering.
         turn = jnp.where(go, turn, jnp.where(rp.model == ACKERMANN, robots.kin.steering, 0.0))
-        return jnp.where(go, forward, 0.0), jnp.zeros_like(forward), turn
+        return Commands(jnp.where(go, forward, 0.0), jnp.zeros_like(forward), turn)
 
     def _pedestrian_bodies(
         self, state: EnvState, params: EnvParams
@@ -530,4 +408,4 @@ class SocialNavEnv:
         """Observations ``[R, D]`` from the configured terms (zeros for robots not in the
         episode); ``key`` feeds noisy terms (lidar noise), default ``jax.random.key(0)``."""
         key = jax.random.key(0) if key is None else key
-        return self.config.observer(state, params, self.config, key)
+        return self.config.observer(state, params, self.config.layout, key)

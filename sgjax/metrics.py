@@ -32,7 +32,8 @@ from sgjax import zones as zn
 from sgjax.geometry import safe_norm, wrap_angle
 
 if TYPE_CHECKING:
-    from sgjax.env import EnvConfig, EnvParams, EnvState
+    from sgjax.env import EnvConfig
+    from sgjax.types import EnvParams, EnvState
 
 
 @dataclasses.dataclass(frozen=True)

@@ -12,7 +12,7 @@ from sgjax.terms import ConfigError
 
 def outcome(spec, env, params, prev, state):
     name, options = (spec, {}) if isinstance(spec, str) else next(iter(spec.items()))
-    return ENDERS.build("test", name, options)(prev, state, params, env.config)
+    return ENDERS.build("test", name, options)(prev, state, params, env.config.layout)
 
 
 @pytest.fixture(scope="module")

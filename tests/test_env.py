@@ -214,8 +214,18 @@ def test_collision_onsets_counted_once_and_bodies_never_overlap():
 def test_bad_input_errors():
     with pytest.raises(KeyError, match="registered scenarios are: doorway"):
         sgjax.make("corridor")
-    with pytest.raises(TypeError, match="valid overrides are: num_agents"):
-        sgjax.make("doorway", num_robots=3)
+    with pytest.raises(TypeError, match=r"unknown option 'num_agent' \(did you mean "
+                       r"'num_agents'\?\); valid options are: num_agents"):
+        sgjax.make("doorway", num_agent=3)
+    with pytest.raises(KeyError, match=r"'doorwya' \(did you mean 'doorway'\?\)"):
+        sgjax.make("doorwya")
+    with pytest.raises(ValueError, match=r"action_mode .* got 'continous' \(did you mean "
+                       r"'continuous'\?\)"):
+        sgjax.make("doorway", action_mode="continous")
+    with pytest.raises(ValueError, match="human_radius must be a positive number"):
+        sgjax.make("doorway", human_radius=-1.0)
+    with pytest.raises(ValueError, match="give observations= or observation_preset=, not both"):
+        sgjax.make("doorway", observations="default", observation_preset="navigation")
     with pytest.raises(ValueError, match="num_agents"):
         sgjax.make("doorway", num_agents=0)
     with pytest.raises(ValueError, match="must not exceed max_agents"):
@@ -271,3 +281,19 @@ def test_reset_to_validates_shapes():
     env, params = sgjax.make("doorway", num_agents=2)
     with pytest.raises(ValueError, match=r"start must have shape \(2,\)"):
         env.reset_to(jnp.array([0]), jnp.array([22, 23]), jnp.array([True, True]), params)
+
+
+def test_make_options_grouped_and_flat_agree():
+    from sgjax.options import HumanOptions, MakeOptions, PhysicsOptions, RobotOptions
+
+    options = MakeOptions(robots=RobotOptions(num_agents=2, max_agents=3),
+                          humans=HumanOptions(num_humans=1, human_model="helbing"),
+                          physics=PhysicsOptions(dt=0.05, time_limit=10.0))
+    flat = options.keywords(changed_only=True)
+    assert flat == {"num_agents": 2, "max_agents": 3, "num_humans": 1,
+                    "human_model": "helbing", "dt": 0.05, "time_limit": 10.0}
+    assert MakeOptions.from_keywords(**flat) == options
+    env, params = sgjax.make("doorway", options=options, num_agents=3)
+    assert env.max_agents == 3 and int(params.num_agents) == 3
+    assert int(params.max_steps) == 200 and env.config.humans.force_model == "helbing"
+    assert env.config.layout.max_humans == 1 and env.config.layout.max_agents == 3

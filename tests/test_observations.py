@@ -18,7 +18,7 @@ KEY = jax.random.key(0)
 
 def term_value(spec, env, params, state):
     term = parse_observations([spec]).terms[0]
-    return np.asarray(term(state, params, env.config, KEY))
+    return np.asarray(term(state, params, env.config.layout, KEY))
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +48,7 @@ def test_velocity_frames_and_history():
     state = state.replace(robots=slower, history=hist)
     value = term_value({"velocity": {"history": 2, "turn_rate": False}}, env, params, state)
     np.testing.assert_allclose(value[0], [0.5, 0, 1, 0], atol=1e-6)
-    assert parse_observations([{"velocity": {"history": 3}}]).terms[0].size(env.config) == 9
+    assert parse_observations([{"velocity": {"history": 3}}]).terms[0].size(env.config.layout) == 9
     with pytest.raises(ValueError, match="keeps a history of 2 steps"):
         term_value({"velocity": {"history": 3}}, env, params, state)
     # Through the step: the row after the current one is what the robot had before the step.
@@ -105,14 +105,14 @@ def test_others_nearest_first_in_robot_frame(room):
     state = place(env, params, [0.0, 2.0, 0.0], [0.0, 0.0, -1.0], [0.0, 0.0, math.pi],
                   humans=[(0.0, 3.0, 1.0, 0.0)])
     term = Others(k=4)
-    value = np.asarray(term(state, params, env.config, KEY))[0].reshape(4, term.width)
+    value = np.asarray(term(state, params, env.config.layout, KEY))[0].reshape(4, term.width)
     # features: position(2) distance heading(2) velocity(2) radius kind mask
     np.testing.assert_allclose(value[0], [0, -1, 1 - 2 * r, -1, 0, 0, 0, r, 0, 1], atol=1e-5)
     np.testing.assert_allclose(value[1], [2, 0, 2 - 2 * r, 1, 0, 0, 0, r, 0, 1], atol=1e-5)
     np.testing.assert_allclose(value[2], [0, 3, 3 - r - rh, 1, 0, 1, 0, rh, 1, 1], atol=1e-5)
     np.testing.assert_array_equal(value[3], np.zeros(term.width))  # padding
     # Robot 2 faces -x: robot 0 (at (0, 1) relative, world) is to its right.
-    value2 = np.asarray(term(state, params, env.config, KEY))[2].reshape(4, term.width)
+    value2 = np.asarray(term(state, params, env.config.layout, KEY))[2].reshape(4, term.width)
     np.testing.assert_allclose(value2[0, :2], [0, -1], atol=1e-5)
 
 
@@ -120,14 +120,15 @@ def test_others_masks_absent_and_filtered_bodies(room):
     env, params = room
     state = place(env, params, [0.0, 2.0], [0.0, 0.0], humans=[(0.0, 3.0, 0.0, 0.0)])
     robots_only = Others(k=3, humans=False, features=("position", "mask"))
-    value = np.asarray(robots_only(state, params, env.config, KEY))[0].reshape(3, 3)
+    value = np.asarray(robots_only(state, params, env.config.layout, KEY))[0].reshape(3, 3)
     np.testing.assert_allclose(value, [[2, 0, 1], [0, 0, 0], [0, 0, 0]], atol=1e-6)
     near = Others(k=2, max_range=2.5, features=("mask",))
-    np.testing.assert_array_equal(np.asarray(near(state, params, env.config, KEY))[0], [1, 0])
+    value = np.asarray(near(state, params, env.config.layout, KEY))[0]
+    np.testing.assert_array_equal(value, [1, 0])
     # A robot that reached its goal has left the world: others no longer see it.
     done = state.replace(robots=state.robots.replace(
         succeeded=state.robots.succeeded.at[1].set(True)))
-    value = np.asarray(robots_only(done, params, env.config, KEY))[0]
+    value = np.asarray(robots_only(done, params, env.config.layout, KEY))[0]
     np.testing.assert_array_equal(value, np.zeros(9))
 
 
@@ -147,7 +148,7 @@ def test_others_line_of_sight():
     env, params = sgjax.make(parse_map(room), num_agents=3)
     state = place(env, params, [0.0, 2.0, -1.0], [0.0, 0.0, 0.0])
     seen = Others(k=2, features=("position", "mask"), line_of_sight=True)
-    value = np.asarray(seen(state, params, env.config, KEY))
+    value = np.asarray(seen(state, params, env.config.layout, KEY))
     # Robot 1 is behind the wall at x = 1 from robot 0; robot 2 is in view.
     np.testing.assert_allclose(value[0], [-1, 0, 1, 0, 0, 0], atol=1e-6)
     np.testing.assert_allclose(value[1], [0, 0, 0, 0, 0, 0], atol=1e-6)
@@ -159,7 +160,7 @@ def test_others_with_variable_robot_counts():
     for n in (1, 2, 3, 4):
         p = params.replace(num_agents=jnp.asarray(n, jnp.int32))
         state = place(env, p, [0.0, 1.0, 2.0, 3.0][:n], [0.0] * n)
-        mask = np.asarray(term(state, p, env.config, KEY))
+        mask = np.asarray(term(state, p, env.config.layout, KEY))
         np.testing.assert_array_equal(mask[:n].sum(axis=1), [min(n - 1, 3)] * n)
         obs = np.asarray(env.observe(state, p))
         assert (obs[n:] == 0).all()  # the Observer zeroes absent robots' rows
@@ -172,15 +173,15 @@ def test_lidar_against_a_wall_and_a_robot(room):
     lidar = Lidar(beams=4, range=10.0)
     angles = np.asarray(beam_angles(4, 2 * math.pi))
     np.testing.assert_allclose(angles, [-math.pi, -math.pi / 2, 0, math.pi / 2])
-    value = np.asarray(lidar(state, params, env.config, KEY))[0]
+    value = np.asarray(lidar(state, params, env.config.layout, KEY))[0]
     # Behind: robot 1's disc at 2 - r; right and left: walls at 5 m; ahead: the wall at x = 5.
     np.testing.assert_allclose(value, [2 - r, 5, 5, 5], atol=1e-5)
     capped = Lidar(beams=4, range=3.0)
-    np.testing.assert_allclose(np.asarray(capped(state, params, env.config, KEY))[0],
+    np.testing.assert_allclose(np.asarray(capped(state, params, env.config.layout, KEY))[0],
                                [2 - r, 3, 3, 3], atol=1e-5)
     noisy = Lidar(beams=4, range=10.0, noise=0.01)
-    a = np.asarray(noisy(state, params, env.config, jax.random.key(1)))[0]
-    b = np.asarray(noisy(state, params, env.config, jax.random.key(2)))[0]
+    a = np.asarray(noisy(state, params, env.config.layout, jax.random.key(1)))[0]
+    b = np.asarray(noisy(state, params, env.config.layout, jax.random.key(2)))[0]
     assert np.abs(a - value).max() < 0.05 and not np.allclose(a, b)
 
 
@@ -188,7 +189,7 @@ def test_lidar_sees_pedestrians_and_turns_with_the_robot(room):
     env, params = room
     rh = float(params.humans.radius)
     state = place(env, params, [0.0], [0.0], [math.pi / 2], humans=[(0.0, 2.0, 0.0, 0.0)])
-    value = np.asarray(Lidar(beams=4, range=10.0)(state, params, env.config, KEY))[0]
+    value = np.asarray(Lidar(beams=4, range=10.0)(state, params, env.config.layout, KEY))[0]
     # Facing +y: beam 2 (straight ahead) meets the pedestrian.
     np.testing.assert_allclose(value[2], 2 - rh, atol=1e-5)
     np.testing.assert_allclose(value[[0, 1, 3]], [5, 5, 5], atol=1e-5)
@@ -249,7 +250,7 @@ def test_observer_slices_sizes_and_split():
     spec = ["pose", {"velocity": {"history": 2}}, {"others": {"k": 2}}, {"lidar": {"beams": 8}}]
     env, params = make_room(num_agents=2, max_agents=4, observations=spec)
     observer = env.config.observer
-    cfg = env.config
+    cfg = env.config.layout
     assert observer.sizes(cfg) == {"pose": 4, "velocity": 6, "others": 20, "lidar": 8}
     assert observer.size(cfg) == 38 and observer.history_length == 2
     assert observer.slices(cfg)["others"] == slice(10, 30)

@@ -18,7 +18,7 @@ def value(spec, env, params, prev, state, actions=None):
     name, options = (spec, {}) if isinstance(spec, str) else next(iter(spec.items()))
     term = REWARDS.build("test", name, options)
     actions = jnp.zeros(env.max_agents, jnp.int32) if actions is None else actions
-    return np.asarray(term(prev, state, actions, params, env.config))
+    return np.asarray(term(prev, state, actions, params, env.config.layout))
 
 
 @pytest.fixture(scope="module")
@@ -204,7 +204,7 @@ def test_rewarder_sums_weighted_terms_and_reports_each():
     after = moved(prev, x=jnp.asarray([-0.5, 2.0])).replace(
         touching_robot=jnp.asarray([False, True]))
     total, parts = env.config.rewarder(prev, after, jnp.zeros(2, jnp.int32), params,
-                                       env.config)
+                                       env.config.layout)
     np.testing.assert_allclose(parts["existence"], [-2, -2])
     np.testing.assert_allclose(parts["collision"], [0, -10])
     np.testing.assert_allclose(parts["progress"], [0.5, 0], atol=1e-5)

@@ -69,6 +69,10 @@ def test_a_tiny_run_learns_to_reach_the_goal():
     ({"algorithm": {"num_envs": "many"}}, "algorithm.num_envs: expected int"),
     ({"env": {"curriculum": [[5, 2]]}}, "curriculum must be"),
     ({"network": {"kind": "transformer"}}, "kind must be one of"),
+    ({"env": {"num_arcz": 5}}, "env: unknown key 'num_arcz' \\(did you mean 'num_arcs'\\?\\)"),
+    ({"env": {"num_agents": 5}}, "unknown key 'num_agents'.*valid keys are: scenarios"),
+    ({"env": {"human_model": "orca"}}, "env: human_model must be one of"),
+    ({"env": {"dt": -1}}, "env: dt must be a positive number"),
 ])
 def test_the_config_validator_rejects_bad_keys(data, message):
     with pytest.raises(ConfigError, match=message):
@@ -85,6 +89,17 @@ def test_command_line_overrides_and_shipped_configs():
         Trainer(loaded)  # builds every scenario and checks the shapes fit
     with pytest.raises(ConfigError, match="no such config"):
         load_config(ROOT / "train/configs/nope.yaml")
+
+
+def test_env_section_takes_every_make_option_and_round_trips():
+    config = config_from_dict({"env": {"num_arcs": 7, "human_model": "helbing", "num_humans": 2,
+                                       "max_agents": 6, "curriculum": [[0, 3]]}})
+    assert config.env.slots == 6
+    assert config.env.make_kwargs() == {"num_arcs": 7, "human_model": "helbing",
+                                        "num_humans": 2, "observations": "navigation"}
+    assert config_from_dict(config.to_dict()) == config
+    preset = config_from_dict({"env": {"preset": "cadrl"}}).env.make_kwargs()
+    assert preset["observations"] == preset["rewards"] == "cadrl"
 
 
 @pytest.fixture(scope="module")

@@ -13,31 +13,34 @@ import dataclasses
 import types
 import typing
 from collections.abc import Mapping
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 import yaml
 
+from sgjax.options import KEYWORDS, MakeOptions
 from sgjax.terms import ConfigError, suggest
+
+TRAINER_OBSERVATIONS = "navigation"  # the trainer's default observation preset
 
 
 @dataclasses.dataclass(frozen=True)
-class EnvConfig:
-    """What to train on. ``curriculum`` is ``[[env_step, num_agents], ...]``: from each total
-    environment step on, episodes have that many robots (SocialGym's ``agents_settings``)."""
+class EnvSection:
+    """What to train on: the scenarios, the robot-count curriculum, and any option of
+    ``sgjax.make`` (``sgjax.options``: ``action_mode``, ``robots``, ``observations``,
+    ``rewards``, ``num_humans``, ``dt``, ``num_arcs``, ...) as a key of the same name, validated
+    by the same code. ``curriculum`` is ``[[env_step, num_agents], ...]``: from each total
+    environment step on, episodes have that many robots (SocialGym's ``agents_settings``), so
+    ``num_agents`` itself is not a key; ``max_agents`` defaults to the curriculum's largest
+    count. ``preset`` sets the observation and reward presets at once (cadrl,
+    enforced_order); observations default to ``navigation``."""
 
     scenarios: tuple[str, ...] = ("doorway",)
     curriculum: tuple[tuple[int, int], ...] = ((0, 4),)
-    max_agents: int | None = None  # robot slots; default the curriculum's largest count
-    action_mode: str = "go_stop"
-    robots: str = "socialgym"
-    preset: str | None = None  # observation and reward preset at once (cadrl, enforced_order)
-    observations: Any = "navigation"  # preset name, spec or YAML path (docs/terms.md)
-    rewards: Any = "default"
-    enders: Any = None  # default: the reward preset's
-    num_humans: int = 0
-    time_limit: float = 75.0  # s
-    dt: float = 0.1  # s
+    preset: str | None = None
+    make: MakeOptions = dataclasses.field(
+        default_factory=lambda: MakeOptions.from_keywords(observations=TRAINER_OBSERVATIONS))
 
     def __post_init__(self) -> None:
         if not self.scenarios:
@@ -48,12 +51,42 @@ class EnvConfig:
                              f" got {self.curriculum}")
         if any(n < 1 for _, n in self.curriculum):
             raise ValueError(f"curriculum robot counts must be >= 1, got {self.curriculum}")
-        if self.max_agents is not None and self.max_agents < self.largest_count:
-            raise ValueError(f"max_agents {self.max_agents} is below the curriculum's largest "
+        max_agents = self.make.robots.max_agents
+        if max_agents is not None and max_agents < self.largest_count:
+            raise ValueError(f"max_agents {max_agents} is below the curriculum's largest "
                              f"count {self.largest_count}")
-        if self.action_mode not in ("go_stop", "continuous"):
-            raise ValueError(f"action_mode must be go_stop or continuous, got "
-                             f"{self.action_mode!r}")
+
+    @classmethod
+    def from_keys(cls, where: str, values: Mapping[str, Any]) -> EnvSection:
+        """From a config section: the section's own keys, the rest ``sgjax.make`` options."""
+        own = [f.name for f in dataclasses.fields(cls) if f.name != "make"]
+        valid = own + [k for k in KEYWORDS if k != "num_agents"]
+        for key in values:
+            if key not in valid:
+                raise ConfigError(f"{where}: unknown key {key!r}{suggest(str(key), valid)}; "
+                                  f"valid keys are: {', '.join(valid)}")
+        hints = typing.get_type_hints(cls)
+        for key in own:
+            if key in values:
+                _check_type(f"{where}.{key}", values[key], hints[key])
+        options = {k: _freeze(v) for k, v in values.items() if k not in own}
+        if not {"observations", "observation_preset"} & set(options):
+            options["observations"] = TRAINER_OBSERVATIONS
+        try:
+            make = MakeOptions.from_keywords(where, **options)
+            return cls(make=make, **{k: _freeze(v) for k, v in values.items() if k in own})
+        except ValueError as err:
+            raise ConfigError(f"{where}: {err}") from None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The section as written in a config file (make options that differ from defaults)."""
+        out = {"scenarios": list(self.scenarios), "curriculum": _plain(self.curriculum),
+               "preset": self.preset}
+        return out | _plain(self.make.keywords(changed_only=True))
+
+    @property
+    def action_mode(self) -> str:
+        return self.make.robots.action_mode
 
     @property
     def largest_count(self) -> int:
@@ -61,18 +94,17 @@ class EnvConfig:
 
     @property
     def slots(self) -> int:
-        return self.max_agents or self.largest_count
+        return self.make.robots.max_agents or self.largest_count
 
     def make_kwargs(self) -> dict[str, Any]:
-        """Keyword arguments of ``sgjax.make`` (robot count aside)."""
-        observations, rewards = self.observations, self.rewards
+        """Keyword arguments of ``sgjax.make`` (robot counts aside)."""
+        kwargs = _thaw(self.make.keywords(changed_only=True))
+        kwargs.pop("num_agents", None)
+        kwargs.pop("max_agents", None)
         if self.preset is not None:
-            observations, rewards = self.preset, self.preset
-        kwargs = {"action_mode": self.action_mode, "robots": self.robots,
-                  "observations": _thaw(observations), "rewards": _thaw(rewards),
-                  "num_humans": self.num_humans, "time_limit": self.time_limit, "dt": self.dt}
-        if self.enders is not None:
-            kwargs["enders"] = _thaw(self.enders)
+            kwargs["observations"] = kwargs["rewards"] = self.preset
+            kwargs.pop("observation_preset", None)
+            kwargs.pop("reward_preset", None)
         return kwargs
 
     def num_agents_at(self, step: int) -> int:
@@ -82,7 +114,6 @@ class EnvConfig:
             if step >= start:
                 count = n
         return count
-
 
 @dataclasses.dataclass(frozen=True)
 class AlgorithmConfig:
@@ -183,7 +214,7 @@ class LoggingConfig:
 
 @dataclasses.dataclass(frozen=True)
 class TrainConfig:
-    env: EnvConfig = dataclasses.field(default_factory=EnvConfig)
+    env: EnvSection = dataclasses.field(default_factory=EnvSection)
     algorithm: AlgorithmConfig = dataclasses.field(default_factory=AlgorithmConfig)
     network: NetworkConfig = dataclasses.field(default_factory=NetworkConfig)
     evaluation: EvaluationConfig = dataclasses.field(default_factory=EvaluationConfig)
@@ -196,10 +227,11 @@ class TrainConfig:
             raise ValueError(f"num_seeds must be >= 1, got {self.num_seeds}")
 
     def to_dict(self) -> dict[str, Any]:
-        return _plain(dataclasses.asdict(self))
+        out = _plain(dataclasses.asdict(dataclasses.replace(self, env=EnvSection())))
+        return out | {"env": self.env.to_dict()}
 
 
-SECTIONS = {"env": EnvConfig, "algorithm": AlgorithmConfig, "network": NetworkConfig,
+SECTIONS = {"env": EnvSection, "algorithm": AlgorithmConfig, "network": NetworkConfig,
             "evaluation": EvaluationConfig, "logging": LoggingConfig}
 TOP_LEVEL = ("seed", "num_seeds")
 
@@ -241,14 +273,15 @@ def config_from_dict(data: Mapping[str, Any], source: str = "config") -> TrainCo
             continue
         if not isinstance(value, Mapping):
             raise ConfigError(f"{source}: section {key!r} must be a mapping, got {value!r}")
-        sections[key] = _build(f"{source}: {key}", SECTIONS[key], value)
+        build = EnvSection.from_keys if key == "env" else partial(_build, cls=SECTIONS[key])
+        sections[key] = build(f"{source}: {key}", values=value)
     try:
         return TrainConfig(**sections)
     except ValueError as err:
         raise ConfigError(f"{source}: {err}") from None
 
 
-def _build(where: str, cls: type, values: Mapping[str, Any]) -> Any:
+def _build(where: str, values: Mapping[str, Any], cls: type) -> Any:
     hints = typing.get_type_hints(cls)
     names = [f.name for f in dataclasses.fields(cls)]
     for key, value in values.items():

@@ -7,6 +7,7 @@ import jax.numpy as jnp
 from flax import struct
 from jax import Array
 
+from sgjax.geometry import safe_norm
 from sgjax.maps.arrays import MapArrays
 
 START_MARGIN = 0.02  # m of free space between the bodies of two robots placed at their starts
@@ -36,6 +37,10 @@ class Route:
     @property
     def total_length(self) -> Array:
         return self.cum_length[:, -1]
+
+    def goal_distance(self, x: Array, y: Array) -> Array:
+        """``[R]`` straight-line distance (m) from positions ``x, y [R]`` to the goals."""
+        return safe_norm(self.goal_x - x, self.goal_y - y)
 
 
 def _mix32(h: Array) -> Array:

@@ -1,7 +1,7 @@
 """Observation terms and the Observer that concatenates them.
 
 A term is a frozen dataclass (its fields are its options) with a ``name``, a ``size`` and a
-call ``term(state, params, config, key) -> [R, size]`` for one episode's robots. The Observer
+call ``term(state, params, layout, key) -> [R, size]`` for one episode's robots. The Observer
 stacks its terms into ``obs [R, D]`` in order and knows which slice belongs to which term.
 """
 
@@ -18,7 +18,7 @@ from jax import Array
 from sgjax.terms import ConfigError, Registry, TermSet
 
 if TYPE_CHECKING:
-    from sgjax.env import EnvConfig, EnvParams, EnvState
+    from sgjax.types import EnvParams, EnvState, Layout
 
 OBSERVATIONS = Registry("observation term")
 
@@ -32,10 +32,10 @@ class ObservationTerm:
     needs_key: ClassVar[bool] = False
     uses_zones: ClassVar[bool] = False  # reads state.zones (conflict-zone bookkeeping)
 
-    def size(self, config: EnvConfig) -> int:
+    def size(self, layout: Layout) -> int:
         raise NotImplementedError
 
-    def __call__(self, state: EnvState, params: EnvParams, config: EnvConfig, key: Array
+    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
                  ) -> Array:
         raise NotImplementedError
 
@@ -63,39 +63,39 @@ class Observer(TermSet):
         """Steps of state history the terms need (at least 1: the current step)."""
         return max([1] + [int(t.history) for t in self.terms])
 
-    def sizes(self, config: EnvConfig) -> dict[str, int]:
-        return {t.name: int(t.size(config)) for t in self.terms}
+    def sizes(self, layout: Layout) -> dict[str, int]:
+        return {t.name: int(t.size(layout)) for t in self.terms}
 
-    def size(self, config: EnvConfig) -> int:
+    def size(self, layout: Layout) -> int:
         """Length ``D`` of one robot's observation vector."""
-        return sum(self.sizes(config).values())
+        return sum(self.sizes(layout).values())
 
-    def slices(self, config: EnvConfig) -> dict[str, slice]:
+    def slices(self, layout: Layout) -> dict[str, slice]:
         """Which slice of the observation vector holds which term."""
         out, start = {}, 0
-        for name, n in self.sizes(config).items():
+        for name, n in self.sizes(layout).items():
             out[name] = slice(start, start + n)
             start += n
         return out
 
-    def describe(self, config: EnvConfig) -> str:
+    def describe(self, layout: Layout) -> str:
         """One line per term: ``name [start:stop] size``."""
         return "\n".join(f"{name:<24} [{s.start}:{s.stop}] size {s.stop - s.start}"
-                         for name, s in self.slices(config).items())
+                         for name, s in self.slices(layout).items())
 
-    def split(self, obs: Array, config: EnvConfig) -> dict[str, Array]:
+    def split(self, obs: Array, layout: Layout) -> dict[str, Array]:
         """Cut observations ``[..., D]`` into a dict of ``[..., size]`` by term name."""
-        return {name: obs[..., s] for name, s in self.slices(config).items()}
+        return {name: obs[..., s] for name, s in self.slices(layout).items()}
 
-    def __call__(self, state: EnvState, params: EnvParams, config: EnvConfig, key: Array
+    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
                  ) -> Array:
         """``obs [R, D]`` (float32); rows of robots not in the episode are zeros."""
         keys = (jax.random.split(key, len(self.terms)) if self.needs_key
                 else [key] * len(self.terms))
         parts = []
         for term, term_key in zip(self.terms, keys, strict=True):
-            value = term(state, params, config, term_key)
-            expected = (config.max_agents, term.size(config))
+            value = term(state, params, layout, term_key)
+            expected = (layout.max_agents, term.size(layout))
             if value.shape != expected:
                 raise RuntimeError(f"observation term {term.name!r} returned shape "
                                    f"{value.shape}, expected {expected}")

@@ -11,11 +11,11 @@ import jax.numpy as jnp
 from jax import Array
 
 from sgjax.observations.base import OBSERVATIONS, ObservationTerm
-from sgjax.observations.others import gather_bodies
+from sgjax.queries import gather_bodies
 from sgjax.terms import check_bool, check_int, check_positive
 
 if TYPE_CHECKING:
-    from sgjax.env import EnvConfig, EnvParams, EnvState
+    from sgjax.types import EnvParams, EnvState, Layout
 
 
 def beam_angles(beams: int, fov: float) -> Array:
@@ -84,10 +84,10 @@ class Lidar(ObservationTerm):
         check_bool("robots", self.robots)
         check_bool("humans", self.humans)
 
-    def size(self, config: EnvConfig) -> int:
+    def size(self, layout: Layout) -> int:
         return self.beams
 
-    def __call__(self, state: EnvState, params: EnvParams, config: EnvConfig, key: Array
+    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
                  ) -> Array:
         r, m = state.robots, params.map
         angle = r.heading[:, None] + beam_angles(self.beams, self.fov)[None, :]  # [R, N]
@@ -103,7 +103,7 @@ class Lidar(ObservationTerm):
                                  bodies.radius)  # [R, N, B]
             seen = bodies.active[None, :]
             if self.robots:
-                seen = seen & ~jnp.eye(config.max_agents, bodies.x.shape[0], dtype=bool)
+                seen = seen & ~jnp.eye(layout.max_agents, bodies.x.shape[0], dtype=bool)
             hits = jnp.where(seen[:, None, :], hits, jnp.inf)
             nearest = jnp.minimum(nearest, jnp.min(hits, axis=-1))
         if self.noise > 0.0:

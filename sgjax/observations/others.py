@@ -11,11 +11,11 @@ from jax import Array
 
 from sgjax.geometry import safe_norm
 from sgjax.observations.base import OBSERVATIONS, ObservationTerm
-from sgjax.observations.own import to_robot_frame
+from sgjax.queries import gather_bodies, line_of_sight, to_robot_frame
 from sgjax.terms import check_bool, check_int, check_positive
 
 if TYPE_CHECKING:
-    from sgjax.env import EnvConfig, EnvParams, EnvState
+    from sgjax.types import EnvParams, EnvState, Layout
 
 # Per-other feature groups and their widths, in output order.
 FEATURES = {
@@ -28,61 +28,6 @@ FEATURES = {
     "mask": 1,  # 1 = a real, visible body in this slot; 0 = padding
 }
 _FAR = 1.0e9
-
-
-@dataclasses.dataclass(frozen=True)
-class Bodies:
-    """Everything another robot can observe: ``[B]`` each (robots first, then pedestrians)."""
-
-    x: Array
-    y: Array
-    cos_h: Array
-    sin_h: Array
-    vx: Array
-    vy: Array
-    radius: Array
-    is_human: Array  # float 0/1
-    active: Array  # bool
-
-
-def gather_bodies(state: EnvState, params: EnvParams, robots: bool = True,
-                  humans: bool = True) -> Bodies:
-    """Robots (taking part and not finished) and active pedestrians as one body list.
-    Pedestrians face along their velocity (+x when standing)."""
-    r, h = state.robots, state.humans
-    vel = r.velocity
-    parts = []
-    if robots:
-        parts.append((r.x, r.y, jnp.cos(r.heading), jnp.sin(r.heading), vel[:, 0], vel[:, 1],
-                      params.robots.radius, jnp.zeros_like(r.x), r.active))
-    if humans and h.x.shape[0]:
-        speed = safe_norm(h.vx, h.vy)
-        moving = speed > 1e-3
-        inv = 1.0 / jnp.where(moving, speed, 1.0)
-        parts.append((h.x, h.y, jnp.where(moving, h.vx * inv, 1.0),
-                      jnp.where(moving, h.vy * inv, 0.0), h.vx, h.vy,
-                      jnp.broadcast_to(params.humans.radius, h.x.shape), jnp.ones_like(h.x),
-                      h.active))
-    if not parts:
-        empty = jnp.zeros((0,), jnp.float32)
-        return Bodies(*(empty,) * 8, active=jnp.zeros((0,), bool))
-    columns = [jnp.concatenate(c) for c in zip(*parts, strict=True)]
-    return Bodies(*columns)
-
-
-def line_of_sight(px: Array, py: Array, qx: Array, qy: Array, params: EnvParams) -> Array:
-    """Whether segments p-q (broadcast shapes ``S``) cross no wall; returns bool ``S``."""
-    m = params.map
-    ax, ay, bx, by = (v[(None,) * px.ndim] for v in (m.wall_x1, m.wall_y1, m.wall_x2, m.wall_y2))
-    px, py, qx, qy = (v[..., None] for v in (px, py, qx, qy))
-
-    def side(ox: Array, oy: Array, ux: Array, uy: Array, wx: Array, wy: Array) -> Array:
-        return (ux - ox) * (wy - oy) - (uy - oy) * (wx - ox)
-
-    d1, d2 = side(ax, ay, bx, by, px, py), side(ax, ay, bx, by, qx, qy)
-    d3, d4 = side(px, py, qx, qy, ax, ay), side(px, py, qx, qy, bx, by)
-    crosses = (d1 * d2 < 0.0) & (d3 * d4 < 0.0) & m.wall_valid[(None,) * (px.ndim - 1)]
-    return ~jnp.any(crosses, axis=-1)
 
 
 @OBSERVATIONS.register
@@ -123,15 +68,15 @@ class Others(ObservationTerm):
     def width(self) -> int:
         return sum(FEATURES[f] for f in self.features)
 
-    def size(self, config: EnvConfig) -> int:
+    def size(self, layout: Layout) -> int:
         return self.k * self.width
 
-    def nearest(self, state: EnvState, params: EnvParams, config: EnvConfig
+    def nearest(self, state: EnvState, params: EnvParams, layout: Layout
                 ) -> tuple[Array, dict[str, Array]]:
         """``(visible [R, k] bool, features {name: [R, k, width]})`` of the k nearest."""
         r = state.robots
         bodies = gather_bodies(state, params, robots=self.robots, humans=self.humans)
-        num_robots = config.max_agents
+        num_robots = layout.max_agents
         count = bodies.x.shape[0]
         dxw = bodies.x[None, :] - r.x[:, None]  # [R, B]
         dyw = bodies.y[None, :] - r.y[:, None]
@@ -183,8 +128,8 @@ class Others(ObservationTerm):
                  for name in self.features}
         return chosen, feats
 
-    def __call__(self, state: EnvState, params: EnvParams, config: EnvConfig, key: Array
+    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
                  ) -> Array:
-        _, feats = self.nearest(state, params, config)
+        _, feats = self.nearest(state, params, layout)
         stacked = jnp.concatenate([feats[name] for name in self.features], axis=-1)
-        return stacked.reshape(config.max_agents, -1)
+        return stacked.reshape(layout.max_agents, -1)

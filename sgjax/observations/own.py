@@ -8,12 +8,12 @@ from typing import TYPE_CHECKING
 import jax.numpy as jnp
 from jax import Array
 
-from sgjax.geometry import safe_norm
 from sgjax.observations.base import OBSERVATIONS, ObservationTerm
+from sgjax.queries import to_robot_frame
 from sgjax.terms import check_bool, check_choice, check_int, check_positive
 
 if TYPE_CHECKING:
-    from sgjax.env import EnvConfig, EnvParams, EnvState
+    from sgjax.types import EnvParams, EnvState, Layout
 
 
 def with_past(now: Array, past: Array, steps: int, term: str) -> Array:
@@ -27,12 +27,6 @@ def with_past(now: Array, past: Array, steps: int, term: str) -> Array:
     return jnp.concatenate([now[None], past[: steps - 1]], axis=0)
 
 
-def to_robot_frame(heading: Array, dx: Array, dy: Array) -> tuple[Array, Array]:
-    """Rotate world vectors into each robot's frame (x forward, y to the left)."""
-    c, s = jnp.cos(heading), jnp.sin(heading)
-    return c * dx + s * dy, -s * dx + c * dy
-
-
 @OBSERVATIONS.register
 @dataclasses.dataclass(frozen=True)
 class Pose(ObservationTerm):
@@ -44,10 +38,10 @@ class Pose(ObservationTerm):
     def __post_init__(self) -> None:
         check_bool("heading", self.heading)
 
-    def size(self, config: EnvConfig) -> int:
+    def size(self, layout: Layout) -> int:
         return 4 if self.heading else 2
 
-    def __call__(self, state: EnvState, params: EnvParams, config: EnvConfig, key: Array
+    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
                  ) -> Array:
         r = state.robots
         parts = [r.x, r.y] + ([jnp.cos(r.heading), jnp.sin(r.heading)] if self.heading else [])
@@ -72,10 +66,10 @@ class Velocity(ObservationTerm):
         check_int("history", self.history)
         check_bool("turn_rate", self.turn_rate)
 
-    def size(self, config: EnvConfig) -> int:
+    def size(self, layout: Layout) -> int:
         return self.history * (3 if self.turn_rate else 2)
 
-    def __call__(self, state: EnvState, params: EnvParams, config: EnvConfig, key: Array
+    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
                  ) -> Array:
         h, k, kin = state.history, self.history, state.robots.kin
         if self.frame == "body":
@@ -101,10 +95,10 @@ class Goal(ObservationTerm):
     def __post_init__(self) -> None:
         check_choice("frame", self.frame, ("world", "robot"))
 
-    def size(self, config: EnvConfig) -> int:
+    def size(self, layout: Layout) -> int:
         return 2
 
-    def __call__(self, state: EnvState, params: EnvParams, config: EnvConfig, key: Array
+    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
                  ) -> Array:
         r, route = state.robots, state.route
         if self.frame == "world":
@@ -124,12 +118,12 @@ class GoalDistance(ObservationTerm):
     def __post_init__(self) -> None:
         check_int("history", self.history)
 
-    def size(self, config: EnvConfig) -> int:
+    def size(self, layout: Layout) -> int:
         return self.history
 
-    def __call__(self, state: EnvState, params: EnvParams, config: EnvConfig, key: Array
+    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
                  ) -> Array:
-        return with_past(goal_distance(state), state.history.goal_distance, self.history,
+        return with_past(state.goal_distance, state.history.goal_distance, self.history,
                          self.name).T
 
 
@@ -146,10 +140,10 @@ class PreferredSpeed(ObservationTerm):
         if self.speed is not None:
             check_positive("speed", self.speed)
 
-    def size(self, config: EnvConfig) -> int:
+    def size(self, layout: Layout) -> int:
         return 1
 
-    def __call__(self, state: EnvState, params: EnvParams, config: EnvConfig, key: Array
+    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
                  ) -> Array:
         top = params.robots.max_speed
         return (top if self.speed is None else jnp.full_like(top, self.speed))[:, None]
@@ -162,10 +156,10 @@ class CollisionFlag(ObservationTerm):
 
     name = "collision"
 
-    def size(self, config: EnvConfig) -> int:
+    def size(self, layout: Layout) -> int:
         return 1
 
-    def __call__(self, state: EnvState, params: EnvParams, config: EnvConfig, key: Array
+    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
                  ) -> Array:
         touching = state.touching_robot | state.touching_wall | state.touching_human
         return touching.astype(jnp.float32)[:, None]
@@ -178,10 +172,10 @@ class SuccessFlag(ObservationTerm):
 
     name = "success"
 
-    def size(self, config: EnvConfig) -> int:
+    def size(self, layout: Layout) -> int:
         return 1
 
-    def __call__(self, state: EnvState, params: EnvParams, config: EnvConfig, key: Array
+    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
                  ) -> Array:
         return state.robots.succeeded.astype(jnp.float32)[:, None]
 
@@ -194,10 +188,10 @@ class Waypoint(ObservationTerm):
 
     name = "waypoint"
 
-    def size(self, config: EnvConfig) -> int:
+    def size(self, layout: Layout) -> int:
         return 2
 
-    def __call__(self, state: EnvState, params: EnvParams, config: EnvConfig, key: Array
+    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
                  ) -> Array:
         r, route = state.robots, state.route
         ahead = route.cum_length > state.progress[:, None] + 1e-3  # [R, L], monotone
@@ -218,16 +212,10 @@ class TimeLeft(ObservationTerm):
 
     name = "time_left"
 
-    def size(self, config: EnvConfig) -> int:
+    def size(self, layout: Layout) -> int:
         return 1
 
-    def __call__(self, state: EnvState, params: EnvParams, config: EnvConfig, key: Array
+    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
                  ) -> Array:
         left = 1.0 - state.time.astype(jnp.float32) / params.max_steps.astype(jnp.float32)
-        return jnp.broadcast_to(jnp.clip(left, 0.0, 1.0), (config.max_agents, 1))
-
-
-def goal_distance(state: EnvState) -> Array:
-    """``[R]`` straight-line distance to the goal (m)."""
-    r = state.robots
-    return safe_norm(state.route.goal_x - r.x, state.route.goal_y - r.y)
+        return jnp.broadcast_to(jnp.clip(left, 0.0, 1.0), (layout.max_agents, 1))

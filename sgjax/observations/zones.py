@@ -13,17 +13,17 @@ from sgjax import zones as zn
 from sgjax.observations.base import OBSERVATIONS, ObservationTerm
 
 if TYPE_CHECKING:
-    from sgjax.env import EnvConfig, EnvParams, EnvState
+    from sgjax.types import EnvParams, EnvState, Layout
 
 
 @dataclasses.dataclass(frozen=True)
 class ZoneTerm(ObservationTerm):
     uses_zones = True
 
-    def size(self, config: EnvConfig) -> int:
-        return config.num_zones
+    def size(self, layout: Layout) -> int:
+        return layout.num_zones
 
-    def __call__(self, state: EnvState, params: EnvParams, config: EnvConfig, key: Array
+    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
                  ) -> Array:
         r = state.robots
         return self.value(state.zones, r.x, r.y, params.robots.radius,

@@ -1,7 +1,7 @@
 """Reward terms and the Rewarder that sums them with (scheduled) weights.
 
 A term is a frozen dataclass (its fields are its options) with a ``name`` and a call
-``term(prev, state, actions, params, config) -> [R]``: its raw value per robot for the step from
+``term(prev, state, actions, params, layout) -> [R]``: its raw value per robot for the step from
 ``prev`` to ``state``, with its natural sign (penalties are negative), so every weight is a
 positive scale. Weights are :class:`~sgjax.rewards.schedules.Schedule` pytrees in
 ``params.reward.weights[name]``.
@@ -14,14 +14,14 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import jax.numpy as jnp
-from flax import struct
 from jax import Array
 
-from sgjax.rewards.schedules import Schedule, parse_schedule
+from sgjax.rewards.schedules import parse_schedule
 from sgjax.terms import ConfigError, Registry, TermSet
+from sgjax.types import RewardParams
 
 if TYPE_CHECKING:
-    from sgjax.env import EnvConfig, EnvParams, EnvState
+    from sgjax.types import EnvParams, EnvState, Layout
 
 REWARDS = Registry("reward term")
 
@@ -34,15 +34,8 @@ class RewardTerm:
     uses_zones: ClassVar[bool] = False  # reads state.zones (conflict-zone bookkeeping)
 
     def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 config: EnvConfig) -> Array:
+                 layout: Layout) -> Array:
         raise NotImplementedError
-
-
-@struct.dataclass
-class RewardParams:
-    """Weights by term name (a dict of schedules: part of the params pytree)."""
-
-    weights: dict[str, Schedule]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -59,16 +52,16 @@ class Rewarder(TermSet):
                              f" got {sorted(reward.weights)}")
 
     def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 config: EnvConfig) -> tuple[Array, dict[str, Array]]:
+                 layout: Layout) -> tuple[Array, dict[str, Array]]:
         """``(reward [R], weighted value of each term {name: [R]})``, zero for robots that were
         not acting at ``prev``; weights are read at ``prev.total_steps``."""
         acting = prev.robots.active
         parts = {}
         for term in self.terms:
             weight = params.reward.weights[term.name](prev.total_steps)
-            value = term(prev, state, actions, params, config)
+            value = term(prev, state, actions, params, layout)
             parts[term.name] = jnp.where(acting, weight * value, 0.0)
-        total = sum(parts.values(), jnp.zeros(config.max_agents, jnp.float32))
+        total = sum(parts.values(), jnp.zeros(layout.max_agents, jnp.float32))
         return total, parts
 
 

@@ -10,12 +10,12 @@ import jax.numpy as jnp
 from jax import Array
 
 from sgjax.geometry import safe_norm
-from sgjax.observations.own import goal_distance
+from sgjax.queries import collided
 from sgjax.rewards.base import REWARDS, RewardTerm
 from sgjax.terms import check_bool, check_choice, check_positive
 
 if TYPE_CHECKING:
-    from sgjax.env import EnvConfig, EnvParams, EnvState
+    from sgjax.types import EnvParams, EnvState, Layout
 
 
 @REWARDS.register
@@ -26,7 +26,7 @@ class Existence(RewardTerm):
     name = "existence"
 
     def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 config: EnvConfig) -> Array:
+                 layout: Layout) -> Array:
         return -(~state.robots.succeeded).astype(jnp.float32)
 
 
@@ -39,21 +39,8 @@ class Success(RewardTerm):
     name = "success"
 
     def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 config: EnvConfig) -> Array:
+                 layout: Layout) -> Array:
         return (state.robots.succeeded & ~prev.robots.succeeded).astype(jnp.float32)
-
-
-def collided(prev: EnvState, state: EnvState, robots: bool, walls: bool, humans: bool,
-             per_step: bool) -> Array:
-    """``[R]`` bool: a collision of the chosen kinds began this step (``per_step``: is going
-    on)."""
-    out = jnp.zeros(state.robots.x.shape, bool)
-    for chosen, now, before in ((robots, state.touching_robot, prev.touching_robot),
-                                (walls, state.touching_wall, prev.touching_wall),
-                                (humans, state.touching_human, prev.touching_human)):
-        if chosen:
-            out = out | (now if per_step else now & ~before)
-    return out
 
 
 @REWARDS.register
@@ -73,7 +60,7 @@ class Collision(RewardTerm):
             check_bool(field, getattr(self, field))
 
     def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 config: EnvConfig) -> Array:
+                 layout: Layout) -> Array:
         hit = collided(prev, state, self.robots, self.walls, self.humans, self.per_step)
         return -hit.astype(jnp.float32)
 
@@ -99,11 +86,11 @@ class Progress(RewardTerm):
                 raise ValueError(f"clip must be [low, high] with low <= high, got {self.clip!r}")
 
     def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 config: EnvConfig) -> Array:
+                 layout: Layout) -> Array:
         if self.along_route:
             gain = state.progress - prev.progress
         else:
-            gain = goal_distance(prev) - goal_distance(state)
+            gain = prev.goal_distance - state.goal_distance
         if self.clip is not None:
             gain = jnp.clip(gain, self.clip[0], self.clip[1])
         return gain
@@ -124,8 +111,8 @@ class GoalDistance(RewardTerm):
         check_positive("floor", self.floor)
 
     def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 config: EnvConfig) -> Array:
-        d = goal_distance(state)
+                 layout: Layout) -> Array:
+        d = state.goal_distance
         return -d if self.form == "negative" else 1.0 / jnp.maximum(d, self.floor)
 
 
@@ -138,7 +125,7 @@ class VelocityChange(RewardTerm):
     name = "velocity_change"
 
     def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 config: EnvConfig) -> Array:
+                 layout: Layout) -> Array:
         dv = state.robots.velocity - prev.robots.velocity
         return -(dv[:, 0] ** 2 + dv[:, 1] ** 2)
 
@@ -157,7 +144,7 @@ class PreferredVelocity(RewardTerm):
             check_positive("speed", self.speed)
 
     def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 config: EnvConfig) -> Array:
+                 layout: Layout) -> Array:
         v = state.robots.velocity
         preferred = params.robots.max_speed if self.speed is None else self.speed
         return -(safe_norm(v[:, 0], v[:, 1]) - preferred) ** 2

@@ -16,30 +16,12 @@ import jax.numpy as jnp
 from jax import Array
 
 from sgjax.geometry import polynomial_atan2, safe_norm
-from sgjax.observations.others import gather_bodies
-from sgjax.observations.own import goal_distance, to_robot_frame
+from sgjax.queries import body_gaps, gather_bodies, to_robot_frame
 from sgjax.rewards.base import REWARDS, RewardTerm
 from sgjax.terms import check_bool, check_positive
 
 if TYPE_CHECKING:
-    from sgjax.env import EnvConfig, EnvParams, EnvState
-
-_FAR = 1.0e6
-
-
-def body_gaps(state: EnvState, params: EnvParams, config: EnvConfig, robots: bool = True,
-              humans: bool = True) -> Array:
-    """``[R, B]`` body-to-body gaps (m, negative when overlapping); ``_FAR`` for bodies that
-    are not there and for the robot itself."""
-    r = state.robots
-    b = gather_bodies(state, params, robots=robots, humans=humans)
-    gap = (safe_norm(b.x[None, :] - r.x[:, None], b.y[None, :] - r.y[:, None])
-           - b.radius[None, :] - params.robots.radius[:, None])
-    there = jnp.broadcast_to(b.active[None, :], gap.shape)
-    if robots:
-        there = there & ~jnp.eye(config.max_agents, b.x.shape[0], dtype=bool)
-    return jnp.where(there, gap, _FAR)
-
+    from sgjax.types import EnvParams, EnvState, Layout
 
 @REWARDS.register
 @dataclasses.dataclass(frozen=True)
@@ -59,10 +41,10 @@ class Proximity(RewardTerm):
         check_bool("humans", self.humans)
 
     def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 config: EnvConfig) -> Array:
-        gaps = body_gaps(state, params, config, self.robots, self.humans)
+                 layout: Layout) -> Array:
+        gaps = body_gaps(state, params, layout, self.robots, self.humans)
         if gaps.shape[1] == 0:
-            return jnp.zeros(config.max_agents)
+            return jnp.zeros(layout.max_agents)
         nearest = jnp.maximum(jnp.min(gaps, axis=1), 0.0)
         return -jnp.maximum(self.threshold - nearest, 0.0) / 2.0
 
@@ -80,13 +62,13 @@ class PersonalSpace(RewardTerm):
         check_positive("radius", self.radius)
 
     def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 config: EnvConfig) -> Array:
-        gaps = body_gaps(state, params, config, robots=False, humans=True)
+                 layout: Layout) -> Array:
+        gaps = body_gaps(state, params, layout, robots=False, humans=True)
         intrusion = jnp.maximum(1.0 - jnp.maximum(gaps, 0.0) / self.radius, 0.0)
         return -jnp.sum(intrusion, axis=1)
 
 
-def _norm_geometry(state: EnvState, params: EnvParams, config: EnvConfig
+def _norm_geometry(state: EnvState, params: EnvParams, layout: Layout
                    ) -> tuple[Array, Array, Array, Array, Array, Array]:
     """``(px, py, dh, bearing, other_speed, there)`` each ``[R, B]`` for the social norms."""
     r = state.robots
@@ -98,7 +80,7 @@ def _norm_geometry(state: EnvState, params: EnvParams, config: EnvConfig
                           c * b.cos_h[None, :] + s * b.sin_h[None, :])
     bearing = polynomial_atan2(py, px)
     other_speed = jnp.broadcast_to(safe_norm(b.vx, b.vy)[None, :], px.shape)
-    there = b.active[None, :] & ~jnp.eye(config.max_agents, b.x.shape[0], dtype=bool)
+    there = b.active[None, :] & ~jnp.eye(layout.max_agents, b.x.shape[0], dtype=bool)
     return px, py, dh, bearing, other_speed, there
 
 
@@ -117,12 +99,12 @@ class SocialNorm(RewardTerm):
         raise NotImplementedError
 
     def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 config: EnvConfig) -> Array:
-        px, py, dh, bearing, other_speed, there = _norm_geometry(state, params, config)
+                 layout: Layout) -> Array:
+        px, py, dh, bearing, other_speed, there = _norm_geometry(state, params, layout)
         v = state.robots.velocity
         own_speed = safe_norm(v[:, 0], v[:, 1])[:, None]
         bad = self.violations(px, py, dh, bearing, own_speed, other_speed) & there
-        far = goal_distance(state) > self.goal_distance
+        far = state.goal_distance > self.goal_distance
         return -jnp.sum(bad, axis=1).astype(jnp.float32) * far
 
 

@@ -13,7 +13,7 @@ from sgjax.rewards.base import REWARDS, RewardTerm
 from sgjax.terms import check_bool
 
 if TYPE_CHECKING:
-    from sgjax.env import EnvConfig, EnvParams, EnvState
+    from sgjax.types import EnvParams, EnvState, Layout
 
 
 @REWARDS.register
@@ -42,9 +42,9 @@ class ZoneOrder(RewardTerm):
             check_bool(field, getattr(self, field))
 
     def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 config: EnvConfig) -> Array:
-        if config.num_zones == 0:
-            return jnp.zeros(config.max_agents)
+                 layout: Layout) -> Array:
+        if layout.num_zones == 0:
+            return jnp.zeros(layout.max_agents)
         rect, radius = params.map.zone_rect, params.robots.radius
         before, after = prev.zones, state.zones
         in_turn = zn.priority_rank(before) == zn.current_rank(before, prev.robots.x,

@@ -1,0 +1,189 @@
+"""The environment's datatypes: state, params and the static layout that terms read.
+
+This module is a leaf of the environment: it imports only kernels (dynamics, maps, humans,
+planner, zones, geometry), and every layer above (terms, the environment, evaluation) imports it.
+
+Shape letters, used in every docstring of the package:
+
+* ``R``: robot slots (``Layout.max_agents``); ``H``: pedestrian slots (``Layout.max_humans``);
+* ``D``: length of one robot's observation vector; ``K``: nearest others an observation lists;
+* ``W``: steps of history an observation term reads; ``Z``: conflict zones on the map;
+* ``L``: waypoints of a route; ``T``: steps of the stuck detector's window.
+
+Robot slots, one vocabulary everywhere:
+
+* **present** (``RobotState.present``): the slot takes part in this episode (the first
+  ``params.num_agents`` slots that ``reset`` could place); absent slots are padding;
+* **finished** (``RobotState.finished``): present and terminated, by arrival (``succeeded``) or
+  by an ender (``ended``, e.g. a fatal collision); absorbing: frozen, reward 0;
+* **active** (``RobotState.active``): present and not finished: it moves, is rewarded and can end.
+
+Units are SI throughout (m, s, rad; angles wrapped to (-pi, pi]).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import jax.numpy as jnp
+from flax import struct
+from jax import Array
+
+from sgjax.dynamics.limits import RobotParams
+from sgjax.dynamics.models import Kinematics
+from sgjax.humans.crowd import HumanParams, HumanState
+from sgjax.maps.arrays import MapArrays
+from sgjax.maps.sampling import Route
+from sgjax.planner import PlannerParams
+from sgjax.zones import ZoneState
+
+ACTION_MODES = ("go_stop", "continuous")
+GO, STOP = 0, 1  # the two GO/STOP actions
+
+
+@dataclasses.dataclass(frozen=True)
+class Layout:
+    """The static sizes that terms and policies need (changing one recompiles).
+
+    ``action_dim`` is 2 ``(forward, turn)`` or 3 ``(forward, lateral, turn)`` for continuous
+    actions (3 when the team has an omnidirectional robot); GO/STOP actions are one int each.
+    """
+
+    max_agents: int  # R
+    max_humans: int = 0  # H
+    num_zones: int = 0  # Z
+    action_mode: str = "go_stop"
+    action_dim: int = 2
+
+
+@struct.dataclass
+class RobotState:
+    """Robots, each field ``[R]``. Public: ``position``, ``heading``, ``velocity``, ``active``."""
+
+    x: Array  # m, world
+    y: Array  # m, world
+    kin: Kinematics
+    present: Array  # bool: takes part in this episode
+    succeeded: Array  # bool: reached its goal (absorbing)
+    ended: Array  # bool: terminated by an ender without success, e.g. a collision (absorbing)
+
+    @property
+    def position(self) -> Array:
+        """World position ``[R, 2]`` (m)."""
+        return jnp.stack([self.x, self.y], axis=-1)
+
+    @property
+    def heading(self) -> Array:
+        """Heading ``[R]`` (rad, in (-pi, pi])."""
+        return self.kin.heading
+
+    @property
+    def velocity(self) -> Array:
+        """World-frame velocity ``[R, 2]`` (m/s)."""
+        c, s = jnp.cos(self.kin.heading), jnp.sin(self.kin.heading)
+        vf, vl = self.kin.v_forward, self.kin.v_lateral
+        return jnp.stack([vf * c - vl * s, vf * s + vl * c], axis=-1)
+
+    @property
+    def finished(self) -> Array:
+        """``[R]`` bool: terminated (arrived, or ended by an ender)."""
+        return self.succeeded | self.ended
+
+    @property
+    def active(self) -> Array:
+        """``[R]`` bool: present and not finished."""
+        return self.present & ~self.finished
+
+
+@struct.dataclass
+class CollisionCounts:
+    """Collision onsets per robot since the episode began, ``[R]`` int32."""
+
+    robot: Array
+    wall: Array
+    human: Array
+
+
+@struct.dataclass
+class History:
+    """Past values for observation terms with a history: ``[W - 1, R]`` each, row 0 the step
+    before the current one (``W = observer.history_length``; the current values are read from
+    the state itself, so with W = 1 the arrays are empty). At reset every row holds the initial
+    value."""
+
+    vx: Array  # m/s, world frame
+    vy: Array
+    v_forward: Array  # m/s, body frame
+    v_lateral: Array
+    omega: Array  # rad/s
+    goal_distance: Array  # m, straight line
+
+    @staticmethod
+    def of(robots: RobotState, distance: Array) -> dict[str, Array]:
+        """This step's row: ``{field: [R]}`` from the robots and their goal distances (m)."""
+        v = robots.velocity
+        k = robots.kin
+        return {"vx": v[:, 0], "vy": v[:, 1], "v_forward": k.v_forward, "v_lateral": k.v_lateral,
+                "omega": k.omega, "goal_distance": distance}
+
+    @classmethod
+    def start(cls, length: int, robots: RobotState, distance: Array) -> History:
+        """``length`` rows, each the robots' values now."""
+        now = cls.of(robots, distance)
+        return cls(**{n: jnp.broadcast_to(v, (length,) + v.shape) for n, v in now.items()})
+
+    def push(self, robots: RobotState, distance: Array) -> History:
+        """Shift the rows back one step and put the robots' values now in row 0."""
+        if not self.goal_distance.shape[0]:
+            return self
+        now = self.of(robots, distance)
+        return History(**{n: jnp.concatenate([v[None], getattr(self, n)[:-1]], axis=0)
+                          for n, v in now.items()})
+
+
+@struct.dataclass
+class EnvState:
+    """One episode's state."""
+
+    robots: RobotState  # [R]
+    route: Route  # [R, L] waypoints from each robot's start to its goal
+    progress: Array  # [R] m along the route
+    touching_robot: Array  # [R] bool, at the last step (for onsets)
+    touching_wall: Array  # [R] bool
+    touching_human: Array  # [R] bool
+    collisions: CollisionCounts
+    humans: HumanState  # pedestrians [H]
+    time: Array  # int32 steps since reset
+    history: History  # [W - 1, R] past velocities and goal distances
+    zones: ZoneState  # [R, Z] conflict-zone bookkeeping
+    moved: Array  # [T, R] m travelled per step over the stuck detector's window (ring buffer)
+    total_steps: Array  # int32 steps since the first reset, kept across auto-resets (schedules)
+
+    @property
+    def goal_distance(self) -> Array:
+        """``[R]`` straight-line distance from each robot to its goal (m)."""
+        return self.route.goal_distance(self.robots.x, self.robots.y)
+
+
+@struct.dataclass
+class RewardParams:
+    """Reward-term weights by term name: ``{name: sgjax.rewards.Schedule}`` (a pytree of
+    params, so a ``vmap`` over weights is an ablation)."""
+
+    weights: dict[str, Any]
+
+
+@struct.dataclass
+class EnvParams:
+    """Everything physical; a pytree, so ``vmap`` over it is a sweep."""
+
+    robots: RobotParams  # [R] per-slot limits and radius
+    map: MapArrays
+    planner: PlannerParams
+    reward: RewardParams  # weight schedules by reward-term name
+    humans: HumanParams
+    num_agents: Array  # int32 scalar: robots that take part in an episode
+    dt: Array  # s per step
+    max_steps: Array  # int32: truncation after this many steps
+    goal_tolerance: Array  # m
