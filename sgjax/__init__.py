@@ -4,6 +4,7 @@ from sgjax import maps
 from sgjax.dynamics import PRESETS, RobotPreset
 from sgjax.env import EnvParams, EnvState, SocialNavEnv
 from sgjax.registry import make, registered
+from sgjax.version import __version__
 
 __all__ = [
     "PRESETS",
@@ -11,8 +12,8 @@ __all__ = [
     "EnvState",
     "RobotPreset",
     "SocialNavEnv",
+    "__version__",
     "make",
     "maps",
     "registered",
 ]
-__version__ = "0.1.0"

@@ -15,9 +15,11 @@ from typing import Any
 
 import jax
 
-import sgjax
 from sgjax.evaluate import DEFAULT_EPISODES, DEFAULT_NUM_AGENTS, evaluate, run_episodes
+from sgjax.maps.io import load as load_map
 from sgjax.policies import BASELINES
+from sgjax.registry import make, registered
+from sgjax.version import __version__
 
 MINI_GAMES = ("open", "doorway", "hallway", "intersection", "roundabout")
 
@@ -45,7 +47,7 @@ def _policy_help() -> str:
 
 
 def run_evaluate(args: argparse.Namespace) -> None:
-    print(f"sgjax {sgjax.__version__}, jax {jax.__version__} on {jax.devices()[0].platform}: "
+    print(f"sgjax {__version__}, jax {jax.__version__} on {jax.devices()[0].platform}: "
           f"{len(args.scenario)} scenario(s) x {len(args.policy)} policy(ies) x robot counts "
           f"{args.num_agents} x {args.episodes} episodes")
     evaluate(args.scenario, args.policy, num_agents=args.num_agents, episodes=args.episodes,
@@ -59,11 +61,11 @@ def run_render(args: argparse.Namespace) -> None:
     out = Path(args.out)
     if out.suffix.lower() not in (".gif", ".mp4"):
         raise SystemExit(f"sgjax render: --out {args.out!r} must end in .gif or .mp4")
-    env, params = sgjax.make(args.scenario, num_agents=args.num_agents, **_make_kwargs(args))
+    env, params = make(args.scenario, num_agents=args.num_agents, **_make_kwargs(args))
     batch = run_episodes(env, params, args.policy, jax.random.key(args.seed), 1, record=True)
     states = jax.tree.map(lambda leaf: leaf[:, 0], batch.states)
     length = int(batch.values["episode_length"][0])
-    spec = sgjax.maps.load(args.scenario)
+    spec = load_map(args.scenario)
     title = f"{spec.name} / {args.policy}"
     frames, stride = episode_frames(spec, states, params, length, title=title,
                                     width_px=args.width, max_frames=args.max_frames)
@@ -87,7 +89,7 @@ def build_parser() -> argparse.ArgumentParser:
                                          "table.md and PNG charts")
     ev.add_argument("--scenario", nargs="+", default=list(MINI_GAMES),
                     help=f"scenario ids or map files (default: the five mini-games); "
-                         f"shipped: {', '.join(sgjax.registered())}")
+                         f"shipped: {', '.join(registered())}")
     ev.add_argument("--policy", nargs="+", default=["only_local"], help=_policy_help())
     ev.add_argument("--num-agents", nargs="+", type=int, default=list(DEFAULT_NUM_AGENTS))
     ev.add_argument("--episodes", type=int, default=DEFAULT_EPISODES,

@@ -10,14 +10,15 @@ Command line: ``sgjax evaluate --scenario doorway --policy only_local --num-agen
 --episodes 25 --out runs/eval`` (see :mod:`sgjax.cli`). Each configuration runs its episodes as
 one ``jit(scan(vmap(step_env)))`` for the time limit; an episode's state is frozen once it ends,
 and :mod:`sgjax.metrics` accumulates inside the scan. Results are summarised per metric over
-episodes: mean, a 95% confidence interval (Wilson for yes/no episode metrics, Student t for the
-rest) and the number of episodes with a value.
+episodes by :mod:`sgjax.statistics` (mean, a 95% confidence interval: Wilson for yes/no episode
+metrics, Student t for the rest, and the number of episodes with a value) and written by
+:mod:`sgjax.report`. The statistics names (``summarize``, ``Summary``, ``ConfigResult``, ...)
+are re-exported here.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -26,16 +27,30 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import numpy as np
-from scipy import stats as scipy_stats
 
-import sgjax
 from sgjax import metrics
 from sgjax.env import EnvParams, SocialNavEnv
-from sgjax.policies import Policy, RecurrentPolicy, checkpoint_make_kwargs, load_policy
+from sgjax.policies import Policy, RecurrentPolicy, load_policy, policy_make_kwargs
+from sgjax.registry import make
+from sgjax.report import write_all
+from sgjax.statistics import (
+    CONFIDENCE,
+    ConfigResult,
+    Summary,
+    summarize,
+    summarize_metrics,
+    t_interval,
+    wilson_interval,
+)
+
+__all__ = [
+    "CONFIDENCE", "DEFAULT_EPISODES", "DEFAULT_NUM_AGENTS", "ConfigResult", "Episodes",
+    "Summary", "episode_runner", "evaluate", "run_episodes", "summarize", "summarize_episodes",
+    "t_interval", "wilson_interval", "with_zone_books",
+]
 
 DEFAULT_NUM_AGENTS = (3, 4, 5, 7, 10)
 DEFAULT_EPISODES = 25
-CONFIDENCE = 0.95
 
 
 def with_zone_books(env: SocialNavEnv) -> SocialNavEnv:
@@ -52,6 +67,8 @@ class Episodes:
     values: dict[str, np.ndarray]  # per-episode value of every metric, [E]
     robot: dict[str, np.ndarray]  # per-robot values of robot-level metrics, [E, R]
     states: Any = None  # with record=True: EnvState stacked [T + 1, E, ...] (T = time limit)
+    compile_seconds: float | None = None  # compiling the batched run
+    run_seconds: float | None = None  # running it once compiled (results on the host)
 
 
 def episode_runner(
@@ -119,88 +136,19 @@ def run_episodes(
         raise ValueError(f"num_episodes must be at least 1, got {num_episodes}")
     env.check_params(params)
     run = episode_runner(env, params, load_policy(policy, env), num_episodes, constants, record)
-    values, robot, states = jax.device_get(run(key))
+    t0 = time.perf_counter()
+    compiled = run.lower(key).compile()
+    t1 = time.perf_counter()
+    values, robot, states = jax.device_get(compiled(key))
+    t2 = time.perf_counter()
     return Episodes(values={k: np.asarray(v) for k, v in values.items()},
-                    robot={k: np.asarray(v) for k, v in robot.items()}, states=states)
-
-
-@dataclasses.dataclass(frozen=True)
-class Summary:
-    """Mean of a metric over the episodes that have a value, with its 95% interval."""
-
-    mean: float
-    ci_low: float
-    ci_high: float
-    std: float
-    n: int
-
-    def as_dict(self) -> dict[str, float | int | None]:
-        def clean(v: float) -> float | None:
-            return None if math.isnan(v) else float(v)
-        return {"mean": clean(self.mean), "ci_low": clean(self.ci_low),
-                "ci_high": clean(self.ci_high), "std": clean(self.std), "n": self.n}
-
-
-def wilson_interval(successes: float, n: int, confidence: float = CONFIDENCE
-                    ) -> tuple[float, float]:
-    """Wilson score interval of a proportion ``successes / n``."""
-    if n == 0:
-        return math.nan, math.nan
-    z = float(scipy_stats.norm.ppf(0.5 + confidence / 2))
-    p = successes / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return max(0.0, centre - half), min(1.0, centre + half)
-
-
-def t_interval(values: np.ndarray, confidence: float = CONFIDENCE) -> tuple[float, float]:
-    """Student-t interval of the mean of ``values`` (NaN with fewer than two)."""
-    n = len(values)
-    if n < 2:
-        return math.nan, math.nan
-    mean = float(np.mean(values))
-    half = float(scipy_stats.t.ppf(0.5 + confidence / 2, n - 1)) * float(
-        np.std(values, ddof=1)) / math.sqrt(n)
-    return mean - half, mean + half
-
-
-def summarize(values: np.ndarray, binary: bool, fraction: bool = False) -> Summary:
-    """Summary over episodes of one metric's per-episode values (NaNs are left out). Every
-    metric is non-negative, so the interval is clipped at 0, and at 1 for ``fraction``s."""
-    x = np.asarray(values, np.float64)
-    x = x[np.isfinite(x)]
-    n = len(x)
-    if n == 0:
-        return Summary(math.nan, math.nan, math.nan, math.nan, 0)
-    low, high = wilson_interval(float(np.sum(x)), n) if binary else t_interval(x)
-    low, high = max(low, 0.0), (min(high, 1.0) if fraction else high)
-    std = float(np.std(x, ddof=1)) if n > 1 else math.nan
-    return Summary(float(np.mean(x)), low, high, std, n)
-
-
-@dataclasses.dataclass
-class ConfigResult:
-    """One configuration's summaries (``metrics`` in :data:`sgjax.metrics.METRICS` order)."""
-
-    scenario: str
-    policy: str
-    num_agents: int
-    episodes: int
-    seed: int
-    dt: float
-    max_steps: int
-    metrics: dict[str, Summary]
-    seconds: float  # wall time, compile included
-
-    def as_dict(self) -> dict[str, Any]:
-        out = {k: v for k, v in dataclasses.asdict(self).items() if k != "metrics"}
-        out["metrics"] = {name: s.as_dict() for name, s in self.metrics.items()}
-        return out
+                    robot={k: np.asarray(v) for k, v in robot.items()}, states=states,
+                    compile_seconds=t1 - t0, run_seconds=t2 - t1)
 
 
 def summarize_episodes(episodes: Episodes) -> dict[str, Summary]:
-    return {info.name: summarize(episodes.values[info.name], info.binary,
-                                 info.unit == "fraction") for info in metrics.METRICS}
+    """Every metric of a batch summarised over its episodes (:mod:`sgjax.statistics`)."""
+    return summarize_metrics(episodes.values)
 
 
 def evaluate(
@@ -230,25 +178,31 @@ def evaluate(
                     else policy if isinstance(policy, str) else f"policy{p}")
             for n in num_agents:
                 t0 = time.perf_counter()
-                kwargs = {**checkpoint_make_kwargs(policy), **(make_kwargs or {})}
-                env, params = sgjax.make(scenario, num_agents=n, **kwargs)
+                kwargs = {**policy_make_kwargs(policy), **(make_kwargs or {})}
+                env, params = make(scenario, num_agents=n, **kwargs)
                 batch = run_episodes(env, params, policy, jax.random.key(seed), episodes,
                                      constants)
                 result = ConfigResult(
                     scenario=str(scenario), policy=name, num_agents=n, episodes=episodes,
                     seed=seed, dt=float(params.dt), max_steps=int(params.max_steps),
-                    metrics=summarize_episodes(batch), seconds=time.perf_counter() - t0)
+                    metrics=summarize_episodes(batch), seconds=time.perf_counter() - t0,
+                    compile_seconds=batch.compile_seconds, run_seconds=batch.run_seconds)
                 results.append(result)
                 if log is not None:
-                    m = result.metrics
-                    log(f"{scenario:>12} {name:>18} {n:>3} robots: team success "
-                        f"{m['team_success'].mean:.2f}, success {m['success'].mean:.2f}, "
-                        f"collisions {m['collisions'].mean:.2f}, length "
-                        f"{m['episode_length'].mean:.0f} steps ({result.seconds:.1f} s)")
+                    log(_progress_line(result))
     if out is not None:
-        from sgjax.report import write_all
-
         paths = write_all(results, Path(out), constants)
         if log is not None:
             log("wrote " + ", ".join(str(p) for p in paths))
     return results
+
+
+def _progress_line(result: ConfigResult) -> str:
+    m = result.metrics
+    rate = result.agent_steps_per_second
+    speed = "" if rate is None else (
+        f", compiled in {result.compile_seconds:.1f} s, {rate:,.0f} agent-steps/s")
+    return (f"{result.scenario:>12} {result.policy:>18} {result.num_agents:>3} robots: team "
+            f"success {m['team_success'].mean:.2f}, success {m['success'].mean:.2f}, collisions "
+            f"{m['collisions'].mean:.2f}, length {m['episode_length'].mean:.0f} steps "
+            f"({result.seconds:.1f} s{speed})")

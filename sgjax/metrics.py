@@ -442,7 +442,7 @@ def finalize(
         robot[f"{space}_space_robot"] = known(m.near_robot[k] / steps, saw_robot)
     robot = {name: jnp.where(present, value.astype(jnp.float32), nan)
              for name, value in robot.items()}
-    team = jnp.all(success | ~present) & jnp.any(present)
+    team = team_success(present, robots.succeeded)
     episode = {
         "team_success": team,
         "collision_episode": jnp.any(present & (total > 0)),
@@ -452,6 +452,12 @@ def finalize(
         "stuck_end": (m.length < params.max_steps) & ~jnp.all(~present | robots.finished),
     }
     return robot, {name: jnp.asarray(v, jnp.float32) for name, v in episode.items()}
+
+
+def team_success(present: Array, succeeded: Array) -> Array:
+    """Team success from ``present`` and ``succeeded`` ``[..., R]``: every robot in the episode
+    arrived, and there was one. ``[...]`` bool."""
+    return jnp.all(succeeded | ~present, axis=-1) & jnp.any(present, axis=-1)
 
 
 def per_episode(robot: dict[str, Array], episode: dict[str, Array]) -> dict[str, Array]:

@@ -13,6 +13,12 @@ Built-in baselines (:data:`BASELINES`):
 * ``stop_when_blocked``: GO, but STOP while a pedestrian, or another unfinished robot with a
   smaller index (a fixed priority, so two robots never wait for each other), is within
   ``STOP_DISTANCE`` m (body to body) and within ``STOP_HALF_ANGLE`` of the robot's heading.
+
+Other policies come from *loaders* (:class:`PolicyLoader`): each recognises the specs it reads
+(a trainer checkpoint, say) and builds the policy for an environment. Loaders register with
+:func:`register_loader`, or are found at first use in the ``sgjax.policy_loaders`` entry point
+group (the trainer ships ``checkpoint = "train.checkpoint:LOADER"``), so this module never
+imports the packages that provide them.
 """
 
 from __future__ import annotations
@@ -20,7 +26,10 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import math
+import re
 from collections.abc import Callable
+from importlib import metadata
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import jax
@@ -112,50 +121,127 @@ _BUILDERS = {"only_local": only_local, "random": random_policy,
              "stop_when_blocked": stop_when_blocked}
 
 
+LOADER_GROUP = "sgjax.policy_loaders"
+_FUNCTION_SPEC = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
+
+
+@dataclasses.dataclass(frozen=True)
+class PolicyLoader:
+    """Policies from specs that are neither baselines nor ``module:function``: ``matches(spec)``
+    says whether this loader reads ``spec``; ``load(spec, env)`` builds the policy for ``env``
+    (``env`` may be None); ``make_kwargs(spec)`` gives the :func:`sgjax.make` settings the policy
+    needs (a checkpoint's observation and action settings), applied before the caller's own."""
+
+    name: str
+    matches: Callable[[str], bool]
+    load: Callable[[str, Any], Policy | RecurrentPolicy]
+    make_kwargs: Callable[[str], dict[str, Any]] = lambda spec: {}
+
+
+_LOADERS: dict[str, PolicyLoader] = {}
+_discovery: list[str] | None = None  # None until the entry points are read; then their errors
+
+
+def register_loader(name: str | PolicyLoader, matches: Callable[[str], bool] | None = None,
+                    load: Callable[[str, Any], Policy | RecurrentPolicy] | None = None,
+                    make_kwargs: Callable[[str], dict[str, Any]] | None = None) -> PolicyLoader:
+    """Register a policy loader (a :class:`PolicyLoader`, or its name and functions); a loader
+    of the same name is replaced. Returns the loader."""
+    if isinstance(name, PolicyLoader):
+        loader = name
+    else:
+        if matches is None or load is None:
+            raise TypeError("register_loader: give a PolicyLoader, or a name with matches and "
+                            "load functions")
+        loader = PolicyLoader(name, matches, load, make_kwargs or (lambda spec: {}))
+    _LOADERS[loader.name] = loader
+    return loader
+
+
+def registered_loaders() -> dict[str, PolicyLoader]:
+    """Every policy loader, the entry point group's included, by name."""
+    _discover()
+    return dict(_LOADERS)
+
+
+def _discover() -> list[str]:
+    """Load the ``sgjax.policy_loaders`` entry points once; returns the problems met."""
+    global _discovery
+    if _discovery is None:
+        problems = []
+        for point in metadata.entry_points(group=LOADER_GROUP):
+            try:
+                loader = point.load()
+            except Exception as err:  # a broken plug-in must not break the baselines
+                problems.append(f"entry point {point.name} = {point.value!r}: {err!r}")
+                continue
+            if not isinstance(loader, PolicyLoader):
+                problems.append(f"entry point {point.name} = {point.value!r} is not a "
+                                "sgjax.policies.PolicyLoader")
+                continue
+            _LOADERS.setdefault(loader.name, loader)
+        _discovery = problems
+    return _discovery
+
+
+def find_loader(spec: Any) -> PolicyLoader | None:
+    """The loader that reads ``spec`` (a string that is not a baseline), if any."""
+    if not isinstance(spec, str) or spec in _BUILDERS:
+        return None
+    for attempt in range(2):
+        if attempt:
+            _discover()
+        for loader in list(_LOADERS.values()):
+            if loader.matches(spec):
+                return loader
+    return None
+
+
 def load_policy(spec: str | Policy | RecurrentPolicy, env: SocialNavEnv
                 ) -> Policy | RecurrentPolicy:
     """A policy for ``env`` from a baseline name, ``"package.module:function"`` naming a
-    function ``fn(obs, key) -> actions``, a trainer checkpoint (a ``.msgpack`` file or a run
-    folder, see ``train.checkpoint``), or a policy (returned as is)."""
+    function ``fn(obs, key) -> actions``, a spec a registered loader reads (a trainer
+    checkpoint: a ``.msgpack`` file or a run folder, see ``train.checkpoint``), or a policy
+    (returned as is)."""
     if callable(spec) or isinstance(spec, RecurrentPolicy):
         return spec
-    if is_checkpoint(spec):
-        from train.checkpoint import load_policy as load_checkpoint_policy
-
-        return load_checkpoint_policy(spec, env)
     if spec in _BUILDERS:
         return _BUILDERS[spec](env)
-    if ":" in spec:
-        module_name, _, attr = spec.partition(":")
-        try:
-            module = importlib.import_module(module_name)
-        except ImportError as err:
-            raise ValueError(f"policy {spec!r}: cannot import module {module_name!r} ({err})"
-                             ) from err
-        fn = getattr(module, attr, None)
-        if not callable(fn):
-            raise ValueError(f"policy {spec!r}: module {module_name!r} has no function {attr!r}")
-        return from_observations(fn)
+    if _FUNCTION_SPEC.match(spec):
+        return _function_policy(spec)
+    loader = find_loader(spec)
+    if loader is not None:
+        return loader.load(spec, env)
+    if spec.endswith(".msgpack") or Path(spec).exists():
+        problems = "".join(f"; {p}" for p in _discover())
+        raise ValueError(
+            f"policy {spec!r} looks like a trainer checkpoint, but no installed policy loader "
+            f"reads it (loaders: {sorted(_LOADERS) or 'none'}{problems}). Install the trainer, "
+            "pip install 'sgjax[train]' (from a checkout: pip install -e '.[train]'), which "
+            f"registers its loader in the {LOADER_GROUP!r} entry point group, or import "
+            "train.checkpoint before evaluating")
     raise ValueError(f"policy {spec!r} is not known: use a baseline ({', '.join(BASELINES)}), "
                      "'package.module:function' for a function (obs, key) -> actions, or a "
                      "trainer checkpoint (.msgpack file or run folder)")
 
 
-def is_checkpoint(spec: Any) -> bool:
-    """Whether ``spec`` names a trainer checkpoint file or run folder."""
-    from pathlib import Path
+def _function_policy(spec: str) -> Policy:
+    module_name, _, attr = spec.partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as err:
+        raise ValueError(f"policy {spec!r}: cannot import module {module_name!r} ({err})"
+                         ) from err
+    fn = getattr(module, attr, None)
+    if not callable(fn):
+        raise ValueError(f"policy {spec!r}: module {module_name!r} has no function {attr!r}")
+    return from_observations(fn)
 
-    if not isinstance(spec, str) or spec in _BUILDERS:
-        return False
-    path = Path(spec)
-    return path.suffix == ".msgpack" or (path.is_dir() and (
-        (path / "checkpoints").is_dir() or any(path.glob("*.msgpack"))))
 
-
-def checkpoint_make_kwargs(spec: Any) -> dict[str, Any]:
-    """The ``sgjax.make`` settings a checkpoint was trained with ({} for other policies)."""
-    if not is_checkpoint(spec):
+def policy_make_kwargs(spec: Any) -> dict[str, Any]:
+    """The ``sgjax.make`` settings a policy spec needs ({} unless a loader reads it: a
+    checkpoint's settings from training)."""
+    if not isinstance(spec, str) or _FUNCTION_SPEC.match(spec):
         return {}
-    from train.checkpoint import make_kwargs
-
-    return make_kwargs(spec)
+    loader = find_loader(spec)
+    return {} if loader is None else dict(loader.make_kwargs(spec))

@@ -1,5 +1,7 @@
-"""Host-side rendering with matplotlib (Agg, headless): map pictures, frames, animations
-(GIF with pillow, MP4 with ffmpeg when it is installed) and trajectory plots.
+"""Host-side rendering with matplotlib: map pictures, frames, animations (GIF with pillow, MP4
+with ffmpeg when it is installed) and trajectory plots. Every figure is drawn by its own Agg
+canvas (headless), so importing this module neither needs pyplot nor changes matplotlib's
+backend.
 
 Nothing here runs inside ``jit``; pass states (or slices of a stacked rollout) as arrays.
 Robots are coloured by id; their outline says their status: white while driving, red while in
@@ -15,27 +17,28 @@ from pathlib import Path
 
 import jax
 import matplotlib
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import LineCollection
+from matplotlib.figure import Figure
+from matplotlib.patches import Circle, Rectangle
+from PIL import Image
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.collections import LineCollection  # noqa: E402
-from matplotlib.patches import Circle, Rectangle  # noqa: E402
-from PIL import Image  # noqa: E402
+from sgjax.maps.arrays import spawn_groups
+from sgjax.maps.schema import MapSpec
 
-from sgjax.maps.arrays import spawn_groups  # noqa: E402
-from sgjax.maps.schema import MapSpec  # noqa: E402
-
-ROBOT_COLOURS = plt.get_cmap("tab10").colors
+ROBOT_COLOURS = matplotlib.colormaps["tab10"].colors
 CONTACT_COLOUR = "#e31a1c"
 ENDED_COLOUR = "#7f7f7f"
 
 
-def _figure(spec: MapSpec, width_px: int) -> tuple[plt.Figure, plt.Axes]:
+def _figure(spec: MapSpec, width_px: int) -> tuple[Figure, Axes]:
     xmin, ymin, xmax, ymax = spec.bounds
     aspect = (ymax - ymin) / (xmax - xmin)
     dpi = 100
-    fig = plt.figure(figsize=(width_px / dpi, max(2.0, width_px * aspect / dpi)), dpi=dpi)
+    fig = Figure(figsize=(width_px / dpi, max(2.0, width_px * aspect / dpi)), dpi=dpi)
+    FigureCanvasAgg(fig)  # its own canvas: no pyplot, no global backend
     ax = fig.add_axes((0, 0, 1, 1))
     ax.set_xlim(xmin, xmax)
     ax.set_ylim(ymin, ymax)
@@ -44,7 +47,7 @@ def _figure(spec: MapSpec, width_px: int) -> tuple[plt.Figure, plt.Axes]:
     return fig, ax
 
 
-def _draw_map(ax: plt.Axes, spec: MapSpec, graph: bool, zones: bool) -> None:
+def _draw_map(ax: Axes, spec: MapSpec, graph: bool, zones: bool) -> None:
     if zones:
         for zone in spec.zones:
             x0, y0, x1, y1 = zone.rect
@@ -59,11 +62,9 @@ def _draw_map(ax: plt.Axes, spec: MapSpec, graph: bool, zones: bool) -> None:
         ax.add_collection(LineCollection(walls, colors="black", linewidths=2.0, zorder=3))
 
 
-def _to_rgb(fig: plt.Figure) -> np.ndarray:
+def _to_rgb(fig: Figure) -> np.ndarray:
     fig.canvas.draw()
-    rgb = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
-    plt.close(fig)
-    return rgb
+    return np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
 
 
 def draw_scenario(spec: MapSpec, width_px: int = 480) -> np.ndarray:
@@ -274,7 +275,6 @@ def save_png(image: np.ndarray, path: str | Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(np.asarray(image, np.uint8)).save(path)
     return path
-
 
 
 def _index(tree, t: int):

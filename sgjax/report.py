@@ -13,14 +13,13 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
-import matplotlib
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-import sgjax  # noqa: E402
-from sgjax.evaluate import CONFIDENCE, ConfigResult, Summary  # noqa: E402
-from sgjax.metrics import METRICS, METRICS_BY_NAME, MetricConstants  # noqa: E402
+from sgjax.metrics import METRICS, METRICS_BY_NAME, MetricConstants
+from sgjax.statistics import CONFIDENCE, ConfigResult, Summary
+from sgjax.version import __version__
 
 # The paper's Table 3 columns, then success.
 HEADLINE = (("episode_length", "Avg. length (steps)"), ("collisions", "Coll. rate"),
@@ -43,7 +42,7 @@ def write_all(results: Sequence[ConfigResult], out: Path,
 
 def write_json(results: Sequence[ConfigResult], path: Path, constants: MetricConstants) -> Path:
     document = {
-        "sgjax_version": sgjax.__version__,
+        "sgjax_version": __version__,
         "confidence": CONFIDENCE,
         "interval": "Wilson score for yes/no episode metrics (binary), Student t otherwise, "
                     "clipped to [0, 1] for fractions and at 0 below; "
@@ -86,39 +85,48 @@ def format_summary(s: Summary, percent: bool = False) -> str:
     return text
 
 
-def write_table(results: Sequence[ConfigResult], path: Path) -> Path:
-    lines = [f"# Evaluation (sgjax {sgjax.__version__})", "",
-             f"Means over episodes ± the larger half of the {CONFIDENCE:.0%} interval; "
-             "definitions in docs/metrics.md.", "",
-             "## Metrics per scenario and policy", "",
-             "| Scenario | Policy | Robots | Episodes | "
-             + " | ".join(title for _, title in HEADLINE) + " |",
-             "|---|---|---|---|" + "---|" * len(HEADLINE)]
-    for r in results:
-        lines.append(f"| {r.scenario} | {r.policy} | {r.num_agents} | {r.episodes} | "
-                     + " | ".join(format_summary(r.metrics[name]) for name, _ in HEADLINE) + " |")
+def markdown_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
+    """The lines of a markdown table: ``header``, the rule, then one line per row."""
+    def line(cells: Sequence[str]) -> str:
+        return "| " + " | ".join(str(c) for c in cells) + " |"
+    return [line(header), "|" + "---|" * len(header), *(line(r) for r in rows)]
+
+
+def summary_tables(results: Sequence[ConfigResult]) -> str:
+    """The paper's two tables as markdown: the headline metrics of every configuration, then
+    team success (%) by robot count with the average."""
+    lines = [f"Means over episodes ± the larger half of the {CONFIDENCE:.0%} interval; "
+             "definitions in docs/metrics.md.", "", "## Metrics per scenario and policy", ""]
+    lines += markdown_table(
+        ["Scenario", "Policy", "Robots", "Episodes", *(title for _, title in HEADLINE)],
+        [[r.scenario, r.policy, r.num_agents, r.episodes,
+          *(format_summary(r.metrics[name]) for name, _ in HEADLINE)] for r in results])
     counts = sorted({r.num_agents for r in results})
-    lines += ["", "## Team success (%) by robot count", "",
-              "| Scenario | Policy | " + " | ".join(f"{n}A" for n in counts) + " | Avg. |",
-              "|---|---|" + "---|" * (len(counts) + 1)]
+    rows = []
     for scenario, policy in dict.fromkeys((r.scenario, r.policy) for r in results):
         by_count = {r.num_agents: r.metrics["team_success"] for r in results
                     if (r.scenario, r.policy) == (scenario, policy)}
         means = [s.mean for s in by_count.values() if s.n]
         average = f"{100 * sum(means) / len(means):.0f}" if means else "n/a"
-        lines.append(f"| {scenario} | {policy} | " + " | ".join(
-            format_summary(by_count[n], percent=True) if n in by_count else "" for n in counts)
-            + f" | {average} |")
-    lines += ["", "## Every metric", ""]
+        rows.append([scenario, policy, *(format_summary(by_count[n], percent=True)
+                                         if n in by_count else "" for n in counts), average])
+    lines += ["", "## Team success (%) by robot count", ""]
+    lines += markdown_table(["Scenario", "Policy", *(f"{n}A" for n in counts), "Avg."], rows)
+    return "\n".join(lines)
+
+
+def write_table(results: Sequence[ConfigResult], path: Path) -> Path:
+    lines = [f"# Evaluation (sgjax {__version__})", "", summary_tables(results), "",
+             "## Every metric", ""]
     for r in results:
         lines += [f"### {r.scenario}, {r.policy}, {r.num_agents} robots ({r.episodes} episodes,"
-                  f" seed {r.seed})", "", "| Metric | Unit | Mean | 95% interval | n |",
-                  "|---|---|---|---|---|"]
+                  f" seed {r.seed})", ""]
+        rows = []
         for name, s in r.metrics.items():
             interval = ("n/a" if math.isnan(s.ci_low) else f"[{s.ci_low:.3g}, {s.ci_high:.3g}]")
             mean = "n/a" if math.isnan(s.mean) else f"{s.mean:.3g}"
-            lines.append(f"| {name} | {METRICS_BY_NAME[name].unit} | {mean} | {interval} |"
-                         f" {s.n} |")
+            rows.append([name, METRICS_BY_NAME[name].unit, mean, interval, s.n])
+        lines += markdown_table(["Metric", "Unit", "Mean", "95% interval", "n"], rows)
         lines.append("")
     path.write_text("\n".join(lines) + "\n")
     return path
@@ -134,7 +142,7 @@ def _series(results: Sequence[ConfigResult], metric: str):
                 [max(0.0, x.ci_high - x.mean) if x.n > 1 else 0.0 for x in s]])
 
 
-def _plot(ax: plt.Axes, results: Sequence[ConfigResult], metric: str) -> None:
+def _plot(ax: Axes, results: Sequence[ConfigResult], metric: str) -> None:
     for label, xs, ys, err in _series(results, metric):
         err = [[0.0 if math.isnan(e) else e for e in side] for side in err]
         ax.errorbar(xs, ys, yerr=err, marker="o", capsize=3, label=label)
@@ -146,25 +154,33 @@ def _plot(ax: plt.Axes, results: Sequence[ConfigResult], metric: str) -> None:
 
 
 def plot_success(results: Sequence[ConfigResult], path: Path) -> Path:
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.6), dpi=100)
+    fig = _new_figure(9, 3.6)
+    axes = fig.subplots(1, 2)
     for ax, metric in zip(axes, ("team_success", "success"), strict=True):
         _plot(ax, results, metric)
         ax.set_ylim(-0.05, 1.05)
     axes[0].legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path)
-    plt.close(fig)
     return path
 
 
 def plot_metrics(results: Sequence[ConfigResult], path: Path) -> Path:
     cols = 3
     rows = math.ceil(len(CHARTED) / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(11, 3.0 * rows), dpi=100)
+    fig = _new_figure(11, 3.0 * rows)
+    axes = fig.subplots(rows, cols, squeeze=False)
     for ax, metric in zip(axes.flat, CHARTED, strict=False):
         _plot(ax, results, metric)
     axes.flat[0].legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path)
-    plt.close(fig)
     return path
+
+
+def _new_figure(width: float, height: float) -> Figure:
+    """A figure drawn by its own Agg canvas: matplotlib's global backend and pyplot's figure
+    list are left alone (importing sgjax never changes a notebook's plotting)."""
+    fig = Figure(figsize=(width, height), dpi=100)
+    FigureCanvasAgg(fig)
+    return fig

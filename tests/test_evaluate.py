@@ -1,9 +1,13 @@
-"""The evaluation runner, its outputs, the baselines, and ``sgjax render`` end to end."""
+"""The evaluation runner, its outputs, the baselines, policy loaders, ``sgjax render`` end to
+end, and the evaluation layer's imports."""
 
+import ast
 import csv
 import json
 import math
 import shutil
+import sys
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -13,11 +17,13 @@ from PIL import Image
 from scenes import make_room, place
 
 import sgjax
-from sgjax import metrics
+from sgjax import metrics, policies, statistics
 from sgjax.cli import main
 from sgjax.evaluate import run_episodes
 from sgjax.policies import GO, STOP, load_policy, stop_when_blocked
 from sgjax.render import save_animation
+
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def go_everywhere(obs, key):
@@ -28,7 +34,8 @@ def go_everywhere(obs, key):
 def test_evaluate_command_end_to_end(tmp_path, capsys):
     main(["evaluate", "--scenario", "open", "--policy", "only_local", "stop_when_blocked",
           "--num-agents", "2", "3", "--episodes", "3", "--out", str(tmp_path)])
-    assert "team success" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "team success" in out and "agent-steps/s" in out  # throughput, once compiled
     document = json.loads((tmp_path / "metrics.json").read_text())
     assert document["constants"]["space_radii"] == [0.45, 1.2, 3.6]
     assert set(document["definitions"]) == set(metrics.METRIC_NAMES)
@@ -37,6 +44,7 @@ def test_evaluate_command_end_to_end(tmp_path, capsys):
         ("only_local", 2), ("only_local", 3), ("stop_when_blocked", 2),
         ("stop_when_blocked", 3)]
     for r in results:
+        assert r["compile_seconds"] > 0 and r["run_seconds"] > 0
         s = r["metrics"]["success"]
         assert s["n"] == 3 and 0.0 <= s["ci_low"] <= s["mean"] <= s["ci_high"] <= 1.0
         assert r["metrics"]["min_distance_human"]["mean"] is None  # no pedestrians
@@ -142,3 +150,106 @@ def test_metrics_are_finite_where_defined():
         if info.unit == "fraction":
             assert (values <= 1).all(), name
     assert not math.isnan(batch.values["order_violations_entry"][0])  # zone books were kept
+
+
+def test_statistics_are_reexported_by_evaluate():
+    import sgjax.evaluate as evaluate
+
+    for name in ("CONFIDENCE", "Summary", "ConfigResult", "summarize", "t_interval",
+                 "wilson_interval"):
+        assert getattr(evaluate, name) is getattr(statistics, name), name
+
+
+@pytest.fixture
+def fresh_loaders(monkeypatch):
+    """An empty loader registry whose entry points are read again at first use."""
+    monkeypatch.setattr(policies, "_LOADERS", {})
+    monkeypatch.setattr(policies, "_discovery", None)
+
+
+FAKE_LOADER = """
+import jax.numpy as jnp
+from sgjax.policies import PolicyLoader
+
+def load(spec, env):
+    return lambda obs, key, state, params: jnp.ones(obs.shape[0], jnp.int32)
+
+LOADER = PolicyLoader("fake", matches=lambda spec: spec.endswith(".fake"), load=load,
+                      make_kwargs=lambda spec: {"time_limit": 3.0})
+"""
+
+
+def test_policy_loaders_come_from_the_entry_point_group(tmp_path, monkeypatch, fresh_loaders):
+    (tmp_path / "fake_sgjax_loader.py").write_text(FAKE_LOADER)
+    info = tmp_path / "fake_sgjax_loader-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: fake-sgjax-loader\n"
+                                   "Version: 0.1\n")
+    (info / "entry_points.txt").write_text(
+        "[sgjax.policy_loaders]\nfake = fake_sgjax_loader:LOADER\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    env, params = sgjax.make("open", num_agents=2)
+    obs, state = env.reset(jax.random.key(0), params)
+    assert load_policy("only_local", env) is not None and policies._discovery is None  # lazy
+    policy = load_policy("run.fake", env)
+    assert policy(obs, jax.random.key(0), state, params).tolist() == [STOP, STOP]
+    assert policies.policy_make_kwargs("run.fake") == {"time_limit": 3.0}
+    assert policies.policy_make_kwargs("only_local") == {}
+    assert "fake" in policies.registered_loaders()
+    sys.modules.pop("fake_sgjax_loader", None)
+
+
+def test_a_checkpoint_without_a_loader_is_a_clear_error(tmp_path, monkeypatch, fresh_loaders):
+    monkeypatch.setattr(policies.metadata, "entry_points", lambda group: [])
+    env, _ = sgjax.make("open", num_agents=2)
+    with pytest.raises(ValueError, match=r"no installed policy loader.*sgjax\[train\]"):
+        load_policy(str(tmp_path / "best.msgpack"), env)
+    with pytest.raises(ValueError, match="looks like a trainer checkpoint"):
+        load_policy(str(tmp_path), env)  # an existing folder
+    seen = []
+    policies.register_loader("folders", matches=lambda spec: spec == str(tmp_path),
+                             load=lambda spec, env: seen.append(spec) or policies.only_local(env))
+    load_policy(str(tmp_path), env)
+    assert seen == [str(tmp_path)]
+
+
+EVALUATION_AND_APPS = ("policies", "evaluate", "metrics", "statistics", "report", "render",
+                       "cli", "pettingzoo", "sb3", "jaxmarl")
+
+
+def _imports(path: Path, modules: set[str]) -> set[str]:
+    """Every module ``path`` imports, at module level, under TYPE_CHECKING or in a function
+    (``from package import module`` counts as the module)."""
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+            for alias in node.names:
+                full = f"{node.module}.{alias.name}"
+                found.add(full if full in modules else node.module)
+    return found
+
+
+def test_sgjax_never_imports_train_and_evaluation_has_no_import_circle():
+    modules = {}
+    for path in (ROOT / "sgjax").rglob("*.py"):
+        name = ".".join(path.relative_to(ROOT).with_suffix("").parts)
+        modules[name.removesuffix(".__init__")] = path
+    graph = {}
+    for name, path in modules.items():
+        imported = _imports(path, set(modules))
+        assert not any(m == "train" or m.startswith("train.") for m in imported), (
+            f"{name} imports the trainer")
+        assert "rollout" not in name
+        graph[name] = {m for m in imported if m in modules and m != name}
+    for start in (f"sgjax.{m}" for m in EVALUATION_AND_APPS):
+        stack, seen = [(start, (start,))], set()
+        while stack:
+            node, trail = stack.pop()
+            for nxt in graph[node]:
+                assert nxt != start, "import circle: " + " -> ".join((*trail, nxt))
+                if nxt not in seen:
+                    seen.add(nxt)
+                    stack.append((nxt, (*trail, nxt)))
+    assert "sgjax" not in graph["sgjax.evaluate"] | graph["sgjax.report"] | graph["sgjax.cli"]

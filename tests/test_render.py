@@ -1,4 +1,10 @@
-"""Rendering and the main job: frames have the right shape and change; GIFs are readable."""
+"""Rendering: frames have the right shape and change; GIFs are readable; drawing leaves
+matplotlib's global backend alone."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -7,7 +13,8 @@ from PIL import Image
 
 import sgjax
 from sgjax.render import draw_scenario, render_state, save_gif
-from sgjax.rollout import main
+
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def frame_of(spec, state, radius):
@@ -35,10 +42,34 @@ def test_scenario_picture():
     assert image.shape[1] == 120 and image.std() > 0
 
 
-def test_main_job_end_to_end(tmp_path, capsys):
-    main(["--scenario", "open", "--num-agents", "2", "--num-envs", "8", "--steps", "800",
-          "--out", str(tmp_path)])
-    out = capsys.readouterr().out
-    assert "team success" in out and "agent-steps/s" in out
-    with Image.open(tmp_path / "episode.gif") as gif:
-        assert gif.n_frames > 5
+BACKEND_CHECK = """
+import matplotlib, sys
+import sgjax.pettingzoo, sgjax.report, sgjax.render, sgjax.evaluate, sgjax.cli
+assert matplotlib.get_backend() == "svg", matplotlib.get_backend()
+assert "matplotlib.pyplot" not in sys.modules, "pyplot was imported"
+env = sgjax.pettingzoo.parallel_env("open", num_agents=2, render_mode="rgb_array")
+env.reset(seed=0)
+frame = env.render()
+assert frame.ndim == 3 and frame.shape[2] == 3 and frame.std() > 0
+import pathlib, tempfile, numpy as np
+from sgjax.metrics import DEFAULT_CONSTANTS, METRIC_NAMES
+from sgjax.statistics import ConfigResult, summarize_metrics
+values = {name: np.random.default_rng(0).random(4) for name in METRIC_NAMES}
+result = ConfigResult("open", "p", 2, 4, 0, 0.1, 10, summarize_metrics(values), 1.0)
+out = pathlib.Path(tempfile.mkdtemp())
+sgjax.report.write_all([result], out, DEFAULT_CONSTANTS)
+assert (out / "success_by_robots.png").stat().st_size > 0
+assert matplotlib.get_backend() == "svg", matplotlib.get_backend()
+assert "matplotlib.pyplot" not in sys.modules, "pyplot was imported"
+print("backend kept")
+"""
+
+
+def test_importing_and_drawing_keep_the_plotting_backend():
+    """A notebook's matplotlib backend survives importing and using the adapters and report."""
+    env = {**os.environ, "MPLBACKEND": "svg", "JAX_PLATFORMS": "cpu",
+           "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    result = subprocess.run([sys.executable, "-c", BACKEND_CHECK], env=env, capture_output=True,
+                            text=True, timeout=300)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert "backend kept" in result.stdout

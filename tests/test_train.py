@@ -14,8 +14,10 @@ import pytest
 import yaml
 from PIL import Image
 
+from sgjax.policies import load_policy, policy_make_kwargs
 from sgjax.terms import ConfigError
-from train import checkpoint
+from train import checkpoint, ppo
+from train.actor import ActorWeights
 from train.cli import main as train_main
 from train.config import config_from_dict, load_config
 from train.networks import ResetGRU
@@ -136,6 +138,45 @@ def test_checkpoint_round_trip_and_resume_continue_the_same_run(two_seeds, tmp_p
     resumed, _ = one(restored)
     assert leaves_close(resumed.params, straight.params, rtol=0, atol=0)
     assert not list(tmp_path.glob("*.tmp"))  # written atomically
+
+
+def test_a_checkpoint_policy_loads_from_the_file_alone(two_seeds, tmp_path, monkeypatch):
+    """The saved actor acts as Trainer.policy does, without building a Trainer; a checkpoint
+    saved before the actor layout was kept in its meta still loads (one environment built)."""
+    config, trainer, _, one = two_seeds
+    runner, _ = one(jax.vmap(trainer.init)(seed_keys(config)))
+    path = checkpoint.save(tmp_path / "c.msgpack", config, runner, {"best_seed": 1},
+                           trainer.actor)
+    old = checkpoint.save(tmp_path / "old.msgpack", config, runner, {"best_seed": 1})
+    env, params = trainer.batch.env, trainer.batch.params[0]
+    weights = ActorWeights.of(runner).seed(1)
+    expected = trainer.policy(weights.params, weights.obs_stats, True, weights.obs_mask)
+
+    def no_trainer(*args, **kwargs):
+        raise AssertionError("loading a checkpoint built a Trainer")
+
+    made = []
+    real_make = checkpoint.make
+    monkeypatch.setattr(ppo.Trainer, "__init__", no_trainer)
+    monkeypatch.setattr(checkpoint, "make", lambda *a, **k: made.append(a) or real_make(*a, **k))
+    loaded = checkpoint.load_policy(path, env, deterministic=True)
+    through_sgjax = load_policy(str(path), env)  # through the registered loader
+    assert made == []
+    from_old = checkpoint.load_policy(old, deterministic=True)
+    assert len(made) == 1  # the others encoder's layout, from one training environment
+    assert checkpoint.actor_layout(old, *checkpoint.read(old)) == trainer.actor
+    assert policy_make_kwargs(str(path)) == config.env.make_kwargs()
+    with pytest.raises(ValueError, match="seed index 2 out of range"):
+        checkpoint.load_policy(path, env, seed_index=2)
+
+    obs, state = env.reset(jax.random.PRNGKey(3), params)
+    key = jax.random.PRNGKey(4)
+    reference = expected.step(expected.init(2), obs, key, state, params)
+    for policy in (loaded, from_old):
+        carry, action = policy.step(policy.init(2), obs, key, state, params)
+        assert action.tolist() == reference[1].tolist()
+        assert np.allclose(carry, reference[0], atol=1e-6)
+    assert through_sgjax.step(through_sgjax.init(2), obs, key, state, params)[1].shape == (2,)
 
 
 def test_mappo_with_lstm_encoder_and_continuous_actions_updates():

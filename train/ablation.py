@@ -23,6 +23,7 @@ import numpy as np
 
 from sgjax.observations.others import FEATURES
 from sgjax.terms import ConfigError
+from train.actor import ActorWeights, lane_evaluator
 from train.ppo import Trainer
 
 
@@ -124,13 +125,7 @@ def evaluate_lanes(trainer: Trainer, runner: Any, env: Any, env_params: Any, epi
 def lane_metrics(trainer: Trainer, runner: Any, env: Any, env_params: Any, episodes: int,
                  key: jax.Array) -> dict[str, np.ndarray]:
     """Every metric's per-episode values for every lane, ``{name: [lanes, episodes]}``: one
-    compiled evaluation, ``vmap``-ed over the lanes (seeds or variants)."""
-    from sgjax.evaluate import episode_runner
-
-    def one(net_params: Any, obs_stats: Any, obs_mask: jax.Array) -> dict:
-        policy = trainer.policy(net_params, obs_stats, False, obs_mask)
-        values, _, _ = episode_runner(env, env_params, policy, episodes)(key)
-        return values
-
-    values = jax.jit(jax.vmap(one))(runner.params, runner.obs_stats, runner.obs_mask)
+    compiled evaluation, ``vmap``-ed over the lanes (seeds or variants), actions sampled."""
+    evaluator = lane_evaluator(trainer.config.network, trainer.actor, env, env_params, episodes)
+    values, _ = evaluator(ActorWeights.of(runner), key)
     return {name: np.asarray(v) for name, v in values.items()}

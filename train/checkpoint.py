@@ -6,8 +6,14 @@ normalisation statistics, environment states, random keys), so that a resumed ru
 exactly where it stopped. Files are written to a temporary name and renamed into place, so a
 run killed mid-write loses at most one checkpoint interval.
 
+The meta also holds the actor's layout (``train.actor.ActorLayout``: observation size, action
+head, where the ``others`` block sits), so :func:`load_policy` rebuilds the acting policy from
+the file alone, without a ``Trainer`` or the training environments.
+
 A run folder ``out/`` holds ``checkpoints/latest.msgpack`` and ``checkpoints/best.msgpack``;
-``sgjax evaluate --policy out/`` (or a ``.msgpack`` path) evaluates the best one.
+``sgjax evaluate --policy out/`` (or a ``.msgpack`` path) evaluates the best one: :data:`LOADER`
+is registered with ``sgjax.policies`` when this module is imported, and through the
+``sgjax.policy_loaders`` entry point group (pyproject.toml) when only ``sgjax`` is.
 """
 
 from __future__ import annotations
@@ -18,16 +24,27 @@ from pathlib import Path
 from typing import Any
 
 import jax
+import jax.numpy as jnp
+import numpy as np
 import yaml
 from flax import serialization
 
+from sgjax.policies import register_loader
+from sgjax.registry import make
+from train.actor import ActorLayout, ActorWeights, acting_policy
 from train.config import TrainConfig, config_from_dict
+from train.networks import others_layout
+from train.normalize import RunningStats
 
 
-def save(path: str | Path, config: TrainConfig, runner: Any, meta: dict[str, Any]) -> Path:
-    """Write ``runner`` (seed-batched) with its config and ``meta`` to ``path`` atomically."""
+def save(path: str | Path, config: TrainConfig, runner: Any, meta: dict[str, Any],
+         actor: ActorLayout | None = None) -> Path:
+    """Write ``runner`` (seed-batched) with its config and ``meta`` to ``path`` atomically;
+    ``actor`` (``Trainer.actor``) goes into the meta so that the policy loads on its own."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    if actor is not None:
+        meta = {**meta, "actor": actor.to_dict()}
     payload = {
         "config": yaml.safe_dump(config.to_dict(), sort_keys=False),
         "meta": json.dumps(meta),
@@ -86,29 +103,77 @@ def make_kwargs(path: str | Path) -> dict[str, Any]:
     return config.env.make_kwargs()
 
 
+def is_checkpoint(spec: Any) -> bool:
+    """Whether ``spec`` names a trainer checkpoint file or run folder."""
+    if not isinstance(spec, str | Path):
+        return False
+    path = Path(spec)
+    return path.suffix == ".msgpack" or (path.is_dir() and (
+        (path / "checkpoints").is_dir() or any(path.glob("*.msgpack"))))
+
+
+def actor_layout(path: str | Path, config: TrainConfig, meta: dict[str, Any],
+                 raw: dict[str, Any], env: Any = None) -> ActorLayout:
+    """The actor's layout: from the meta, or for checkpoints saved before it was kept there,
+    rebuilt from the weights and the configuration (and, for an ``others`` encoder, from
+    ``env`` or one environment of the first training scenario)."""
+    if "actor" in meta:
+        return ActorLayout.from_dict(meta["actor"])
+    params = raw["params"]["params"]
+    discrete = "log_std" not in params
+    others = None
+    if config.network.others_encoder != "none":
+        if env is None:
+            try:
+                env, _ = make(config.env.scenarios[0], num_agents=config.env.curriculum[0][1],
+                              max_agents=config.env.slots, **config.env.make_kwargs())
+            except (ValueError, KeyError, TypeError) as err:
+                raise ValueError(
+                    f"{resolve(path)}: this checkpoint predates saved actor layouts, and its "
+                    f"others encoder needs the observation layout of its training scenario "
+                    f"{config.env.scenarios[0]!r}, which cannot be built here ({err}); pass "
+                    "the environment to load_policy(path, env)") from err
+        others = others_layout(env)
+    return ActorLayout(
+        obs_size=int(np.shape(raw["obs_stats"]["mean"])[-1]), slots=config.env.slots,
+        discrete=discrete, action_dim=int(np.shape(params["actor_head"]["kernel"])[-1]),
+        normalize=config.algorithm.normalize_observations, others=others)
+
+
+def stored_weights(raw: dict[str, Any]) -> ActorWeights:
+    """The seed-batched acting weights of a checkpoint's raw runner state."""
+    stats = raw["obs_stats"]
+    mask = raw.get("obs_mask")
+    as_array = lambda x: jnp.asarray(x)  # noqa: E731
+    return ActorWeights(
+        params=jax.tree.map(as_array, raw["params"]),
+        obs_stats=RunningStats(mean=as_array(stats["mean"]), var=as_array(stats["var"]),
+                               count=as_array(stats["count"])),
+        obs_mask=None if mask is None else as_array(mask))
+
+
 def load_policy(path: str | Path, env: Any = None, seed_index: int | None = None,
                 deterministic: bool | None = None):
     """The trained actor of a checkpoint as an ``sgjax`` policy: actions sampled from it, or
     greedy with ``deterministic`` (default: the run's ``evaluation.deterministic``). The seed
-    is ``seed_index``, else the one the checkpoint's meta names as best, else 0."""
-    from train.ppo import Trainer
-
-    contents = read(path)
-    config = contents[0]
-    trainer = Trainer(config)
-    runner, meta = restore(path, trainer, contents)
-    index = seed_index if seed_index is not None else int(meta.get("best_seed", 0))
-    if not 0 <= index < config.num_seeds:
-        raise ValueError(f"{resolve(path)}: seed index {index} out of range "
-                         f"(the run has {config.num_seeds} seeds)")
-    pick = lambda x: x[index]  # noqa: E731
-    if env is not None and env.observation_size != trainer.batch.obs_size:
+    is ``seed_index``, else the one the checkpoint's meta names as best, else 0. Only the file
+    is read (with ``env``, the environment it will act in, checked against)."""
+    config, meta, raw = read(path)
+    layout = actor_layout(path, config, meta, raw, env)
+    if env is not None and env.observation_size != layout.obs_size:
         raise ValueError(f"{resolve(path)}: the policy reads observations of size "
-                         f"{trainer.batch.obs_size}, this environment gives "
+                         f"{layout.obs_size}, this environment gives "
                          f"{env.observation_size}; build it with the checkpoint's settings "
                          "(sgjax evaluate does)")
+    index = seed_index if seed_index is not None else int(meta.get("best_seed", 0))
+    try:
+        weights = stored_weights(raw).seed(index)
+    except ValueError as err:
+        raise ValueError(f"{resolve(path)}: {err}") from err
     if deterministic is None:
         deterministic = config.evaluation.deterministic
-    return trainer.policy(jax.tree.map(pick, runner.params),
-                          jax.tree.map(pick, runner.obs_stats), deterministic,
-                          pick(runner.obs_mask))
+    return acting_policy(config.network, layout, weights, deterministic)
+
+
+LOADER = register_loader("checkpoint", matches=is_checkpoint,
+                         load=lambda spec, env: load_policy(spec, env), make_kwargs=make_kwargs)

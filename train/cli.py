@@ -18,14 +18,19 @@ from pathlib import Path
 from typing import Any
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 import yaml
 
-import sgjax
-from sgjax.evaluate import episode_runner, evaluate
+from sgjax.evaluate import evaluate, run_episodes
+from sgjax.maps.io import load as load_map
+from sgjax.metrics import DEFAULT_CONSTANTS
+from sgjax.registry import make
+from sgjax.render import episode_frames, save_gif
+from sgjax.report import summary_tables, write_all
 from sgjax.terms import ConfigError
+from sgjax.version import __version__
 from train import checkpoint
+from train.actor import ActorWeights, lane_evaluator
 from train.config import TrainConfig, load_config
 from train.ppo import Trainer, seed_keys
 from train.sharding import device_mesh, shard_runner
@@ -111,19 +116,11 @@ def _updates_per_chunk(config: TrainConfig) -> int:
 
 
 def make_evaluator(trainer: Trainer, scenario: str, num_agents: int, episodes: int):
-    """A jitted ``(network params, obs stats, obs mask, key) -> (values, robot)`` for one seed: the
-    evaluation runner compiled once with the policy's weights as arguments."""
-    env, params = sgjax.make(scenario, num_agents=num_agents,
-                             **trainer.config.env.make_kwargs())
-
-    @jax.jit
-    def run(net_params, obs_stats, obs_mask, key):
-        policy = trainer.policy(net_params, obs_stats, trainer.config.evaluation.deterministic,
-                                obs_mask)
-        values, robot, _ = episode_runner(env, params, policy, episodes)(key)
-        return values, robot
-
-    return run
+    """A jitted ``(seed-batched ActorWeights, key) -> (values, robot)`` evaluating every seed at
+    once (:func:`train.actor.lane_evaluator`), compiled once with the weights as arguments."""
+    env, params = make(scenario, num_agents=num_agents, **trainer.config.env.make_kwargs())
+    return lane_evaluator(trainer.config.network, trainer.actor, env, params, episodes,
+                          trainer.config.evaluation.deterministic)
 
 
 def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any]:
@@ -132,7 +129,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
     out.mkdir(parents=True, exist_ok=True)
     devices = jax.devices()
     trainer = Trainer(config)
-    print(f"sgjax {sgjax.__version__}, jax {jax.__version__} on {len(devices)} "
+    print(f"sgjax {__version__}, jax {jax.__version__} on {len(devices)} "
           f"{devices[0].platform} device(s): {a.name.upper()} on {', '.join(config.env.scenarios)},"
           f" robots {config.env.curriculum} in {trainer.slots} slots, {trainer.num_envs} envs, "
           f"{a.total_steps:,} env steps, {config.num_seeds} seed(s), network "
@@ -187,7 +184,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
             n = int(np.max(logs["num_agents"]))
             if n not in evaluators:
                 evaluators[n] = make_evaluator(trainer, scenario, n, config.evaluation.episodes)
-            team, robot = _evaluate_seeds(evaluators[n], runner, config)
+            team, robot = _evaluate_seeds(evaluators[n], runner)
             row["eval_team_success"], row["eval_robot_success"] = float(np.mean(team)), float(
                 np.mean(robot))
             progress.write(f"step {meta['steps']:,}: evaluation ({config.evaluation.episodes} "
@@ -197,7 +194,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
                 meta["best_success"], meta["best_seed"] = float(np.mean(team)), int(
                     np.argmax(team))
                 meta["wall_s"] = wall
-                checkpoint.save(best_path, config, runner, meta)
+                checkpoint.save(best_path, config, runner, meta, trainer.actor)
         logger.log(row)
         progress.update(meta["steps"], advanced // config.num_seeds,
                         f"{row['env_steps_per_s']:,.0f} env-steps/s, "
@@ -206,7 +203,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
         if meta["steps"] >= next_save or meta["updates"] >= a.num_updates:
             next_save += config.logging.checkpoint_every
             meta["wall_s"] = wall
-            checkpoint.save(latest, config, runner, meta)
+            checkpoint.save(latest, config, runner, meta, trainer.actor)
     progress.close()
     logger.close()
     print(f"trained {meta['steps']:,} env steps in {wall:.0f} s "
@@ -231,24 +228,16 @@ def _row(logs: dict, meta: dict, wall: float, env_rate: float, trainer: Trainer)
     }
 
 
-def _evaluate_seeds(evaluator, runner, config: TrainConfig) -> tuple[np.ndarray, np.ndarray]:
-    team, robot = [], []
-    for i in range(config.num_seeds):
-        pick = lambda x, i=i: x[i]  # noqa: E731
-        values, _ = evaluator(jax.tree.map(pick, runner.params),
-                              jax.tree.map(pick, runner.obs_stats), pick(runner.obs_mask),
-                              jax.random.PRNGKey(1234))
-        team.append(float(jnp.mean(values["team_success"])))
-        robot.append(float(jnp.nanmean(values["success"])))
-    return np.asarray(team), np.asarray(robot)
+def _evaluate_seeds(evaluator, runner) -> tuple[np.ndarray, np.ndarray]:
+    """Team and robot success of every seed, ``[num_seeds]`` each."""
+    values, _ = jax.device_get(evaluator(ActorWeights.of(runner), jax.random.PRNGKey(1234)))
+    return (np.mean(values["team_success"], axis=1),
+            np.nanmean(values["success"], axis=1))
 
 
 def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, Any]:
     """Evaluate the checkpoint at every evaluation robot count beside the baseline; print the
     tables, write them and a GIF of one episode."""
-    from sgjax.render import episode_frames, save_gif
-    from sgjax.report import write_all
-
     e = config.evaluation
     policy = checkpoint.load_policy(path, deterministic=e.deterministic)
     print(f"\nfinal evaluation of {path} ({e.episodes} episodes per configuration)")
@@ -260,11 +249,8 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
         results += evaluate(config.env.scenarios, [e.baseline], num_agents=e.num_agents,
                             episodes=e.episodes, seed=config.seed + 1,
                             make_kwargs={**kwargs, "action_mode": "go_stop"}, log=None)
-    from sgjax.metrics import DEFAULT_CONSTANTS
-
     write_all(results, out / "eval", DEFAULT_CONSTANTS)
-    table = (out / "eval" / "table.md").read_text()
-    print(table.split("## Every metric")[0].split("\n", 2)[2].strip())
+    print(summary_tables(results))
     summary = {(r.policy, r.num_agents, r.scenario): r.metrics["team_success"].mean
                for r in results}
     trained_name = f"trained ({config.algorithm.name})"
@@ -273,13 +259,11 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
     mine = summary.get((trained_name, count, scenario))
     base = summary.get((e.baseline, count, scenario))
     if e.gif:
-        env, params = sgjax.make(scenario, num_agents=count, **kwargs)
-        from sgjax.evaluate import run_episodes
-
+        env, params = make(scenario, num_agents=count, **kwargs)
         batch = run_episodes(env, params, policy, jax.random.PRNGKey(config.seed + 2), 1,
                              record=True)
         states = jax.tree.map(lambda leaf: leaf[:, 0], batch.states)
-        frames, stride = episode_frames(sgjax.maps.load(scenario), states, params,
+        frames, stride = episode_frames(load_map(scenario), states, params,
                                         int(batch.values["episode_length"][0]),
                                         title=f"{scenario} / trained", width_px=400)
         gif = save_gif(frames, out / "eval" / "episode.gif",

@@ -29,14 +29,22 @@ import optax
 from flax import struct
 from jax import Array
 
-import sgjax
+from sgjax.env import SocialNavEnv
+from sgjax.metrics import team_success
 from sgjax.policies import RecurrentPolicy
+from sgjax.registry import make
 from sgjax.terms import ConfigError
+from train.actor import (
+    ActorLayout,
+    ActorWeights,
+    acting_policy,
+    actor_features,
+    head_log_std,
+)
 from train.config import TrainConfig
 from train.networks import (
     ActorCritic,
     entropy,
-    greedy,
     initial_carry,
     log_prob,
     others_layout,
@@ -57,7 +65,7 @@ class EnvBatch:
                               f"least the number of scenarios ({count})")
         base, extra = divmod(config.algorithm.num_envs, count)
         self.sizes = tuple(base + (i < extra) for i in range(count))
-        pairs = [sgjax.make(s, num_agents=e.curriculum[0][1], max_agents=e.slots,
+        pairs = [make(s, num_agents=e.curriculum[0][1], max_agents=e.slots,
                             **e.make_kwargs()) for s in e.scenarios]
         self.envs = tuple(env for env, _ in pairs)
         self.params = tuple(params for _, params in pairs)
@@ -73,7 +81,7 @@ class EnvBatch:
         self.action_dim = 2 if self.discrete else first.config.action_dim
 
     @property
-    def env(self) -> sgjax.SocialNavEnv:
+    def env(self) -> SocialNavEnv:
         return self.envs[0]
 
     def _params(self, num_agents: Array) -> tuple:
@@ -175,8 +183,12 @@ class Trainer:
             raise ConfigError(f"algorithm.num_minibatches ({a.num_minibatches}) must divide "
                               f"num_envs x robot slots ({self.num_agents})")
         self.mappo = a.name == "mappo"
-        self.network = ActorCritic(config.network, self.batch.action_dim, self.batch.discrete,
-                                   others_layout(self.batch.env), centralised=self.mappo)
+        self.actor = ActorLayout(
+            obs_size=self.batch.obs_size, slots=self.slots, discrete=self.batch.discrete,
+            action_dim=self.batch.action_dim, normalize=a.normalize_observations,
+            others=others_layout(self.batch.env))
+        self.network = ActorCritic(config.network, self.actor.action_dim, self.actor.discrete,
+                                   self.actor.others, centralised=self.mappo)
         updates = a.num_updates * a.update_epochs * a.num_minibatches
         lr = (optax.linear_schedule(a.learning_rate, 0.0, updates) if a.anneal_lr
               else a.learning_rate)
@@ -193,11 +205,7 @@ class Trainer:
 
     def actor_input(self, obs_stats: RunningStats, obs: Array) -> Array:
         """``obs [..., R, D]`` -> normalised actor input ``[..., R, D (+ R)]``."""
-        x = obs_stats.normalize(obs) if self.config.algorithm.normalize_observations else obs
-        if self.config.network.agent_id:
-            ids = jnp.broadcast_to(jnp.eye(self.slots), x.shape[:-1] + (self.slots,))
-            x = jnp.concatenate([x, ids], axis=-1)
-        return x
+        return actor_features(self.config.network, self.actor, obs_stats, obs)
 
     def inputs(self, obs_stats: RunningStats, obs: Array) -> tuple[Array, Array]:
         """Actor and critic inputs ``[B, .]`` for a batch ``obs [E, R, D]``."""
@@ -247,7 +255,7 @@ class Trainer:
 
     # ------------------------------------------------------------------ rollout
     def _log_std(self, params: Any) -> Array | None:
-        return None if self.batch.discrete else params["params"]["log_std"]
+        return head_log_std(params, self.batch.discrete)
 
     def _env_step(self, runner: RunnerState, _: Any) -> tuple[RunnerState, tuple]:
         a = self.config.algorithm
@@ -299,7 +307,7 @@ class Trainer:
 
         episode_return = runner.episode_return + jnp.where(active, reward, 0.0)
         present, succeeded = info["final_present"], info["final_succeeded"]
-        team = jnp.all(succeeded | ~present, axis=1) & jnp.any(present, axis=1)
+        team = team_success(present, succeeded)
         ended = episode_done.astype(jnp.float32)
         log = {
             "episodes": jnp.sum(ended),
@@ -417,33 +425,8 @@ class Trainer:
                obs_mask: Array | None = None) -> RecurrentPolicy:
         """The trained actor as an ``sgjax.evaluate`` policy (any robot count; with
         ``agent_id`` at most the trained number of slots). ``obs_mask`` as in training."""
-        trainer = self
-
-        def init(num_robots: int) -> Array:
-            if self.config.network.agent_id and num_robots > self.slots:
-                raise ValueError(f"this policy was trained with a robot id for "
-                                 f"{self.slots} slots; it cannot act for {num_robots} robots")
-            return initial_carry(self.config.network, num_robots)[0]
-
-        def step(carry: Array, obs: Array, key: Array, state: Any, params_env: Any):
-            num_robots = obs.shape[0]
-            if obs_mask is not None:
-                obs = obs * obs_mask
-            x = obs_stats.normalize(obs) if (
-                trainer.config.algorithm.normalize_observations) else obs
-            if trainer.config.network.agent_id:
-                x = jnp.concatenate([x, jnp.eye(num_robots, trainer.slots)], axis=-1)
-            starts = jnp.zeros((1, num_robots), bool)
-            carry, out = trainer.network.apply(params, carry, x[None], starts,
-                                               method=ActorCritic.act)
-            out = out[0]
-            if deterministic:
-                action = greedy(out, trainer.batch.discrete)
-            else:
-                action = sample(key, out, trainer._log_std(params), trainer.batch.discrete)
-            return carry, (action if trainer.batch.discrete else jnp.clip(action, -1.0, 1.0))
-
-        return RecurrentPolicy(init=init, step=step)
+        return acting_policy(self.config.network, self.actor,
+                             ActorWeights(params, obs_stats, obs_mask), deterministic)
 
 
 def seed_keys(config: TrainConfig) -> Array:

@@ -31,9 +31,10 @@ from typing import Any
 import jax
 import numpy as np
 
-import sgjax
-from sgjax.evaluate import run_episodes, summarize
-from sgjax.report import format_summary
+from sgjax.evaluate import run_episodes
+from sgjax.registry import make
+from sgjax.report import format_summary, markdown_table
+from sgjax.statistics import summarize
 from train.ablation import lane_metrics
 from train.config import config_from_dict
 from train.ppo import Trainer, seed_keys
@@ -81,7 +82,7 @@ def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: in
     out: dict[int, dict[str, list[float]]] = {}
     key = jax.random.PRNGKey(seed + 1000)
     for n in counts:
-        env, params = sgjax.make(scenario, num_agents=n, **make_kwargs)
+        env, params = make(scenario, num_agents=n, **make_kwargs)
         if trainer is None:
             batch = run_episodes(env, params, "only_local", key, episodes)
             values = {name: v[None] for name, v in batch.values.items()}
@@ -97,34 +98,32 @@ def _cell(values: list[float], percent: bool = False) -> str:
     return format_summary(summarize(np.asarray(values), binary=False), percent)
 
 
-def write_tables(results: dict, counts: Sequence[int], table_robots: int, out: Path,
-                 seeds: int) -> list[Path]:
+def format_tables(results: dict, counts: Sequence[int], table_robots: int, seeds: int
+                  ) -> dict[str, str]:
+    """The two tables as markdown, by file name (``metrics_table.md``, ``success_table.md``)."""
     note = (f"Means over seeds (each seed: the mean over its evaluation episodes) ± the half "
             f"width of the 95% Student-t interval over {seeds} seeds (none for only_local, "
             "which is not trained).")
-    rows = ["# SocialGym 2.0 Table 3, reproduced with sgjax", "", note, "",
-            f"Evaluated with {table_robots} robots.", "",
-            "| Scenario | Baseline | " + " | ".join(t for _, t in TABLE_METRICS) + " |",
-            "|---|---|" + "---|" * len(TABLE_METRICS)]
-    success = ["# SocialGym 2.0 Table 4 (team success %), reproduced with sgjax", "", note, "",
-               "| Scenario | Baseline | " + " | ".join(f"{n}A" for n in counts) + " | Avg. |",
-               "|---|---|" + "---|" * (len(counts) + 1)]
+    metric_rows, success_rows = [], []
     for scenario, by_baseline in results.items():
         for baseline, by_count in by_baseline.items():
             at = by_count.get(table_robots)
             if at is not None:
-                rows.append(f"| {scenario} | {baseline} | "
-                            + " | ".join(_cell(at[m]) for m, _ in TABLE_METRICS) + " |")
+                metric_rows.append([scenario, baseline,
+                                    *(_cell(at[m]) for m, _ in TABLE_METRICS)])
             means = [np.nanmean(by_count[n]["team_success"]) for n in counts]
-            success.append(f"| {scenario} | {baseline} | "
-                           + " | ".join(_cell(by_count[n]["team_success"], percent=True)
-                                        for n in counts)
-                           + f" | {100 * np.mean(means):.0f} |")
-    out.mkdir(parents=True, exist_ok=True)
-    paths = [out / "metrics_table.md", out / "success_table.md"]
-    paths[0].write_text("\n".join(rows) + "\n")
-    paths[1].write_text("\n".join(success) + "\n")
-    return paths
+            success_rows.append([scenario, baseline,
+                                 *(_cell(by_count[n]["team_success"], percent=True)
+                                   for n in counts), f"{100 * np.mean(means):.0f}"])
+    rows = ["# SocialGym 2.0 Table 3, reproduced with sgjax", "", note, "",
+            f"Evaluated with {table_robots} robots.", "",
+            *markdown_table(["Scenario", "Baseline", *(t for _, t in TABLE_METRICS)],
+                            metric_rows)]
+    success = ["# SocialGym 2.0 Table 4 (team success %), reproduced with sgjax", "", note, "",
+               *markdown_table(["Scenario", "Baseline", *(f"{n}A" for n in counts), "Avg."],
+                               success_rows)]
+    return {"metrics_table.md": "\n".join(rows) + "\n",
+            "success_table.md": "\n".join(success) + "\n"}
 
 
 def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
@@ -155,14 +154,17 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
             team = {n: np.nanmean(v["team_success"]) for n, v in by_count.items()}
             print("    team success by robots: " + ", ".join(f"{n}: {t:.2f}"
                                                           for n, t in team.items()))
-    paths = write_tables(results, counts, table_robots, out, seeds)
+    tables = format_tables(results, counts, table_robots, seeds)
+    out.mkdir(parents=True, exist_ok=True)
+    for name, text in tables.items():
+        (out / name).write_text(text)
     document = {"seeds": seeds, "total_steps": total_steps, "num_envs": num_envs,
                 "episodes": episodes, "counts": list(counts), "train_seconds": timing,
                 "results": {s: {b: {str(n): m for n, m in c.items()} for b, c in r.items()}
                             for s, r in results.items()}}
     (out / "results.json").write_text(json.dumps(document, indent=1))
-    for path in paths:
-        print(f"\n{path.read_text()}")
+    for text in tables.values():
+        print(f"\n{text}")
     return results
 
 

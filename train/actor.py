@@ -1,0 +1,132 @@
+"""The trained actor as an ``sgjax`` policy: what it reads (:class:`ActorLayout`), its weights
+(:class:`ActorWeights`) and the one function that turns both into a policy
+(:func:`acting_policy`), used by ``Trainer.policy``, checkpoint loading and the evaluators.
+
+A checkpoint keeps the layout in its meta, so a saved actor is rebuilt from the file alone: the
+network configuration, the parameters, the observation normalisation statistics and mask, and
+the layout; no ``Trainer`` and no training environments.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+from jax import Array
+
+from sgjax.evaluate import episode_runner
+from sgjax.policies import RecurrentPolicy
+from train.config import NetworkConfig
+from train.networks import ActorCritic, OthersLayout, greedy, initial_carry, sample
+from train.normalize import RunningStats
+
+
+@dataclasses.dataclass(frozen=True)
+class ActorLayout:
+    """What a trained actor reads and writes beside its weights."""
+
+    obs_size: int  # D, the environment's observation size
+    slots: int  # robot slots trained with (the width of the one-hot id with agent_id)
+    discrete: bool  # GO/STOP logits, else a Gaussian over continuous actions
+    action_dim: int  # the head's outputs: 2 logits, or the continuous action size
+    normalize: bool  # observations normalised by the running statistics
+    others: OthersLayout | None  # where the others block sits, for the others encoder
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> ActorLayout:
+        others = data.get("others")
+        return cls(obs_size=int(data["obs_size"]), slots=int(data["slots"]),
+                   discrete=bool(data["discrete"]), action_dim=int(data["action_dim"]),
+                   normalize=bool(data["normalize"]),
+                   others=None if others is None else OthersLayout(**others))
+
+
+@struct.dataclass
+class ActorWeights:
+    """The acting part of a run: network parameters, observation statistics and the
+    observation mask (``None``: every feature seen). Batched over seeds or lanes when it comes
+    from a vmapped run (:meth:`seed` picks one)."""
+
+    params: Any
+    obs_stats: RunningStats
+    obs_mask: Array | None = None
+
+    @classmethod
+    def of(cls, runner: Any) -> ActorWeights:
+        """The acting part of a ``RunnerState`` (any batch shape)."""
+        return cls(runner.params, runner.obs_stats, runner.obs_mask)
+
+    def seed(self, index: int) -> ActorWeights:
+        """Seed (or lane) ``index`` of seed-batched weights."""
+        count = int(jnp.shape(self.obs_stats.mean)[0])
+        if not 0 <= index < count:
+            raise ValueError(f"seed index {index} out of range (the run has {count} seeds)")
+        return jax.tree.map(lambda x: x[index], self)
+
+
+def head_log_std(params: Any, discrete: bool) -> Array | None:
+    """The continuous head's learned log standard deviation (None for GO/STOP)."""
+    return None if discrete else params["params"]["log_std"]
+
+
+def actor_features(network: NetworkConfig, layout: ActorLayout, obs_stats: RunningStats,
+                   obs: Array) -> Array:
+    """``obs [..., R, D]`` -> the actor's input ``[..., R, D (+ slots)]``: normalised, and with a
+    one-hot robot id under ``network.agent_id``."""
+    x = obs_stats.normalize(obs) if layout.normalize else obs
+    if network.agent_id:
+        ids = jnp.eye(x.shape[-2], layout.slots)
+        x = jnp.concatenate([x, jnp.broadcast_to(ids, x.shape[:-1] + (layout.slots,))], axis=-1)
+    return x
+
+
+def acting_policy(network: NetworkConfig, layout: ActorLayout, weights: ActorWeights,
+                  deterministic: bool = False) -> RecurrentPolicy:
+    """The actor as an ``sgjax.evaluate`` policy (any robot count; with ``agent_id`` at most
+    ``layout.slots``): actions sampled from it, or its most likely ones with
+    ``deterministic``; continuous actions clipped to [-1, 1]."""
+    model = ActorCritic(network, layout.action_dim, layout.discrete, layout.others)
+    spread = head_log_std(weights.params, layout.discrete)
+
+    def init(num_robots: int) -> Array:
+        if network.agent_id and num_robots > layout.slots:
+            raise ValueError(f"this policy was trained with a robot id for {layout.slots} "
+                             f"slots; it cannot act for {num_robots} robots")
+        return initial_carry(network, num_robots)[0]
+
+    def step(carry: Array, obs: Array, key: Array, state: Any, params_env: Any):
+        if weights.obs_mask is not None:
+            obs = obs * weights.obs_mask
+        x = actor_features(network, layout, weights.obs_stats, obs)
+        starts = jnp.zeros((1, obs.shape[0]), bool)
+        carry, out = model.apply(weights.params, carry, x[None], starts,
+                                 method=ActorCritic.act)
+        out = out[0]
+        if deterministic:
+            action = greedy(out, layout.discrete)
+        else:
+            action = sample(key, out, spread, layout.discrete)
+        return carry, (action if layout.discrete else jnp.clip(action, -1.0, 1.0))
+
+    return RecurrentPolicy(init=init, step=step)
+
+
+def lane_evaluator(network: NetworkConfig, layout: ActorLayout, env: Any, env_params: Any,
+                   episodes: int, deterministic: bool = False):
+    """A jitted ``(weights, key) -> (values, robot)`` evaluating every lane (seed or variant) of
+    lane-batched :class:`ActorWeights` at once, ``vmap``-ed over the lanes: ``values`` is
+    ``{metric: [lanes, episodes]}``, ``robot`` ``{metric: [lanes, episodes, R]}``. Compiled
+    once per shape; the weights are arguments."""
+
+    def one(weights: ActorWeights, key: Array) -> tuple[dict, dict]:
+        policy = acting_policy(network, layout, weights, deterministic)
+        values, robot, _ = episode_runner(env, env_params, policy, episodes)(key)
+        return values, robot
+
+    return jax.jit(jax.vmap(one, in_axes=(0, None)))
