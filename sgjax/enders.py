@@ -112,10 +112,10 @@ class Stuck(Ender):
                  ) -> Outcome:
         out = _nothing(state)
         travelled = jnp.sum(state.moved[: self.steps], axis=0)  # [R] over the window
-        on_way = prev.robots.active & ~state.robots.succeeded
-        stuck = ((state.time >= self.steps) & jnp.any(on_way)
-                 & jnp.all(~on_way | (travelled < self.distance)))
-        hit = on_way & stuck
+        still_active = prev.robots.active & ~state.robots.succeeded
+        stuck = ((state.time >= self.steps) & jnp.any(still_active)
+                 & jnp.all(~still_active | (travelled < self.distance)))
+        hit = still_active & stuck
         return Outcome(terminated=out.terminated, truncated=hit,
                        reward=jnp.where(hit, jnp.float32(self.penalty), 0.0))
 
@@ -143,8 +143,8 @@ class CollisionEnder(Ender):
         out = _nothing(state)
         hit = collided(prev, state, self.robots, self.walls, self.humans, per_step=False)
         hit = hit & prev.robots.active
-        on_way = prev.robots.active & ~state.robots.succeeded
-        ended = on_way & jnp.any(hit) if self.scope == "team" else hit & on_way
+        still_active = prev.robots.active & ~state.robots.succeeded
+        ended = still_active & jnp.any(hit) if self.scope == "team" else hit & still_active
         return out.replace(terminated=ended)
 
 

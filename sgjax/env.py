@@ -284,7 +284,10 @@ class SocialNavEnv:
         phase runs under a ``jax.named_scope`` of its name, so profiles show where time goes.
 
         ``info["reward_terms"]`` holds each reward term's weighted value ``[R]`` (and the stuck
-        penalty under ``"stuck"`` when that ender is on).
+        penalty under ``"stuck"`` when that ender is on); ``info["was_active"] [R]`` says which
+        robots were active at the start of the step (they alone moved and were rewarded),
+        ``info["arrived"] [R]`` which arrived during it, ``info["collision_*"] [R]`` what they
+        touched.
         """
         cfg, layout = self.config, self.config.layout
         key_humans, key_obs = jax.random.split(key) if cfg.observer.needs_key else (key, key)
@@ -304,16 +307,17 @@ class SocialNavEnv:
             next_state = self._conclude(state, moved, outcome)
         with jax.named_scope("rewards"):
             reward, reward_terms = cfg.rewarder(state, next_state, actions, params, layout)
-            acting = state.robots.active
-            reward = reward + jnp.where(acting, outcome.reward, 0.0)
-            reward_terms.update({k: jnp.where(acting, v, 0.0) for k, v in ender_rewards.items()})
+            was_active = state.robots.active
+            reward = reward + jnp.where(was_active, outcome.reward, 0.0)
+            reward_terms.update({k: jnp.where(was_active, v, 0.0)
+                                 for k, v in ender_rewards.items()})
         with jax.named_scope("observations"):
             obs = self.observe(next_state, params, key_obs)
         present, finished = state.robots.present, next_state.robots.finished
         terminated = present & finished
         truncated = present & ~finished & outcome.truncated
         info = {
-            "acting": acting,
+            "was_active": was_active,
             "collision_robot": contacts.robot,
             "collision_wall": contacts.wall,
             "collision_human": contacts.human,

@@ -262,9 +262,9 @@ def update(
 ) -> MetricState:
     """Accumulate one step ``prev -> state`` (``info`` from ``env.step_env``; ``done`` from
     :func:`episode_done`). Steps after the episode ended change nothing."""
-    live = m.running
-    acting = info["acting"] & live  # active before the step
-    on_way = state.robots.active & live  # still unfinished after it
+    running = m.running
+    was_active = info["was_active"] & running  # active before the step
+    still_active = state.robots.active & running  # still unfinished after it
     dt = params.dt
     robots0, robots1 = prev.robots, state.robots
     v0, v1 = robots0.velocity, robots1.velocity
@@ -273,7 +273,7 @@ def update(
     turned = jnp.abs(wrap_angle(robots1.heading - robots0.heading))
     slow = ((safe_norm(v1[:, 0], v1[:, 1]) < constants.stop_speed)
             & (jnp.abs(robots1.kin.omega) < constants.stop_turn_rate))
-    stopped = on_way & slow
+    stopped = still_active & slow
     stopped_run = jnp.where(stopped, m.stopped_run + 1, 0)
     freeze_steps = jnp.maximum(jnp.ceil(constants.freeze_time / dt - 1e-6), 1).astype(jnp.int32)
 
@@ -282,13 +282,13 @@ def update(
     accel = dv / dt
     jerk_vec = (accel - m.last_accel) / dt
     jerk = safe_norm(jerk_vec[:, 0], jerk_vec[:, 1])
-    jerk_ok = acting & m.has_accel
+    jerk_ok = was_active & m.has_accel
 
     # Gaps to the other robots that were in the world during the step, and to pedestrians.
     radius = params.robots.radius
     x, y = robots1.x, robots1.y
     num_robots = x.shape[0]
-    other_robot = info["acting"][None, :] & ~jnp.eye(num_robots, dtype=bool)
+    other_robot = info["was_active"][None, :] & ~jnp.eye(num_robots, dtype=bool)
     gap_robot = _gaps(x, y, radius, x, y, radius, other_robot)
     humans = state.humans
     human_radius = jnp.broadcast_to(params.humans.radius, humans.x.shape)
@@ -312,28 +312,28 @@ def update(
     ttc = jnp.minimum(ttc, constants.ttc_cap)
 
     # Deadlock: two or more unfinished robots, all stopped.
-    stalled = (jnp.sum(on_way) >= 2) & jnp.all(stopped | ~on_way)
+    stalled = (jnp.sum(still_active) >= 2) & jnp.all(stopped | ~still_active)
     stall_run = jnp.where(stalled, m.stall_run + 1, 0)
     deadlock_steps = jnp.maximum(jnp.ceil(constants.deadlock_time / dt - 1e-6), 1)
 
     bad_entries, bad_exits = _order_violations(prev, state, params, config)
 
-    arrived = info["arrived"] & live
+    arrived = info["arrived"] & running
     all_arrived = jnp.all(~robots1.present | robots1.succeeded) & jnp.any(robots1.present)
 
-    def add(total: Array, value: Array, mask: Array = acting) -> Array:
+    def add(total: Array, value: Array, mask: Array = was_active) -> Array:
         return total + jnp.where(mask, value, 0).astype(total.dtype)
 
-    def most(best: Array, value: Array, mask: Array = acting) -> Array:
+    def most(best: Array, value: Array, mask: Array = was_active) -> Array:
         return jnp.where(mask, jnp.maximum(best, value), best)
 
     def least(best: Array, value: Array) -> Array:
-        return jnp.where(acting, jnp.minimum(best, value), best)
+        return jnp.where(was_active, jnp.minimum(best, value), best)
 
     return MetricState(
-        running=live & ~done,
-        length=jnp.where(live, state.time, m.length),
-        all_done_at=jnp.where(live & all_arrived & (m.all_done_at == 0), state.time,
+        running=running & ~done,
+        length=jnp.where(running, state.time, m.length),
+        all_done_at=jnp.where(running & all_arrived & (m.all_done_at == 0), state.time,
                               m.all_done_at),
         arrived_at=jnp.where(arrived, state.time, m.arrived_at),
         steps=add(m.steps, 1),
@@ -350,18 +350,18 @@ def update(
         jerk_sum=add(m.jerk_sum, jerk, jerk_ok),
         jerk_max=most(m.jerk_max, jerk, jerk_ok),
         jerk_steps=add(m.jerk_steps, 1, jerk_ok),
-        last_accel=jnp.where(acting[:, None], accel, m.last_accel),
-        has_accel=m.has_accel | acting,
+        last_accel=jnp.where(was_active[:, None], accel, m.last_accel),
+        has_accel=m.has_accel | was_active,
         min_gap_robot=least(m.min_gap_robot, nearest_robot),
         min_gap_human=least(m.min_gap_human, nearest_human),
-        near_robot=m.near_robot + (acting & (nearest_robot < radii)).astype(jnp.int32),
-        near_human=m.near_human + (acting & (nearest_human < radii)).astype(jnp.int32),
+        near_robot=m.near_robot + (was_active & (nearest_robot < radii)).astype(jnp.int32),
+        near_human=m.near_human + (was_active & (nearest_human < radii)).astype(jnp.int32),
         min_ttc=least(m.min_ttc, ttc),
-        ttc_low=add(m.ttc_low, 1, acting & (ttc < constants.ttc_threshold)),
-        stall_run=jnp.where(live, stall_run, m.stall_run),
-        deadlock=m.deadlock | (live & (stall_run >= deadlock_steps)),
-        bad_entries=add(m.bad_entries, bad_entries, live),
-        bad_exits=add(m.bad_exits, bad_exits, live),
+        ttc_low=add(m.ttc_low, 1, was_active & (ttc < constants.ttc_threshold)),
+        stall_run=jnp.where(running, stall_run, m.stall_run),
+        deadlock=m.deadlock | (running & (stall_run >= deadlock_steps)),
+        bad_entries=add(m.bad_entries, bad_entries, running),
+        bad_exits=add(m.bad_exits, bad_exits, running),
     )
 
 

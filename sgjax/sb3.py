@@ -58,17 +58,17 @@ class SgjaxVecEnv(VecEnv):
         num_envs = self.num_worlds
 
         def step(key, state, actions, params):
-            acting = state.robots.active
+            active = state.robots.active
             obs, state, reward, terminated, truncated, info = vstep(
                 jax.random.split(key, num_envs), state, actions, params)
-            finished = acting & (terminated | truncated)
+            finished = active & (terminated | truncated)
             # Slots whose robot finished earlier get one more done when their world resets.
-            dead = ~acting & info["episode_done"][:, None]
+            dead = ~active & info["episode_done"][:, None]
             live_next = state.robots.active | info["episode_done"][:, None]
             obs = jnp.where(live_next[..., None], obs, 0.0)
-            final = jnp.where(acting[..., None], info["final_observation"], 0.0)
+            final = jnp.where(active[..., None], info["final_observation"], 0.0)
             return (obs, state, reward, finished | dead, finished & truncated & ~terminated,
-                    final, acting & info["arrived"])
+                    final, active & info["arrived"])
 
         return step
 

@@ -34,7 +34,7 @@ def play(env, params, frames, arrived=None, done_at=None):
         state = frames[t].replace(time=jnp.int32(t))
         state = state.replace(robots=state.robots.replace(
             succeeded=prev.robots.succeeded | jnp.asarray(now)))
-        info = {"acting": prev.robots.active, "arrived": jnp.asarray(now)}
+        info = {"was_active": prev.robots.active, "arrived": jnp.asarray(now)}
         m = metrics.update(m, prev, state, info, jnp.asarray(t == done_at), params, env.config)
         prev = state
     robot, episode = metrics.finalize(m, prev, params)

@@ -209,7 +209,7 @@ def test_rewarder_sums_weighted_terms_and_reports_each():
     np.testing.assert_allclose(parts["collision"], [0, -10])
     np.testing.assert_allclose(parts["progress"], [0.5, 0], atol=1e-5)
     np.testing.assert_allclose(total, [-1.5, -12], atol=1e-5)
-    # Robots that were not acting get nothing.
+    # Robots that were not active get nothing.
     gone = moved(prev, succeeded=jnp.asarray([False, True]))
     total, parts = env.config.rewarder(gone, after, jnp.zeros(2, jnp.int32), params, env.config)
     assert float(total[1]) == 0 and all(float(v[1]) == 0 for v in parts.values())

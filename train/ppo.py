@@ -4,7 +4,7 @@ Every robot slot of every environment is one agent of a shared network; agents a
 ``B = num_envs x slots``. One update collects ``num_steps`` steps of the whole batch with
 ``lax.scan`` (auto-reset inside the environment), computes GAE, and runs ``update_epochs``
 passes of ``num_minibatches`` minibatches over agent sequences. Robots that are absent or have
-finished (``info["acting"]`` false) are masked out of every loss and statistic.
+finished (``info["was_active"]`` false) are masked out of every loss and statistic.
 
 * IPPO: actor and critic read the robot's own observation (plus a one-hot id with
   ``network.agent_id``). MAPPO: the critic reads the global state, every robot's observation of
@@ -113,7 +113,7 @@ class EnvBatch:
                 env.step, in_axes=(0, 0, 0, None))(k, s, a, params)
             final = info["final_robots"]
             parts.append((obs, state, reward, term, trunc, {
-                "acting": info["acting"], "episode_done": info["episode_done"],
+                "was_active": info["was_active"], "episode_done": info["episode_done"],
                 "reward_terms": info["reward_terms"],
                 "final_observation": info["final_observation"],
                 "final_present": final.present, "final_succeeded": final.succeeded}))
@@ -122,7 +122,7 @@ class EnvBatch:
             cat, *[(p[0], None, p[2], p[3], p[4], p[5]) for p in parts])
         return obs, tuple(p[1] for p in parts), reward, term, trunc, info
 
-    def acting(self, states: tuple) -> Array:
+    def active_slots(self, states: tuple) -> Array:
         return jnp.concatenate([s.robots.active for s in states])
 
     def reward_term_names(self) -> tuple[str, ...]:
@@ -260,7 +260,7 @@ class Trainer:
     def _env_step(self, runner: RunnerState, _: Any) -> tuple[RunnerState, tuple]:
         a = self.config.algorithm
         key, k_act, k_env = jax.random.split(runner.key, 3)
-        active = self.batch.acting(runner.env_states)  # [E, R]
+        active = self.batch.active_slots(runner.env_states)  # [E, R]
         obs_stats = runner.obs_stats
         if a.normalize_observations:
             obs_stats = obs_stats.update(runner.obs.reshape(-1, self.batch.obs_size),

@@ -54,13 +54,13 @@ class Rewarder(TermSet):
     def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
                  layout: Layout) -> tuple[Array, dict[str, Array]]:
         """``(reward [R], weighted value of each term {name: [R]})``, zero for robots that were
-        not acting at ``prev``; weights are read at ``prev.total_steps``."""
-        acting = prev.robots.active
+        not was_active at ``prev``; weights are read at ``prev.total_steps``."""
+        was_active = prev.robots.active
         parts = {}
         for term in self.terms:
             weight = params.reward.weights[term.name](prev.total_steps)
             value = term(prev, state, actions, params, layout)
-            parts[term.name] = jnp.where(acting, weight * value, 0.0)
+            parts[term.name] = jnp.where(was_active, weight * value, 0.0)
         total = sum(parts.values(), jnp.zeros(layout.max_agents, jnp.float32))
         return total, parts
 
