@@ -1,5 +1,55 @@
-"""Shared test settings: headless matplotlib, deterministic float32 JAX."""
+"""Shared test settings: headless matplotlib, and one JAX compilation cache per test session.
+
+Tests compile many identical programs (the same environment's step in several tests, and every
+primitive that eager-mode tests dispatch); a persistent compilation cache shared by the xdist
+workers of one session compiles each of them once. The cache lives in a fresh temporary folder
+per session (a run from a fresh clone pays every compile once), unless
+``SGJAX_TEST_COMPILATION_CACHE`` names a folder to keep between runs. ``SGJAX_TEST_NO_CACHE=1``
+turns it off.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
 
 import matplotlib
 
 matplotlib.use("Agg")
+
+_CACHE_ENV = "SGJAX_TEST_COMPILATION_CACHE"
+_OWNED_ENV = "SGJAX_TEST_COMPILATION_CACHE_OWNED"
+
+
+def pytest_configure(config):
+    if os.environ.get("SGJAX_TEST_NO_CACHE") == "1":
+        return
+    if _CACHE_ENV not in os.environ:  # the controller (or a plain run) makes the folder
+        os.environ[_CACHE_ENV] = tempfile.mkdtemp(prefix="sgjax-test-jax-cache-")
+        os.environ[_OWNED_ENV] = str(os.getpid())
+    # Read by JAX at import (workers and subprocesses inherit them), and set here too in case
+    # JAX is already imported.
+    settings = {"jax_compilation_cache_dir": os.environ[_CACHE_ENV],
+                "jax_persistent_cache_min_compile_time_secs": 0.0,
+                "jax_persistent_cache_min_entry_size_bytes": 0}
+    for name, value in settings.items():
+        os.environ[name.upper()] = str(value)
+    import jax
+
+    for name, value in settings.items():
+        jax.config.update(name, value)
+
+
+def pytest_unconfigure(config):
+    if os.environ.get(_OWNED_ENV) == str(os.getpid()):
+        shutil.rmtree(os.environ.get(_CACHE_ENV, ""), ignore_errors=True)
+
+
+def pytest_collection_modifyitems(session, config, items):
+    """Files with the most slow tests first (stable otherwise): with ``--dist loadfile`` the
+    workers take the long files early and the short ones fill in at the end."""
+    slow = {}
+    for item in items:
+        slow[item.path] = slow.get(item.path, 0) + (item.get_closest_marker("slow") is not None)
+    items.sort(key=lambda item: -slow[item.path])

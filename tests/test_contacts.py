@@ -2,6 +2,7 @@
 
 import jax.numpy as jnp
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -21,6 +22,7 @@ def one_wall_map(x1, y1, x2, y2):
     return compile_map(parse_map(data, clearance=0.5))
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None)
 @given(wall=st.tuples(coord, coord, coord, coord), start=st.tuples(coord, coord),
        move=st.tuples(motion, motion), radius=st.floats(0.05, 0.5))

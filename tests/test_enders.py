@@ -63,6 +63,7 @@ def test_stuck_detector_window_distance_and_penalty(room):
     np.testing.assert_allclose(out.reward, [-7, -7, 0])
 
 
+@pytest.mark.slow
 def test_stuck_through_the_step_all_robots_stopped():
     env, params = make_room(num_agents=2, rewards={"existence": 1.0}, enders=[
         "time_limit", {"stuck": {"distance": 0.5, "steps": 10, "penalty": -100.0}}])
@@ -93,6 +94,7 @@ def test_collision_ender_team_and_robot(room):
     assert not bool(outcome("collision", env, params, hit, hit).terminated.any())
 
 
+@pytest.mark.slow
 def test_collision_ended_robot_leaves_the_world():
     env, params = make_room(num_agents=2, enders=[{"collision": {"scope": "robot"}}])
     r = float(params.robots.radius[0])

@@ -33,6 +33,7 @@ def random_go_stop(env):
     return lambda k, t: (jax.random.uniform(k, (env.max_agents,)) < 0.3).astype(jnp.int32)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scenario", sgjax.registered())
 def test_api_shapes_and_spaces(scenario):
     env, params = sgjax.make(scenario, num_agents=3)
@@ -81,6 +82,7 @@ def test_determinism_same_key_same_result():
     assert not np.array_equal(a[0], c[0])
 
 
+@pytest.mark.slow
 def test_jit_equals_eager():
     env, params = sgjax.make("hallway", num_agents=3)
     actions = random_go_stop(env)
@@ -98,6 +100,7 @@ def test_jit_equals_eager():
     chex.assert_trees_all_close(eager_state, jit_state, rtol=1e-5, atol=1e-5)
 
 
+@pytest.mark.slow
 def test_vmap_equals_loop():
     env, params = sgjax.make("intersection", num_agents=4, action_mode="continuous")
     keys = jax.random.split(jax.random.key(4), 5)
@@ -135,6 +138,7 @@ def test_no_retrace_when_robot_count_changes():
     assert traces == {"reset": 1, "step": 1}
 
 
+@pytest.mark.slow
 def test_inactive_slots_are_absorbing_and_masked():
     env, params = sgjax.make("open", num_agents=2, max_agents=5, action_mode="continuous")
     obs, state = env.reset(jax.random.key(0), params)
@@ -147,6 +151,7 @@ def test_inactive_slots_are_absorbing_and_masked():
     assert not bool(term[2:].any() | trunc[2:].any())
 
 
+@pytest.mark.slow
 def test_success_is_terminal_and_absorbing():
     env, params = sgjax.make("open", num_agents=1)
     obs, state = env.reset(jax.random.key(2), params)
@@ -183,12 +188,14 @@ def test_auto_reset_keeps_final_observation():
         pytest.fail("episode never ended")
 
 
+@pytest.mark.slow
 def test_time_limit_truncates():
     env, params = sgjax.make("doorway", num_agents=2, time_limit=1.0)
     _, state = env.reset(jax.random.key(0), params)
     stop = jnp.ones(2, jnp.int32)
+    step = jax.jit(env.step)
     for t in range(10):
-        _, state_next, _, term, trunc, info = env.step(jax.random.key(t), state, stop, params)
+        _, state_next, _, term, trunc, info = step(jax.random.key(t), state, stop, params)
         if t < 9:
             assert not bool(trunc.any()) and not bool(info["episode_done"])
             state = state_next
@@ -254,6 +261,7 @@ def test_bad_input_errors():
         cenv.step(jax.random.key(0), cstate, jnp.zeros((2, 3)), cparams)
 
 
+@pytest.mark.slow
 def test_scenario_sampling_constraints():
     env, params = sgjax.make("intersection", num_agents=10)
     keys = jax.random.split(jax.random.key(9), 256)

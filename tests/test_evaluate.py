@@ -31,6 +31,7 @@ def go_everywhere(obs, key):
     return jnp.zeros(obs.shape[0], jnp.int32)
 
 
+@pytest.mark.slow
 def test_evaluate_command_end_to_end(tmp_path, capsys):
     main(["evaluate", "--scenario", "open", "--policy", "only_local", "stop_when_blocked",
           "--num-agents", "2", "3", "--episodes", "3", "--out", str(tmp_path)])
@@ -58,6 +59,7 @@ def test_evaluate_command_end_to_end(tmp_path, capsys):
             assert image.size[0] > 100
 
 
+@pytest.mark.slow
 def test_runner_agrees_with_a_manual_loop():
     """The batched, frozen-after-the-end runner against eager step_env calls."""
     env, params = sgjax.make("hallway", num_agents=2)
@@ -107,6 +109,7 @@ def test_stop_when_blocked_yields_to_the_lower_index():
     assert stop_when_blocked(env)(None, jax.random.key(0), far, params).tolist() == [GO, GO]
 
 
+@pytest.mark.slow
 def test_render_command_writes_animation_and_trajectory(tmp_path, capsys):
     gif = tmp_path / "episode.gif"
     main(["render", "--scenario", "open", "--num-agents", "2", "--width", "160",
@@ -138,6 +141,7 @@ def test_bad_render_output_name_is_an_error():
         main(["render", "--out", "episode.webm"])
 
 
+@pytest.mark.slow
 def test_metrics_are_finite_where_defined():
     env, params = sgjax.make("doorway", num_agents=3)
     batch = run_episodes(env, params, "random", jax.random.key(0), 4)

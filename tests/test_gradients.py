@@ -39,6 +39,7 @@ def smooth_actions(dim, key):
     return base + 0.05 * jax.random.uniform(key, base.shape, minval=-1, maxval=1)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("robots", ["socialgym", "cobot", "automata"])
 def test_gradient_matches_finite_differences(robots):
     env, rollout = make_rollout(robots)
@@ -78,6 +79,7 @@ def test_jacobian_of_positions_is_finite_and_causal():
     assert float(jnp.abs(jac[0, :, :, 1]).max()) == 0.0
 
 
+@pytest.mark.slow
 def test_grad_through_vmap_and_jit():
     env, rollout = make_rollout()
     actions = jnp.stack([smooth_actions(env.config.action_dim, k)
@@ -95,6 +97,7 @@ SMOOTH_TERMS = {
 }
 
 
+@pytest.mark.slow
 def test_gradient_through_smooth_terms_matches_finite_differences():
     """Rewards and observations made of terms stay differentiable in the actions."""
     env, rollout = make_rollout(terms=SMOOTH_TERMS)

@@ -50,11 +50,12 @@ def _rollout(env, params, state, actions, steps, key=0):
 
 
 # ------------------------------------------------------------------ spawning and params
+@pytest.mark.slow
 @pytest.mark.parametrize("scenario", sgjax.registered())
 def test_spawns_are_clear_of_walls_robots_and_each_other(scenario):
     env, params = sgjax.make(scenario, num_agents=4, num_humans=30)
     keys = jax.random.split(jax.random.key(3), 32)
-    _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+    _, state = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(keys, params)
     h, r = state.humans, state.robots
     assert bool(jnp.all(jnp.sum(h.active, axis=1) == 30))
     radius = float(params.humans.radius)
@@ -67,6 +68,7 @@ def test_spawns_are_clear_of_walls_robots_and_each_other(scenario):
     assert bool(jnp.all(jnp.where(r.present[:, None, :], to_robot >= reach, True)))
 
 
+@pytest.mark.slow
 def test_num_humans_is_a_param_and_checked():
     env, params = sgjax.make("doorway", num_agents=2, num_humans=5, max_humans=20)
     for n in (0, 5, 20):
@@ -79,7 +81,7 @@ def test_num_humans_is_a_param_and_checked():
 
 
 def test_make_rejects_bad_pedestrian_options():
-    with pytest.raises(ValueError, match="force_model must be one of"):
+    with pytest.raises(ValueError, match=r"human_model must be one of .* got 'orca'"):
         sgjax.make("open", num_humans=2, human_model="orca")
     with pytest.raises(ValueError, match="num_humans must be a non-negative integer"):
         sgjax.make("open", num_humans=-1)
@@ -134,6 +136,7 @@ def _wide_corridor():
     }, source="corridor")
 
 
+@pytest.mark.slow
 def test_counterflow_groups_get_through_a_corridor():
     """Five pedestrians from each end of a 3 m wide, 20 m long hallway swap ends without
     deadlock or wall contact, within 30 s (measured: about 15 s). (In the shipped hallway's
@@ -154,6 +157,7 @@ def test_counterflow_groups_get_through_a_corridor():
     assert float(jnp.min(clearance)) >= -1e-4
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("robot_weight,avoids", [(None, True), (0.0, False)])
 def test_pedestrians_avoid_a_robot_standing_in_a_corridor(robot_weight, avoids):
     """A robot stands (STOP) in the middle of a corridor; pedestrians walk past it without
@@ -178,6 +182,7 @@ def test_pedestrians_avoid_a_robot_standing_in_a_corridor(robot_weight, avoids):
         assert bool(jnp.any(touching))
 
 
+@pytest.mark.slow
 def test_robot_pedestrian_contact_is_counted_and_stops_the_robot():
     env, params = sgjax.make(_wide_corridor(), num_agents=1, num_humans=1, action_mode="continuous")
     _, state = env.reset_to(jnp.array([0]), jnp.array([6]), jnp.array([True]), params)
@@ -187,8 +192,9 @@ def test_robot_pedestrian_contact_is_counted_and_stops_the_robot():
     state = state.replace(humans=walker)
     actions = jnp.array([[1.0, 0.0]])
     onsets = 0
+    step = jax.jit(env.step_env)
     for k in range(40):
-        _, state, reward, _, _, info = env.step_env(jax.random.key(k), state, actions, params)
+        _, state, reward, _, _, info = step(jax.random.key(k), state, actions, params)
         onsets = int(state.collisions.human[0])
         if onsets:
             assert bool(info["collision_human"][0])
@@ -199,6 +205,7 @@ def test_robot_pedestrian_contact_is_counted_and_stops_the_robot():
     assert int(state.collisions.robot[0]) == 0 and int(state.collisions.wall[0]) == 0
 
 
+@pytest.mark.slow
 def test_planner_sees_pedestrians():
     """Under GO the local planner treats pedestrians as obstacles: a robot driving down the
     corridor at a pedestrian standing on its path stops short of it without touching."""
@@ -215,18 +222,23 @@ def test_planner_sees_pedestrians():
 
 # ------------------------------------------------------------------ JAX contracts
 def _episode(env, params, key, steps=30):
-    _, state = env.reset(key, params)
+    """The state after ``steps`` GO steps from ``reset(key)``, as a jitted scan."""
     actions = jnp.zeros(env.max_agents, jnp.int32)
-    for k in range(steps):
-        _, state, *_ = env.step(jax.random.fold_in(key, k), state, actions, params)
-    return state
+
+    def body(state, k):
+        return env.step(jax.random.fold_in(key, k), state, actions, params)[1], None
+
+    _, state = env.reset(key, params)
+    return jax.lax.scan(body, state, jnp.arange(steps))[0]
 
 
+@pytest.mark.slow
 def test_deterministic_and_jit_equals_eager():
     env, params = sgjax.make("intersection", num_agents=3, num_humans=12)
     key = jax.random.key(11)
-    a = _episode(env, params, key)
-    b = _episode(env, params, key)
+    episode = jax.jit(_episode, static_argnums=(0,))
+    a = episode(env, params, key)
+    b = episode(env, params, key)
     assert jax.tree.all(jax.tree.map(lambda u, v: bool(jnp.array_equal(u, v)), a, b))
     _, s = env.reset(key, params)
     actions = jnp.zeros(env.max_agents, jnp.int32)
@@ -237,6 +249,7 @@ def test_deterministic_and_jit_equals_eager():
         np.testing.assert_allclose(np.asarray(u, float), np.asarray(v, float), atol=1e-5)
 
 
+@pytest.mark.slow
 def test_changing_num_humans_does_not_retrace():
     env, params = sgjax.make("roundabout", num_agents=2, num_humans=4, max_humans=16)
     traces = []
@@ -253,6 +266,7 @@ def test_changing_num_humans_does_not_retrace():
     assert len(traces) == 1
 
 
+@pytest.mark.slow
 def test_force_constants_are_differentiable():
     """``jax.grad`` through a rollout with respect to a force constant is finite and non-zero
     (so constants can be fitted)."""
@@ -262,16 +276,19 @@ def test_force_constants_are_differentiable():
     def spread(strength):
         p = params.replace(humans=params.humans.replace(
             forces=params.humans.forces.replace(social_strength=strength)))
-        st = state
-        for k in range(15):
-            _, st, *_ = env.step_env(jax.random.key(k), st, jnp.zeros(1, jnp.int32), p)
+
+        def body(st, k):
+            return env.step_env(jax.random.key(k), st, jnp.zeros(1, jnp.int32), p)[1], None
+
+        st = jax.lax.scan(body, state, jnp.arange(15))[0]
         return jnp.sum(jnp.square(st.humans.x)) + jnp.sum(jnp.square(st.humans.y))
 
-    g = jax.grad(spread)(jnp.asarray(5.1))
+    g = jax.jit(jax.grad(spread))(jnp.asarray(5.1))
     assert bool(jnp.isfinite(g)) and float(jnp.abs(g)) > 0.0
 
 
 # ------------------------------------------------------------------ force laws
+@pytest.mark.slow
 def test_helbing_forces_are_minus_the_potential_gradient():
     p = SocialForceParams(fov_out_weight=1.0)
     rng = np.random.default_rng(0)

@@ -57,6 +57,7 @@ def test_driven_like_jaxmarl_ippo(action_mode):
     assert world.shape == (NUM_STEPS, NUM_ENVS, env.num_agents * obs_dim)
 
 
+@pytest.mark.slow
 def test_dones_and_avail_actions():
     env = SocialNavJaxMARL("open", num_agents=2)
     obs, state = env.reset(jax.random.key(0))

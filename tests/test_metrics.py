@@ -42,6 +42,7 @@ def play(env, params, frames, arrived=None, done_at=None):
             {k: float(v) for k, v in episode.items()})
 
 
+@pytest.mark.slow
 def test_straight_path_at_constant_speed():
     env, params = room(num_agents=1)
     # At rest at x = -3, then 1 m/s along +x for 10 steps of 0.1 s.
@@ -128,6 +129,7 @@ def test_closest_approach_and_personal_space():
     assert math.isnan(robot["intimate_space_human"][0])
 
 
+@pytest.mark.slow
 def test_pedestrian_gap_and_time_to_collision():
     env, params = room(num_agents=1, num_humans=1, max_humans=1)
     radius = float(params.robots.radius[0])

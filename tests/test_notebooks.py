@@ -23,6 +23,7 @@ def run_notebook(path: Path) -> dict:
     return namespace
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["quickstart.ipynb", "ablation.ipynb"])
 def test_notebook_runs(name, monkeypatch):
     monkeypatch.setenv("SGJAX_NOTEBOOK_SMALL", "1")

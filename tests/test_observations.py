@@ -35,6 +35,7 @@ def test_pose_with_and_without_heading(room):
     np.testing.assert_allclose(value[0], [1, 2])
 
 
+@pytest.mark.slow
 def test_velocity_frames_and_history():
     env, params = make_room(num_agents=1, observations=[{"velocity": {"history": 2}}])
     state = place(env, params, [0.0], [0.0], [math.pi / 2], speeds=[1.0])

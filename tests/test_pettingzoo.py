@@ -35,6 +35,7 @@ def run_episode(seed):
     return history
 
 
+@pytest.mark.slow
 def test_whole_episode_is_deterministic_per_seed():
     a, b, c = run_episode(5), run_episode(5), run_episode(6)
     assert len(a) == len(b) > 10

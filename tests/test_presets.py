@@ -24,6 +24,7 @@ RICH = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scenario, preset", [
     *[(name, "enforced_order") for name in sgjax.registered()],
     *[("doorway", name) for name in ("socialgym", "cadrl", "any_order")],
@@ -113,6 +114,7 @@ def rich():
                       terms=RICH)
 
 
+@pytest.mark.slow
 def test_rich_terms_jit_equals_eager_and_deterministic(rich):
     env, params = rich
     _, state = env.reset(jax.random.key(3), params)
@@ -126,6 +128,7 @@ def test_rich_terms_jit_equals_eager_and_deterministic(rich):
         np.testing.assert_array_equal(np.asarray(b), np.asarray(c))
 
 
+@pytest.mark.slow
 def test_rich_terms_vmap_equals_loop_and_no_retrace(rich):
     env, params = rich
     keys = jax.random.split(jax.random.key(5), 3)
@@ -154,6 +157,7 @@ def test_rich_terms_vmap_equals_loop_and_no_retrace(rich):
     assert len(traces) == 1
 
 
+@pytest.mark.slow
 def test_rich_terms_long_rollout_stays_finite(rich):
     env, params = rich
 
@@ -172,6 +176,7 @@ def test_rich_terms_long_rollout_stays_finite(rich):
     assert bool(ok.all()) and np.isfinite(np.asarray(total)).all()
 
 
+@pytest.mark.slow
 def test_docs_terms_examples_run(tmp_path):
     """The Python and YAML examples of docs/terms.md work as written."""
     import re

@@ -96,6 +96,7 @@ def _unwrapped_theta(state: np.ndarray) -> np.ndarray:
     return (np.arctan2(inter[..., 1], inter[..., 0]) - np.arctan2(e[..., 1], e[..., 0]))[mask]
 
 
+@pytest.mark.slow
 def test_moussaid_matches_pysocialforce(tmp_path):
     state0 = _scene()
     sim = _simulator(state0, tmp_path)

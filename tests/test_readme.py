@@ -3,6 +3,8 @@
 import re
 from pathlib import Path
 
+import pytest
+
 import sgjax
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -30,6 +32,7 @@ def test_every_scenario_has_a_picture():
         assert (ROOT / "docs" / "img" / f"{name}.png").exists(), name
 
 
+@pytest.mark.slow
 def test_readme_quick_start_runs():
     code = re.findall(r"```python\n(.+?)\n```", (ROOT / "README.md").read_text(), flags=re.S)[0]
     namespace: dict = {}

@@ -9,6 +9,7 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 from PIL import Image
 
 import sgjax
@@ -21,6 +22,7 @@ def frame_of(spec, state, radius):
     return render_state(spec, state, radius, width_px=200)
 
 
+@pytest.mark.slow
 def test_frames_change_between_steps_and_gif_is_readable(tmp_path):
     env, params = sgjax.make("hallway", num_agents=2)
     spec = sgjax.maps.load("hallway")
@@ -65,6 +67,7 @@ print("backend kept")
 """
 
 
+@pytest.mark.slow
 def test_importing_and_drawing_keep_the_plotting_backend():
     """A notebook's matplotlib backend survives importing and using the adapters and report."""
     env = {**os.environ, "MPLBACKEND": "svg", "JAX_PLATFORMS": "cpu",

@@ -48,6 +48,7 @@ def leaves_close(a, b, **tol):
                                                           strict=True))
 
 
+@pytest.mark.slow
 def test_a_tiny_run_learns_to_reach_the_goal():
     """One robot in the open with continuous actions: success rises from near zero."""
     config = tiny(env={"curriculum": [[0, 1]], "action_mode": "continuous", "time_limit": 20.0,
@@ -116,6 +117,7 @@ def two_seeds():
     return config, trainer, step, jax.jit(jax.vmap(step))
 
 
+@pytest.mark.slow
 def test_multi_seed_vmap_matches_separate_seeds(two_seeds):
     config, trainer, step, vstep = two_seeds
     keys = seed_keys(config)
@@ -127,6 +129,7 @@ def test_multi_seed_vmap_matches_separate_seeds(two_seeds):
         assert leaves_close(mine, alone.params, rtol=1e-4, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_checkpoint_round_trip_and_resume_continue_the_same_run(two_seeds, tmp_path):
     config, trainer, _, one = two_seeds
     start = jax.vmap(trainer.init)(seed_keys(config))
@@ -140,6 +143,7 @@ def test_checkpoint_round_trip_and_resume_continue_the_same_run(two_seeds, tmp_p
     assert not list(tmp_path.glob("*.tmp"))  # written atomically
 
 
+@pytest.mark.slow
 def test_a_checkpoint_policy_loads_from_the_file_alone(two_seeds, tmp_path, monkeypatch):
     """The saved actor acts as Trainer.policy does, without building a Trainer; a checkpoint
     saved before the actor layout was kept in its meta still loads (one environment built)."""
@@ -179,6 +183,7 @@ def test_a_checkpoint_policy_loads_from_the_file_alone(two_seeds, tmp_path, monk
     assert through_sgjax.step(through_sgjax.init(2), obs, key, state, params)[1].shape == (2,)
 
 
+@pytest.mark.slow
 def test_mappo_with_lstm_encoder_and_continuous_actions_updates():
     config = tiny(algorithm={"name": "mappo"},
                   network={"others_encoder": "lstm", "encoder_size": 8, "agent_id": True},
@@ -227,6 +232,7 @@ assert diff < 1e-5, diff
 """
 
 
+@pytest.mark.slow
 def test_sharded_and_unsharded_runs_agree_on_one_step():
     env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=2",
            "JAX_PLATFORMS": "cpu", "PYTHONPATH": str(ROOT)}
@@ -236,6 +242,7 @@ def test_sharded_and_unsharded_runs_agree_on_one_step():
     assert "max difference" in result.stdout
 
 
+@pytest.mark.slow
 def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
     config = tmp_path / "tiny.yaml"
     config.write_text(yaml.safe_dump({
@@ -265,6 +272,7 @@ def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
     assert len((run / "progress.csv").read_text().splitlines()) == 6
 
 
+@pytest.mark.slow
 def test_reproduce_writes_the_papers_two_tables(tmp_path):
     from train.reproduce import reproduce
 
