@@ -19,6 +19,7 @@ from sgjax.evaluate import DEFAULT_EPISODES, DEFAULT_NUM_AGENTS, evaluate, run_e
 from sgjax.maps.io import load as load_map
 from sgjax.policies import BASELINES
 from sgjax.registry import make, registered
+from sgjax.types import ACTION_MODES
 from sgjax.version import __version__
 
 MINI_GAMES = ("open", "doorway", "hallway", "intersection", "roundabout")
@@ -29,7 +30,7 @@ def _add_environment_options(parser: argparse.ArgumentParser) -> None:
                         help="pedestrians per episode (default: the scenario's)")
     parser.add_argument("--time-limit", type=float, default=None,
                         help="seconds before truncation (default 75)")
-    parser.add_argument("--action-mode", default=None, choices=["go_stop", "continuous"])
+    parser.add_argument("--action-mode", default=None, choices=ACTION_MODES)
     parser.add_argument("--observation-preset", default=None,
                         help="observation preset the policy expects (docs/terms.md)")
 

@@ -37,6 +37,7 @@ import jax.numpy as jnp
 from jax import Array
 
 from sgjax.geometry import safe_norm
+from sgjax.types import GO, STOP
 
 if TYPE_CHECKING:
     from sgjax.env import EnvParams, EnvState, SocialNavEnv
@@ -55,7 +56,6 @@ class RecurrentPolicy:
 BASELINES = ("only_local", "random", "stop_when_blocked")
 STOP_DISTANCE = 1.0  # m, body to body
 STOP_HALF_ANGLE = math.pi / 3  # rad either side of the heading
-GO, STOP = 0, 1
 
 
 def only_local(env: SocialNavEnv) -> Policy:
