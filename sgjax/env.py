@@ -121,6 +121,15 @@ class SocialNavEnv:
         self.config = config
         self._default_params = default_params
 
+    # Environments with equal configs behave the same (all arrays are in params), so they are
+    # equal and hash alike: compiled functions taking an environment as a static argument (and
+    # the compiled entry points below) are shared between them.
+    def __eq__(self, other: object) -> bool:
+        return type(other) is type(self) and other.config == self.config
+
+    def __hash__(self) -> int:
+        return hash(self.config)
+
     def __repr__(self) -> str:
         c = self.config
         return (f"SocialNavEnv(scenario={c.scenario!r}, max_agents={c.max_agents}, "
@@ -191,13 +200,17 @@ class SocialNavEnv:
                              f" for this environment, got {zones}")
 
     def reset(self, key: Array, params: EnvParams) -> tuple[Array, EnvState]:
-        """Sample a scenario: starts, goals and routes for ``params.num_agents`` robots."""
+        """Sample a scenario: starts, goals and routes for ``params.num_agents`` robots.
+        Returns ``obs [R, D], state``."""
         self.check_params(params)
+        return self._reset_compiled(key, params)
+
+    def _reset(self, key: Array, params: EnvParams) -> tuple[Array, EnvState]:
         key_robots, key_humans = jax.random.split(key)
         wanted = jnp.arange(self.max_agents) < params.num_agents
         start, goal, placed = sample_starts_goals(key_robots, params.map, params.robots.radius,
                                                   wanted)
-        return self.reset_to(start, goal, placed, params, key=key_humans)
+        return self._reset_to(start, goal, placed, params, key_humans)
 
     def reset_to(
         self, start: Array, goal: Array, present: Array, params: EnvParams,
@@ -212,6 +225,12 @@ class SocialNavEnv:
                 raise ValueError(f"reset_to: {name} must have shape ({num_robots},), "
                                  f"got {jnp.shape(value)}")
         key = jax.random.key(0) if key is None else key
+        return self._reset_to_compiled(start, goal, present, params, key)
+
+    def _reset_to(
+        self, start: Array, goal: Array, present: Array, params: EnvParams, key: Array,
+    ) -> tuple[Array, EnvState]:
+        num_robots = self.max_agents
         # Split only what is used: reset runs inside every auto-reset step.
         key_humans, key_zones, key_obs = key, key, key
         if self.config.uses_zones or self.config.observer.needs_key:
@@ -259,12 +278,17 @@ class SocialNavEnv:
         ``info["final_robots"]``, ``info["final_collisions"]`` and ``info["final_time"]`` (steps)
         hold the ended episode's; ``info["episode_done"]`` says whether it ended.
         """
+        return self._step_compiled(key, state, actions, params)
+
+    def _step(
+        self, key: Array, state: EnvState, actions: Array, params: EnvParams
+    ) -> tuple[Array, EnvState, Array, Array, Array, dict]:
         key_step, key_reset = jax.random.split(key)
-        obs, next_state, reward, terminated, truncated, info = self.step_env(
+        obs, next_state, reward, terminated, truncated, info = self._step_env(
             key_step, state, actions, params
         )
         episode_done = jnp.all(~next_state.robots.present | terminated | truncated)
-        reset_obs, reset_state = self.reset(key_reset, params)
+        reset_obs, reset_state = self._reset(key_reset, params)
         info["episode_done"] = episode_done
         info["final_observation"] = obs
         info["final_robots"] = next_state.robots
@@ -289,6 +313,11 @@ class SocialNavEnv:
         ``info["arrived"] [R]`` which arrived during it, ``info["collision_*"] [R]`` what they
         touched.
         """
+        return self._step_env_compiled(key, state, actions, params)
+
+    def _step_env(
+        self, key: Array, state: EnvState, actions: Array, params: EnvParams
+    ) -> tuple[Array, EnvState, Array, Array, Array, dict]:
         cfg, layout = self.config, self.config.layout
         key_humans, key_obs = jax.random.split(key) if cfg.observer.needs_key else (key, key)
         with jax.named_scope("decode_actions"):
@@ -413,3 +442,11 @@ class SocialNavEnv:
         episode); ``key`` feeds noisy terms (lidar noise), default ``jax.random.key(0)``."""
         key = jax.random.key(0) if key is None else key
         return self.config.observer(state, params, self.config.layout, key)
+
+    # Compiled entry points: an eager call runs one compiled program instead of dispatching (and
+    # compiling) thousands of primitives one by one; inside an outer jit, vmap, scan or grad
+    # they are inlined; under ``jax.disable_jit()`` they run op by op.
+    _reset_compiled = jax.jit(_reset, static_argnums=0)
+    _reset_to_compiled = jax.jit(_reset_to, static_argnums=0)
+    _step_compiled = jax.jit(_step, static_argnums=0)
+    _step_env_compiled = jax.jit(_step_env, static_argnums=0)

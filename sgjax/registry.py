@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 from typing import Any
@@ -9,13 +10,14 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax import Array
 
 from sgjax.dynamics.limits import RobotPreset, resolve_robots, robot_params
 from sgjax.env import EnvConfig, SocialNavEnv
-from sgjax.humans.crowd import HumanConfig, HumanParams
+from sgjax.humans.crowd import HumanConfig, HumanParams, spawn_humans
 from sgjax.humans.forces import SocialForceParams
 from sgjax.humans.slots import spawn_slots, wall_sample_points
-from sgjax.maps.arrays import compile_map
+from sgjax.maps.arrays import MapArrays, compile_map
 from sgjax.maps.io import load, shipped_map_names
 from sgjax.maps.sampling import sample_starts_goals
 from sgjax.maps.schema import MapSpec, parse_map
@@ -102,11 +104,8 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
         max_steps=jnp.asarray(physics.max_steps, jnp.int32),
         goal_tolerance=jnp.asarray(robot_opts.goal_tolerance, jnp.float32),
     )
-    _check_capacity(spec.source, params, max_agents)
-    env = SocialNavEnv(config, params)
-    if human_config.max_humans:
-        _check_human_capacity(spec.source, env, params)
-    return env, params
+    _check_capacity(spec.source, params, max_agents, human_config)
+    return SocialNavEnv(config, params), params
 
 
 def human_params(
@@ -161,42 +160,83 @@ def _substeps(
     return substeps
 
 
-def _check_capacity(source: str, params: EnvParams, max_agents: int) -> None:
-    """Fail early if the map cannot place ``max_agents`` robots with distinct starts and goals."""
-    wanted = jnp.ones(max_agents, bool)
+def _content_key(*trees: Any) -> tuple:
+    """A hashable key for the values of some pytrees of arrays (shapes, dtypes and bytes)."""
+    leaves = [np.asarray(leaf) for tree in trees for leaf in jax.tree.leaves(tree)]
+    return tuple((leaf.shape, leaf.dtype.str, leaf.tobytes()) for leaf in leaves)
+
+
+class _Unhashed:
+    """Carries a value through ``functools.lru_cache`` without taking part in the key."""
+
+    def __init__(self, value: Any):
+        self.value = value
+
+    def __hash__(self) -> int:
+        return 0
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, _Unhashed)
+
+
+@functools.partial(jax.jit, static_argnames=("max_agents", "human_config"))
+def _placements(keys: Array, m: MapArrays, robot_radius: Array, hp: HumanParams,
+                max_agents: int, human_config: HumanConfig) -> tuple[Array, Array]:
+    """For each key of ``keys [T]``: how many robots were placed (all ``max_agents`` wanted) and
+    how many pedestrians found a spawn slot beside them (``hp.num_humans`` wanted), as ``reset``
+    places them (without routes or observations). Returns two ``[T]`` int counts."""
+
+    def one(key: Array) -> tuple[Array, Array]:
+        key_robots, key_humans = jax.random.split(key)
+        start, _, placed = sample_starts_goals(key_robots, m, robot_radius,
+                                               jnp.ones(max_agents, bool))
+        if not human_config.max_humans:
+            return jnp.sum(placed), jnp.zeros((), jnp.int32)
+        humans = spawn_humans(key_humans, human_config, hp, m, m.node_x[start], m.node_y[start],
+                              robot_radius, placed)
+        return jnp.sum(placed), jnp.sum(humans.active)
+
+    return jax.vmap(one)(keys)
+
+
+@functools.lru_cache(maxsize=256)
+def _fewest_placed(content: tuple, max_agents: int, human_config: HumanConfig,
+                   trees: _Unhashed) -> tuple[int, int]:
+    """The fewest robots and pedestrians placed over ``CAPACITY_TRIALS`` draws, cached by the
+    values of the map, radii and counts (``content``): a second ``make`` of the same world checks
+    nothing again."""
+    m, robot_radius, hp = trees.value
     keys = jax.random.split(jax.random.key(0), CAPACITY_TRIALS)
-    placed = jax.jit(jax.vmap(
-        lambda k: sample_starts_goals(k, params.map, params.robots.radius, wanted)[2]
-    ))(keys)
-    fewest = int(jnp.min(jnp.sum(placed, axis=1)))
-    if fewest < max_agents:
-        raise ValueError(
-            f"{source}: cannot place max_agents={max_agents} robots with distinct starts and goals "
-            f"and non-overlapping bodies (managed only {fewest} in some of {CAPACITY_TRIALS} "
-            "draws); use fewer robots or smaller ones"
-        )
+    robots, humans = _placements(keys, m, robot_radius, hp, max_agents=max_agents,
+                                 human_config=human_config)
+    return int(jnp.min(robots)), int(jnp.min(humans))
 
 
-def _check_human_capacity(source: str, env: SocialNavEnv, params: EnvParams) -> None:
-    """Fail early if ``max_humans`` pedestrians do not always find free spawn slots."""
-    wanted = env.config.humans.max_humans
+def _check_capacity(source: str, params: EnvParams, max_agents: int,
+                    human_config: HumanConfig) -> None:
+    """Fail early if the map cannot place ``max_agents`` robots with distinct starts and goals,
+    or ``max_humans`` pedestrians on free spawn slots beside them."""
+    wanted = human_config.max_humans
     slots = int(params.humans.spawn_x.shape[0])
+    radius = float(params.humans.radius)
     if slots < wanted:
         raise ValueError(
             f"{source}: cannot place max_humans={wanted} pedestrians of radius "
-            f"{float(params.humans.radius)} m: the map has only {slots} spawn slots"
+            f"{radius} m: the map has only {slots} spawn slots"
         )
-    full = params.replace(
-        num_agents=jnp.asarray(env.max_agents, jnp.int32),
-        humans=params.humans.replace(
-            num_humans=jnp.asarray(env.config.humans.max_humans, jnp.int32)),
-    )
-    keys = jax.random.split(jax.random.key(0), CAPACITY_TRIALS // 4)
-    states = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(keys, full)[1]
-    fewest = int(jnp.min(jnp.sum(states.humans.active, axis=1)))
-    if fewest < wanted:
+    hp = params.humans.replace(num_humans=jnp.asarray(wanted, jnp.int32))
+    trees = (params.map, params.robots.radius, hp)
+    robots, humans = _fewest_placed(_content_key(*trees), max_agents, human_config,
+                                    _Unhashed(trees))
+    if robots < max_agents:
+        raise ValueError(
+            f"{source}: cannot place max_agents={max_agents} robots with distinct starts and goals "
+            f"and non-overlapping bodies (managed only {robots} in some of {CAPACITY_TRIALS} "
+            "draws); use fewer robots or smaller ones"
+        )
+    if humans < wanted:
         raise ValueError(
             f"{source}: cannot place max_humans={wanted} pedestrians of radius "
-            f"{float(params.humans.radius)} m beside {env.max_agents} robots (the map has "
-            f"{slots} spawn slots; managed only {fewest} in some draws); use fewer pedestrians"
+            f"{radius} m beside {max_agents} robots (the map has {slots} spawn slots; managed "
+            f"only {humans} in some draws); use fewer pedestrians"
         )

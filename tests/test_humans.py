@@ -233,20 +233,15 @@ def _episode(env, params, key, steps=30):
 
 
 @pytest.mark.slow
-def test_deterministic_and_jit_equals_eager():
+def test_deterministic():
+    """Two runs of one jitted episode agree bit for bit (jit = eager with pedestrians is
+    tests/test_presets.py::test_rich_terms_jit_equals_eager_and_deterministic)."""
     env, params = sgjax.make("intersection", num_agents=3, num_humans=12)
     key = jax.random.key(11)
     episode = jax.jit(_episode, static_argnums=(0,))
     a = episode(env, params, key)
     b = episode(env, params, key)
     assert jax.tree.all(jax.tree.map(lambda u, v: bool(jnp.array_equal(u, v)), a, b))
-    _, s = env.reset(key, params)
-    actions = jnp.zeros(env.max_agents, jnp.int32)
-    eager = env.step(jax.random.key(1), s, actions, params)
-    jitted = jax.jit(env.step)(jax.random.key(1), s, actions, params)
-    for u, v in zip(jax.tree.leaves(eager[1].humans), jax.tree.leaves(jitted[1].humans),
-                    strict=True):
-        np.testing.assert_allclose(np.asarray(u, float), np.asarray(v, float), atol=1e-5)
 
 
 @pytest.mark.slow

@@ -107,9 +107,10 @@ def test_env_section_takes_every_make_option_and_round_trips():
 
 @pytest.fixture(scope="module")
 def two_seeds():
-    """Two seeds of a GRU + attention network, and one update vmapped over them (compiled
-    once for the tests below)."""
-    config = tiny(num_seeds=2, env={"observations": "navigation"},
+    """Sixteen seeds (lanes) of a GRU + attention network, and one update vmapped over them
+    (compiled once for the tests below). Sixteen lanes in one call used to hang XLA:CPU
+    (docs/xla-cpu-deadlock.md)."""
+    config = tiny(num_seeds=16, env={"observations": "navigation"},
                   network={"kind": "gru", "recurrent_size": 16, "hidden": [16],
                            "others_encoder": "attention", "encoder_size": 8})
     trainer = Trainer(config)
@@ -127,6 +128,28 @@ def test_multi_seed_vmap_matches_separate_seeds(two_seeds):
         alone, _ = single(trainer.init(keys[i]))
         mine = jax.tree.map(lambda x, i=i: x[i], together.params)
         assert leaves_close(mine, alone.params, rtol=1e-4, atol=1e-6)
+
+
+def _equations(jaxpr):
+    """Every equation of a jaxpr and of the jaxprs inside it (scan, cond, custom rules...)."""
+    for eqn in jaxpr.eqns:
+        yield eqn
+        for param in eqn.params.values():
+            for sub in param if isinstance(param, (list, tuple)) else [param]:
+                inner = getattr(sub, "jaxpr", sub)
+                if hasattr(inner, "eqns"):
+                    yield from _equations(inner)
+
+
+def test_vmapped_network_init_runs_no_batched_qr(two_seeds):
+    """Batched QRs side by side deadlock XLA:CPU (docs/xla-cpu-deadlock.md): a vmapped init
+    factorises one matrix at a time."""
+    config, trainer, _, _ = two_seeds
+    jaxpr = jax.make_jaxpr(jax.vmap(trainer.init))(seed_keys(config)).jaxpr
+    qrs = [eqn for eqn in _equations(jaxpr) if "qr" in eqn.primitive.name]
+    assert qrs, "expected orthogonal initialisers"
+    assert all(v.aval.ndim == 2 for eqn in qrs for v in eqn.invars), [
+        [v.aval.shape for v in eqn.invars] for eqn in qrs]
 
 
 @pytest.mark.slow
@@ -170,8 +193,8 @@ def test_a_checkpoint_policy_loads_from_the_file_alone(two_seeds, tmp_path, monk
     assert len(made) == 1  # the others encoder's layout, from one training environment
     assert checkpoint.actor_layout(old, *checkpoint.read(old)) == trainer.actor
     assert policy_make_kwargs(str(path)) == config.env.make_kwargs()
-    with pytest.raises(ValueError, match="seed index 2 out of range"):
-        checkpoint.load_policy(path, env, seed_index=2)
+    with pytest.raises(ValueError, match="seed index 16 out of range"):
+        checkpoint.load_policy(path, env, seed_index=16)
 
     obs, state = env.reset(jax.random.PRNGKey(3), params)
     key = jax.random.PRNGKey(4)

@@ -25,6 +25,7 @@ import jax.numpy as jnp
 from jax import Array
 
 from train.config import NetworkConfig
+from train.initializers import orthogonal
 
 
 @dataclasses.dataclass(frozen=True)
@@ -63,7 +64,7 @@ def _activation(name: str):
 
 
 def _dense(size: int, scale: float = 2 ** 0.5) -> nn.Dense:
-    return nn.Dense(size, kernel_init=nn.initializers.orthogonal(scale),
+    return nn.Dense(size, kernel_init=orthogonal(scale),
                     bias_init=nn.initializers.zeros)
 
 
@@ -92,7 +93,7 @@ class OthersEncoder(nn.Module):
             values = _dense(self.size)(embedded)
             pooled = jnp.sum(weights[..., None] * values, axis=-2)
         else:  # LSTM over the bodies, farthest first; empty slots leave the state unchanged
-            cell = nn.OptimizedLSTMCell(self.size)
+            cell = nn.OptimizedLSTMCell(self.size, recurrent_kernel_init=orthogonal())
             carry = cell.initialize_carry(jax.random.key(0), bodies[..., 0, :].shape)
             for j in reversed(range(lay.k)):
                 new_carry, _ = cell(carry, bodies[..., j, :])
@@ -114,7 +115,7 @@ class ResetGRU(nn.Module):
     def __call__(self, carry: Array, inputs: tuple[Array, Array]) -> tuple[Array, Array]:
         x, starts = inputs
         carry = jnp.where(starts[:, None], jnp.zeros_like(carry), carry)
-        carry, y = nn.GRUCell(self.size)(carry, x)
+        carry, y = nn.GRUCell(self.size, recurrent_kernel_init=orthogonal())(carry, x)
         return carry, y
 
 
