@@ -1,24 +1,18 @@
 """The trainer: it learns, checkpoints round-trip and resume the same run, configs are
-validated, sharded equals unsharded, a vmap over seeds equals separate seeds."""
+validated, a vmap over sixteen seeds equals separate seeds and never hangs (the commands end to
+end: tests/test_train_commands.py)."""
 
-import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-import yaml
-from PIL import Image
 
 from sgjax.policies import load_policy, policy_make_kwargs
 from sgjax.terms import ConfigError
 from train import checkpoint, ppo
 from train.actor import ActorWeights
-from train.cli import main as train_main
 from train.config import config_from_dict, load_config
 from train.networks import ResetGRU
 from train.ppo import Trainer, seed_keys
@@ -146,7 +140,7 @@ def test_vmapped_network_init_runs_no_batched_qr(two_seeds):
     factorises one matrix at a time."""
     config, trainer, _, _ = two_seeds
     jaxpr = jax.make_jaxpr(jax.vmap(trainer.init))(seed_keys(config)).jaxpr
-    qrs = [eqn for eqn in _equations(jaxpr) if "qr" in eqn.primitive.name]
+    qrs = [eqn for eqn in _equations(jaxpr) if eqn.primitive.name in ("qr", "geqrf", "geqp3")]
     assert qrs, "expected orthogonal initialisers"
     assert all(v.aval.ndim == 2 for eqn in qrs for v in eqn.invars), [
         [v.aval.shape for v in eqn.invars] for eqn in qrs]
@@ -230,80 +224,3 @@ def test_gru_state_resets_at_episode_starts():
     _, fresh = gru.apply(params, jnp.zeros((2, 4)), (x, starts))
     assert np.allclose(ys[:, 0], fresh[:, 0])  # robot 0 was reset at step 0
     assert not np.allclose(ys[:, 1], fresh[:, 1])  # robot 1 kept its memory
-
-
-SHARDED = """
-import jax, numpy as np
-from train.config import config_from_dict
-from train.ppo import Trainer, seed_keys
-from train.sharding import device_mesh, shard_runner
-assert jax.device_count() == 2, jax.devices()
-config = config_from_dict({"env": {"scenarios": ["open"], "curriculum": [[0, 2]]},
-    "algorithm": {"num_envs": 8, "num_steps": 4, "total_steps": 32, "update_epochs": 1,
-                  "num_minibatches": 2}, "network": {"hidden": [16]}})
-trainer = Trainer(config)
-step = jax.jit(jax.vmap(lambda r: trainer.update_chunk(r, 1)))
-runner = jax.vmap(trainer.init)(seed_keys(config))
-plain, _ = step(runner)
-sharded_in = shard_runner(runner, device_mesh(), trainer.num_envs)
-assert len(sharded_in.obs.sharding.device_set) == 2
-sharded, _ = step(sharded_in)
-diff = max(float(np.max(np.abs(np.asarray(a) - np.asarray(b))))
-           for a, b in zip(jax.tree.leaves(plain.params), jax.tree.leaves(sharded.params)))
-print("max difference", diff)
-assert diff < 1e-5, diff
-"""
-
-
-@pytest.mark.slow
-def test_sharded_and_unsharded_runs_agree_on_one_step():
-    env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=2",
-           "JAX_PLATFORMS": "cpu", "PYTHONPATH": str(ROOT)}
-    result = subprocess.run([sys.executable, "-c", SHARDED], env=env, capture_output=True,
-                            text=True, timeout=600)
-    assert result.returncode == 0, result.stderr[-3000:]
-    assert "max difference" in result.stdout
-
-
-@pytest.mark.slow
-def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
-    config = tmp_path / "tiny.yaml"
-    config.write_text(yaml.safe_dump({
-        **TINY, "evaluation": {"every": 64, "episodes": 2, "num_agents": [2]},
-        "logging": {"out": str(tmp_path / "run"), "checkpoint_every": 64,
-                    "tensorboard": False, "progress": False},
-        "env": {**TINY["env"], "time_limit": 10.0}}))
-    train_main(["--config", str(config)])
-    out = capsys.readouterr().out
-    assert "trained (ippo)" in out and "only_local" in out and "team success" in out
-    run = tmp_path / "run"
-    rows = (run / "progress.csv").read_text().splitlines()
-    assert rows[0].startswith("steps,") and len(rows) == 4  # header + 3 updates
-    with Image.open(run / "eval" / "episode.gif") as gif:
-        assert gif.n_frames > 1
-    assert (run / "checkpoints" / "best.msgpack").is_file()
-    from sgjax.cli import main as sgjax_main
-
-    sgjax_main(["evaluate", "--scenario", "open", "--policy", str(run), "--num-agents", "2",
-                "--episodes", "2", "--out", str(tmp_path / "eval")])
-    assert "team success" in capsys.readouterr().out
-    # Resume with a larger budget: continues from update 3.
-    train_main(["--config", str(config), "--resume", "--set", "algorithm.total_steps=320",
-                "--set", "evaluation.baseline=null", "--set", "evaluation.gif=false"])
-    out = capsys.readouterr().out
-    assert "resumed from" in out and "update 3" in out
-    assert len((run / "progress.csv").read_text().splitlines()) == 6
-
-
-@pytest.mark.slow
-def test_reproduce_writes_the_papers_two_tables(tmp_path):
-    from train.reproduce import reproduce
-
-    reproduce(["open"], ["cadrl", "only_local"], seeds=2, total_steps=8 * 8 * 2, num_envs=8,
-              counts=[2, 3], episodes=2, table_robots=2, out=tmp_path, time_limit=10.0)
-    metrics_table = (tmp_path / "metrics_table.md").read_text()
-    success_table = (tmp_path / "success_table.md").read_text()
-    assert "| open | cadrl |" in metrics_table and "| open | only_local |" in metrics_table
-    assert "| 2A | 3A | Avg. |" in success_table
-    results = json.loads((tmp_path / "results.json").read_text())["results"]
-    assert len(results["open"]["cadrl"]["2"]["team_success"]) == 2  # one value per seed
