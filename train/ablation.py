@@ -3,7 +3,7 @@
 A *variant* switches reward terms off (a multiplier of 0 on ``info["reward_terms"]``) and hides
 observation features (a 0 in the observation mask). Reward weights and the mask are arrays in
 the runner state, so every variant x seed is one lane of one jitted, vmapped training function
-(run over groups of lanes); only the network architecture (MLP or GRU) needs its own.
+(in one call, or in groups of lanes); only the network architecture (MLP or GRU) needs its own.
 
     variants = {"baseline": Variant(), "no collision": Variant(rewards_off=("collision",)),
                 "no velocities": Variant(hide=("velocity", "others.velocity"))}
@@ -90,16 +90,16 @@ def variant_inputs(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
 
 
 def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int,
-                   lanes_per_run: int = 4) -> tuple[Any, dict, list[tuple[str, int]]]:
-    """Train every variant x seed with one jitted ``vmap`` over ``lanes_per_run`` lanes at a
-    time (the same compiled function for every group; the last group is padded); returns the
-    lane-batched runner, the per-update logs ``[lanes, updates]`` and the lane labels
-    ``(variant, seed)``. Groups exist because a single very wide vmap of a whole training run
-    has been seen to hang on the XLA CPU backend (docs/training.md, known limits)."""
+                   lanes_per_run: int | None = None) -> tuple[Any, dict, list[tuple[str, int]]]:
+    """Train every variant x seed with one jitted ``vmap``: all lanes in one call, or
+    ``lanes_per_run`` lanes at a time (the same compiled function for every group, the last
+    group padded; for memory). Returns the lane-batched runner, the per-update logs
+    ``[lanes, updates]`` and the lane labels ``(variant, seed)``. Wide vmaps used to hang on
+    XLA:CPU; the cause is fixed (docs/xla-cpu-deadlock.md)."""
     keys, weights, masks, labels = variant_inputs(trainer, variants, seeds)
     updates = trainer.config.algorithm.num_updates
     count = len(labels)
-    width = max(1, min(lanes_per_run, count))
+    width = count if lanes_per_run is None else max(1, min(lanes_per_run, count))
 
     @jax.jit
     @jax.vmap
