@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -40,6 +41,16 @@ def _positive_int(name: str, value: Any) -> None:
 def _count(name: str, value: Any) -> None:
     if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
         raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
+
+
+def _within_slots(name: str, value: Any, slots_name: str, slots: Any,
+                  check: Callable[[str, Any], None]) -> None:
+    """``value`` and ``slots`` (when given) pass ``check``, and ``value <= slots``."""
+    check(name, value)
+    if slots is not None:
+        check(slots_name, slots)
+        if value > slots:
+            raise ValueError(f"{name} ({value}) must not exceed {slots_name} ({slots})")
 
 
 def _positive_float(name: str, value: Any) -> None:
@@ -66,12 +77,8 @@ class RobotOptions:
     goal_tolerance: float = 0.5  # m (SocialGym's success radius)
 
     def __post_init__(self) -> None:
-        _positive_int("num_agents", self.num_agents)
-        if self.max_agents is not None:
-            _positive_int("max_agents", self.max_agents)
-            if self.num_agents > self.max_agents:
-                raise ValueError(f"num_agents ({self.num_agents}) must not exceed max_agents "
-                                 f"({self.max_agents})")
+        _within_slots("num_agents", self.num_agents, "max_agents", self.max_agents,
+                      _positive_int)
         _choice("action_mode", self.action_mode, ACTION_MODES)
         _positive_float("goal_tolerance", self.goal_tolerance)
         if not isinstance(self.robots, str | RobotPreset | list | tuple):
@@ -96,12 +103,7 @@ class HumanOptions:
     human_radius: float = 0.25  # m (SocialGym 0.2, CrowdNav 0.3, PySocialForce 0.35)
 
     def __post_init__(self) -> None:
-        _count("num_humans", self.num_humans)
-        if self.max_humans is not None:
-            _count("max_humans", self.max_humans)
-            if self.num_humans > self.max_humans:
-                raise ValueError(f"num_humans ({self.num_humans}) must not exceed max_humans "
-                                 f"({self.max_humans})")
+        _within_slots("num_humans", self.num_humans, "max_humans", self.max_humans, _count)
         _positive_float("human_radius", self.human_radius)
         _choice("human_model", self.human_model, FORCE_MODELS)
         _choice("human_walls", self.human_walls, WALL_MODELS)

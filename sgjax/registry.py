@@ -166,19 +166,6 @@ def _content_key(*trees: Any) -> tuple:
     return tuple((leaf.shape, leaf.dtype.str, leaf.tobytes()) for leaf in leaves)
 
 
-class _Unhashed:
-    """Carries a value through ``functools.lru_cache`` without taking part in the key."""
-
-    def __init__(self, value: Any):
-        self.value = value
-
-    def __hash__(self) -> int:
-        return 0
-
-    def __eq__(self, other: object) -> bool:
-        return isinstance(other, _Unhashed)
-
-
 @functools.partial(jax.jit, static_argnames=("max_agents", "human_config"))
 def _placements(keys: Array, m: MapArrays, robot_radius: Array, hp: HumanParams,
                 max_agents: int, human_config: HumanConfig) -> tuple[Array, Array]:
@@ -199,17 +186,9 @@ def _placements(keys: Array, m: MapArrays, robot_radius: Array, hp: HumanParams,
     return jax.vmap(one)(keys)
 
 
-@functools.lru_cache(maxsize=256)
-def _fewest_placed(content: tuple, max_agents: int, human_config: HumanConfig,
-                   trees: _Unhashed) -> tuple[int, int]:
-    """The fewest robots and pedestrians placed over ``CAPACITY_TRIALS`` draws, cached by the
-    values of the map, radii and counts (``content``): a second ``make`` of the same world checks
-    nothing again."""
-    m, robot_radius, hp = trees.value
-    keys = jax.random.split(jax.random.key(0), CAPACITY_TRIALS)
-    robots, humans = _placements(keys, m, robot_radius, hp, max_agents=max_agents,
-                                 human_config=human_config)
-    return int(jnp.min(robots)), int(jnp.min(humans))
+# (map, radii and counts by value, max_agents, HumanConfig) -> fewest robots, pedestrians placed:
+# a second ``make`` of the same world checks nothing again.
+_FEWEST_PLACED: dict[tuple, tuple[int, int]] = {}
 
 
 def _check_capacity(source: str, params: EnvParams, max_agents: int,
@@ -226,8 +205,12 @@ def _check_capacity(source: str, params: EnvParams, max_agents: int,
         )
     hp = params.humans.replace(num_humans=jnp.asarray(wanted, jnp.int32))
     trees = (params.map, params.robots.radius, hp)
-    robots, humans = _fewest_placed(_content_key(*trees), max_agents, human_config,
-                                    _Unhashed(trees))
+    key = (_content_key(*trees), max_agents, human_config)
+    if key not in _FEWEST_PLACED:
+        counts = _placements(jax.random.split(jax.random.key(0), CAPACITY_TRIALS), *trees,
+                             max_agents=max_agents, human_config=human_config)
+        _FEWEST_PLACED[key] = tuple(int(jnp.min(c)) for c in counts)
+    robots, humans = _FEWEST_PLACED[key]
     if robots < max_agents:
         raise ValueError(
             f"{source}: cannot place max_agents={max_agents} robots with distinct starts and goals "
