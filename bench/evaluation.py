@@ -88,7 +88,8 @@ def main() -> None:
         env, params = sgjax.make(args.scenario, num_agents=robots)
         steps = int(params.max_steps)
         for episodes in args.episodes:
-            runs = {"with metrics": episode_runner(env, params, only_local(env), episodes),
+            with_metrics = episode_runner(env, params, only_local(env), episodes)
+            runs = {"with metrics": lambda key, run=with_metrics, p=params: run(key, p),
                     "no metrics": without_metrics(env, params, only_local(env), episodes)}
             for name, run in runs.items():
                 compile_s, best, peak = measure(run, args.repeats)

@@ -15,6 +15,7 @@ from typing import Any
 
 import jax
 
+from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluate import DEFAULT_EPISODES, DEFAULT_NUM_AGENTS, evaluate, run_episodes
 from sgjax.maps.io import load as load_map
 from sgjax.policies import BASELINES
@@ -33,6 +34,7 @@ def _add_environment_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--action-mode", default=None, choices=ACTION_MODES)
     parser.add_argument("--observation-preset", default=None,
                         help="observation preset the policy expects (docs/terms.md)")
+    add_cache_arguments(parser)
 
 
 def _make_kwargs(args: argparse.Namespace) -> dict[str, Any]:
@@ -119,6 +121,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> None:
     args = build_parser().parse_args(argv)
     try:
+        cache_from_arguments(args)
         args.run(args)
     except (ValueError, KeyError, TypeError, RuntimeError) as err:
         raise SystemExit(f"sgjax {args.command}: {err}") from err

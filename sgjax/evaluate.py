@@ -45,8 +45,8 @@ from sgjax.statistics import (
 
 __all__ = [
     "CONFIDENCE", "DEFAULT_EPISODES", "DEFAULT_NUM_AGENTS", "ConfigResult", "Episodes",
-    "Summary", "episode_runner", "evaluate", "run_episodes", "summarize", "summarize_episodes",
-    "t_interval", "wilson_interval", "with_zone_books",
+    "Summary", "check_steps", "episode_runner", "evaluate", "run_episodes", "summarize",
+    "summarize_episodes", "t_interval", "wilson_interval", "with_zone_books",
 ]
 
 DEFAULT_NUM_AGENTS = (3, 4, 5, 7, 10)
@@ -75,8 +75,15 @@ def episode_runner(
     env: SocialNavEnv, params: EnvParams, policy: Policy | RecurrentPolicy, num_episodes: int,
     constants: metrics.MetricConstants = metrics.DEFAULT_CONSTANTS, record: bool = False,
 ) -> Callable[[jax.Array], tuple]:
-    """A jitted ``run(key) -> (values, robot, states)`` playing ``num_episodes`` episodes of
-    ``env`` under ``policy`` for the time limit (``states`` is None unless ``record``)."""
+    """A jitted ``run(key, params) -> (values, robot, states)`` playing ``num_episodes``
+    episodes of ``env`` under ``policy`` for the time limit (``states`` is None unless
+    ``record``).
+
+    ``params`` is an argument, so one compiled ``run`` serves every robot count up to
+    ``env.max_agents`` (and every pedestrian count, radius or weight the params hold): make the
+    environment once at the largest count and pass each count's params. The ``params`` given
+    here fix the number of steps scanned (their ``max_steps``); ``run`` needs params whose
+    ``max_steps`` is at most that (:func:`check_steps`), as an episode is cut off there."""
     env = with_zone_books(env)
     num_steps = int(params.max_steps)
     reset = jax.vmap(env.reset, in_axes=(0, None))
@@ -89,17 +96,20 @@ def episode_runner(
         act = lambda memory, *args: (memory, plain(*args))  # noqa: E731
         first_memory = jnp.zeros(num_episodes)
     done_of = jax.vmap(metrics.episode_done)
-    update = jax.vmap(lambda m, s0, s1, info, done: metrics.update(
-        m, s0, s1, info, done, params, env.config, constants))
-    finalize = jax.vmap(lambda m, s: metrics.finalize(m, s, params, constants))
+    update = jax.vmap(lambda m, s0, s1, info, done, params: metrics.update(
+        m, s0, s1, info, done, params, env.config, constants),
+        in_axes=(0, 0, 0, 0, 0, None))
+    finalize = jax.vmap(lambda m, s, params: metrics.finalize(m, s, params, constants),
+                        in_axes=(0, 0, None))
 
-    def one_step(carry, key):
+    def one_step(carry, key, params):
         obs, state, tally, memory = carry
         k_act, k_step = jax.random.split(key)
         memory, actions = act(memory, obs, jax.random.split(k_act, num_episodes), state, params)
         next_obs, next_state, _, term, trunc, info = step(
             jax.random.split(k_step, num_episodes), state, actions, params)
-        tally_next = update(tally, state, next_state, info, done_of(next_state, term, trunc))
+        tally_next = update(tally, state, next_state, info, done_of(next_state, term, trunc),
+                            params)
 
         def keep(new, old):  # ended episodes stay as they ended
             running = tally.running.reshape((-1,) + (1,) * (new.ndim - 1))
@@ -109,14 +119,15 @@ def episode_runner(
         return carry, (carry[1] if record else None)
 
     @jax.jit
-    def run(key: jax.Array) -> tuple:
+    def run(key: jax.Array, params: EnvParams) -> tuple:
         k_reset, k_steps = jax.random.split(key)
         obs, state = reset(jax.random.split(k_reset, num_episodes), params)
         tally = jax.vmap(lambda _: metrics.start(env.max_agents, constants))(
             jnp.arange(num_episodes))
         (_, final, tally, _), states = jax.lax.scan(
-            one_step, (obs, state, tally, first_memory), jax.random.split(k_steps, num_steps))
-        robot, episode = finalize(tally, final)
+            lambda carry, k: one_step(carry, k, params), (obs, state, tally, first_memory),
+            jax.random.split(k_steps, num_steps))
+        robot, episode = finalize(tally, final, params)
         values = jax.vmap(metrics.per_episode)(robot, episode)
         if record:
             states = jax.tree.map(lambda first, rest: jnp.concatenate([first[None], rest]),
@@ -124,6 +135,15 @@ def episode_runner(
         return values, robot, states
 
     return run
+
+
+def check_steps(params: EnvParams, num_steps: int, where: str) -> None:
+    """Raise unless episodes under ``params`` end within ``num_steps`` steps (the length a
+    runner from :func:`episode_runner` was built for)."""
+    if int(params.max_steps) > num_steps:
+        raise ValueError(f"{where}: these params run episodes of {int(params.max_steps)} steps, "
+                         f"but the runner was built for {num_steps} (a longer time limit needs "
+                         "its own runner)")
 
 
 def run_episodes(
@@ -137,13 +157,18 @@ def run_episodes(
     env.check_params(params)
     run = episode_runner(env, params, load_policy(policy, env), num_episodes, constants, record)
     t0 = time.perf_counter()
-    compiled = run.lower(key).compile()
-    t1 = time.perf_counter()
-    values, robot, states = jax.device_get(compiled(key))
-    t2 = time.perf_counter()
+    compiled = run.lower(key, params).compile()
+    return _play(compiled, key, params, time.perf_counter() - t0)
+
+
+def _play(compiled: Callable, key: jax.Array, params: EnvParams, compile_seconds: float
+          ) -> Episodes:
+    """Run a compiled episode runner and bring its results to the host."""
+    t0 = time.perf_counter()
+    values, robot, states = jax.device_get(compiled(key, params))
     return Episodes(values={k: np.asarray(v) for k, v in values.items()},
                     robot={k: np.asarray(v) for k, v in robot.items()}, states=states,
-                    compile_seconds=t1 - t0, run_seconds=t2 - t1)
+                    compile_seconds=compile_seconds, run_seconds=time.perf_counter() - t0)
 
 
 def summarize_episodes(episodes: Episodes) -> dict[str, Summary]:
@@ -166,22 +191,34 @@ def evaluate(
     policy objects (named ``policy<i>`` in the outputs); ``make_kwargs`` go to
     :func:`sgjax.make` (observation preset, robots, time limit, ...) on top of the settings a
     checkpoint was trained with; ``policy_names`` name them in the outputs. Every
-    configuration uses the same ``seed``."""
+    configuration uses the same ``seed``.
+
+    Each (scenario, policy) compiles once: the environment is made with ``max_agents`` = the
+    largest count (unless ``make_kwargs`` sets it) and every robot count is a params value of
+    the same compiled run."""
     if not scenarios or not policies or not num_agents:
         raise ValueError("evaluate: scenarios, policies and num_agents must not be empty")
     if episodes < 1:
         raise ValueError(f"evaluate: episodes must be at least 1, got {episodes}")
     results = []
+    key = jax.random.key(seed)
     for scenario in scenarios:
         for p, policy in enumerate(policies):
             name = (policy_names[p] if policy_names is not None
                     else policy if isinstance(policy, str) else f"policy{p}")
+            t0 = time.perf_counter()
+            kwargs = {**policy_make_kwargs(policy), **(make_kwargs or {})}
+            kwargs.setdefault("max_agents", max(num_agents))
+            made = {n: make(scenario, num_agents=n, **kwargs) for n in num_agents}
+            env, params = made[num_agents[0]]
+            run = episode_runner(env, params, load_policy(policy, env), episodes, constants)
+            compiled = run.lower(key, params).compile()
+            compile_seconds = time.perf_counter() - t0
             for n in num_agents:
-                t0 = time.perf_counter()
-                kwargs = {**policy_make_kwargs(policy), **(make_kwargs or {})}
-                env, params = make(scenario, num_agents=n, **kwargs)
-                batch = run_episodes(env, params, policy, jax.random.key(seed), episodes,
-                                     constants)
+                params = made[n][1]
+                env.check_params(params)
+                check_steps(params, int(made[num_agents[0]][1].max_steps), "evaluate")
+                batch = _play(compiled, key, params, compile_seconds)
                 result = ConfigResult(
                     scenario=str(scenario), policy=name, num_agents=n, episodes=episodes,
                     seed=seed, dt=float(params.dt), max_steps=int(params.max_steps),
@@ -190,6 +227,7 @@ def evaluate(
                 results.append(result)
                 if log is not None:
                     log(_progress_line(result))
+                t0, compile_seconds = time.perf_counter(), 0.0
     if out is not None:
         paths = write_all(results, Path(out), constants)
         if log is not None:
@@ -200,8 +238,9 @@ def evaluate(
 def _progress_line(result: ConfigResult) -> str:
     m = result.metrics
     rate = result.agent_steps_per_second
-    speed = "" if rate is None else (
-        f", compiled in {result.compile_seconds:.1f} s, {rate:,.0f} agent-steps/s")
+    compiled = ("compiled run reused" if not result.compile_seconds
+                else f"compiled in {result.compile_seconds:.1f} s")
+    speed = "" if rate is None else f", {compiled}, {rate:,.0f} agent-steps/s"
     return (f"{result.scenario:>12} {result.policy:>18} {result.num_agents:>3} robots: team "
             f"success {m['team_success'].mean:.2f}, success {m['success'].mean:.2f}, collisions "
             f"{m['collisions'].mean:.2f}, length {m['episode_length'].mean:.0f} steps "

@@ -26,7 +26,8 @@ LAYERS: dict[str, tuple[str, ...]] = {
     "environment": ("sgjax.physics", "sgjax.env", "sgjax.options", "sgjax.registry", "sgjax"),
     "evaluation": ("sgjax.policies", "sgjax.metrics", "sgjax.statistics", "sgjax.evaluate",
                    "sgjax.report", "sgjax.render"),
-    "applications": ("sgjax.pettingzoo", "sgjax.sb3", "sgjax.jaxmarl", "sgjax.cli"),
+    "applications": ("sgjax.pettingzoo", "sgjax.sb3", "sgjax.jaxmarl", "sgjax.cli",
+                     "sgjax.compilation_cache"),
 }
 
 

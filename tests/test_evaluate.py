@@ -44,8 +44,8 @@ def test_evaluate_command_end_to_end(tmp_path, capsys):
     assert [(r["policy"], r["num_agents"]) for r in results] == [
         ("only_local", 2), ("only_local", 3), ("stop_when_blocked", 2),
         ("stop_when_blocked", 3)]
-    for r in results:
-        assert r["compile_seconds"] > 0 and r["run_seconds"] > 0
+    for r in results:  # one compilation per policy serves both robot counts
+        assert (r["compile_seconds"] > 0) == (r["num_agents"] == 2) and r["run_seconds"] > 0
         s = r["metrics"]["success"]
         assert s["n"] == 3 and 0.0 <= s["ci_low"] <= s["mean"] <= s["ci_high"] <= 1.0
         assert r["metrics"]["min_distance_human"]["mean"] is None  # no pedestrians
@@ -80,6 +80,23 @@ def test_runner_agrees_with_a_manual_loop():
         assert np.allclose(recorded.robots.x, state.robots.x, atol=1e-4)
         assert batch.robot["success"][e].tolist() == np.asarray(
             state.robots.succeeded, float).tolist()
+
+
+def test_every_robot_count_is_evaluated_by_one_compilation():
+    """Robot counts are params: evaluating three counts traces (so compiles) the run once."""
+    traces = []
+
+    def counted(obs, key, state, params):
+        traces.append(1)
+        return jnp.zeros(obs.shape[0], jnp.int32)  # GO
+
+    results = sgjax.evaluate.evaluate(["open"], [counted], num_agents=[2, 3, 4], episodes=2,
+                                      make_kwargs={"time_limit": 3.0}, log=None)
+    assert len(traces) == 1
+    assert [r.num_agents for r in results] == [2, 3, 4]
+    assert all(r.metrics["success"].n == 2 for r in results)
+    with pytest.raises(ValueError, match="here: .* the runner was built for 30"):
+        sgjax.evaluate.check_steps(sgjax.make("open", time_limit=6.0)[1], 30, "here")
 
 
 def test_policy_specs_and_errors():

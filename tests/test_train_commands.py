@@ -92,3 +92,50 @@ def test_reproduce_writes_the_papers_two_tables(tmp_path):
     assert "| 2A | 3A | Avg. |" in success_table
     results = json.loads((tmp_path / "results.json").read_text())["results"]
     assert len(results["open"]["cadrl"]["2"]["team_success"]) == 2  # one value per seed
+
+
+@pytest.mark.slow
+def test_ablation_command_prints_the_table(tmp_path, capsys):
+    from train.ablation import main as ablation_main
+
+    variants = tmp_path / "variants.yaml"
+    variants.write_text("baseline: {}\nno collision penalty: {rewards_off: [collision]}\n"
+                        "no headings: {hide: [pose.heading, others.heading]}\n")
+    ablation_main(["--config", str(ROOT / "train/configs/ablation.yaml"),
+                   "--set", "algorithm.total_steps=64", "--set", "algorithm.num_envs=8",
+                   "--set", "algorithm.num_steps=8", "--set", "env.time_limit=3",
+                   "--set", "env.scenarios=[open]", "--variants", str(variants),
+                   "--seeds", "2", "--lanes-per-run", "4", "--episodes", "2",
+                   "--out", str(tmp_path / "out")])
+    out = capsys.readouterr().out
+    assert "| no headings |" in out and "Seeds beating the baseline" in out
+    saved = json.loads((tmp_path / "out" / "ablation.json").read_text())
+    assert {k: len(v) for k, v in saved["team_success"].items()} == {
+        "baseline": 2, "no collision penalty": 2, "no headings": 2}
+    assert "compile and train" in saved["seconds"]
+
+
+@pytest.mark.parametrize("text, message", [
+    ("baseline: {}\nx: {rewards_of: [collision]}\n", r"x: unknown key 'rewards_of' \(did you"),
+    ("baseline: {}\nx: {hide: velocity}\n", r"x\.hide: expected a list of names"),
+    ("x: {}\n", "no 'baseline' variant"),
+    ("[1, 2]\n", "expected a mapping of variant names"),
+])
+def test_ablation_variants_file_errors_name_the_file_and_key(tmp_path, text, message):
+    from sgjax.terms import ConfigError
+    from train.ablation import load_variants
+
+    path = tmp_path / "v.yaml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=f"v.yaml: {message}"):
+        load_variants(path)
+
+
+def test_ablation_command_rejects_an_unknown_reward_term(tmp_path):
+    from train.ablation import main as ablation_main
+
+    variants = tmp_path / "v.yaml"
+    variants.write_text("baseline: {}\nx: {rewards_off: [colision]}\n")
+    with pytest.raises(SystemExit, match="no reward term 'colision'"):
+        ablation_main(["--config", str(ROOT / "train/configs/ablation.yaml"),
+                       "--variants", str(variants)])

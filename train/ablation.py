@@ -9,21 +9,43 @@ the runner state, so every variant x seed is one lane of one jitted, vmapped tra
                 "no velocities": Variant(hide=("velocity", "others.velocity"))}
     trainer = Trainer(config)
     runner, logs = train_variants(trainer, variants, seeds=3)
+
+Command line (the paper's Table 4 variants, or a variants file; prints the table)::
+
+    python -m train.ablation --config train/configs/ablation.yaml --seeds 3 --lanes-per-run 24
+
+A variants file maps names to ``rewards_off``, ``hide`` and ``network`` (keys of the config's
+``network`` section: a variant with its own architecture trains as its own vmap)::
+
+    baseline: {}
+    no collision penalty: {rewards_off: [collision]}
+    no velocities: {hide: [velocity, others.velocity]}
+    GRU: {network: {kind: gru}}
 """
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
+import json
+import time
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+import yaml
 
+from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.observations.others import FEATURES
-from sgjax.terms import ConfigError
+from sgjax.registry import make
+from sgjax.report import format_summary, markdown_table
+from sgjax.statistics import summarize
+from sgjax.terms import ConfigError, suggest
 from train.actor import ActorWeights, lane_evaluator
+from train.config import TrainConfig, config_from_dict, load_config
 from train.ppo import Trainer
 
 
@@ -35,6 +57,7 @@ class Variant:
 
     rewards_off: tuple[str, ...] = ()
     hide: tuple[str, ...] = ()
+    network: tuple[tuple[str, Any], ...] = ()  # (key, value) of the network section to change
 
 
 def observation_mask(env: Any, hide: Sequence[str]) -> np.ndarray:
@@ -129,3 +152,175 @@ def lane_metrics(trainer: Trainer, runner: Any, env: Any, env_params: Any, episo
     evaluator = lane_evaluator(trainer.config.network, trainer.actor, env, env_params, episodes)
     values, _ = evaluator(ActorWeights.of(runner), key)
     return {name: np.asarray(v) for name, v in values.items()}
+
+
+# The paper's Table 4 (intersection, 4 robots): a change from its PPO baseline, and the
+# percentage of seed runs that did better than the baseline. Its "entropy penalty" is
+# SocialGym's stuck detector (sgjax's ``stuck`` penalty), "thetas" the headings, and its
+# LSTM policy is a GRU here; its clipped goal distance is approximated by hiding the distance,
+# and its entropy reward multiplier has no sgjax counterpart.
+PAPER_VARIANTS: dict[str, tuple[Variant, int | None]] = {
+    "baseline": (Variant(), None),
+    "GRU (paper: LSTM)": (Variant(network=(("kind", "gru"),)), 76),
+    "no goal distance (paper: clipped)": (Variant(hide=("goal_distance",)), 0),
+    "no collision penalty": (Variant(rewards_off=("collision",)), 84),
+    "no existence penalty": (Variant(rewards_off=("existence",)), 44),
+    "no stuck penalty (paper: entropy)": (Variant(rewards_off=("stuck",)), 52),
+    "no velocities": (Variant(hide=("velocity", "others.velocity")), 0),
+    "no headings (paper: thetas)": (Variant(hide=("pose.heading", "others.heading")), 0),
+}
+BASELINE = "baseline"
+
+
+def load_variants(path: str | Path) -> dict[str, Variant]:
+    """Variants from a YAML file (see the module docstring); errors name the file and key."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"{path}: no such variants file")
+    data = yaml.safe_load(path.read_text()) or {}
+    if not isinstance(data, Mapping) or not data:
+        raise ConfigError(f"{path}: expected a mapping of variant names to settings")
+    fields = ("rewards_off", "hide", "network")
+    variants = {}
+    for name, spec in data.items():
+        spec = spec or {}
+        if not isinstance(spec, Mapping):
+            raise ConfigError(f"{path}: {name}: expected a mapping with {', '.join(fields)}")
+        for key in spec:
+            if key not in fields:
+                raise ConfigError(f"{path}: {name}: unknown key {key!r}"
+                                  f"{suggest(str(key), fields)}; valid keys are: "
+                                  f"{', '.join(fields)}")
+        lists = {}
+        for key in ("rewards_off", "hide"):
+            value = spec.get(key, [])
+            if isinstance(value, str) or not all(isinstance(v, str) for v in value):
+                raise ConfigError(f"{path}: {name}.{key}: expected a list of names")
+            lists[key] = tuple(value)
+        network = spec.get("network", {})
+        if not isinstance(network, Mapping):
+            raise ConfigError(f"{path}: {name}.network: expected a mapping of network keys")
+        variants[str(name)] = Variant(**lists, network=tuple(sorted(network.items())))
+    if BASELINE not in variants:
+        raise ConfigError(f"{path}: no {BASELINE!r} variant (the others are compared to it)")
+    return variants
+
+
+def _variant_config(config: TrainConfig, variant: Variant, seeds: int, where: str
+                    ) -> TrainConfig:
+    data = config.to_dict()
+    data["num_seeds"] = seeds
+    data["network"] = {**data["network"], **dict(variant.network)}
+    return config_from_dict(data, where)
+
+
+def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: int,
+                 lanes_per_run: int | None, episodes: int, robots: int, log=print) -> dict:
+    """Train every variant x seed (one vmap per network architecture), evaluate every lane on
+    the config's first scenario with ``robots`` robots; returns ``{"scores": {variant: [seeds]},
+    "seconds": {phase: s}}`` (team success per seed)."""
+    groups: dict[tuple, dict[str, Variant]] = {}
+    for name, variant in variants.items():
+        groups.setdefault(variant.network, {})[name] = variant
+    scores: dict[str, list[float]] = {}
+    seconds = {"compile and train": 0.0, "evaluate": 0.0}
+    scenario = config.env.scenarios[0]
+    key = jax.random.PRNGKey(config.seed + 7)
+    for network, group in groups.items():
+        trainer = Trainer(_variant_config(config, Variant(network=network), seeds,
+                                          f"variant network {dict(network)}"))
+        t0 = time.perf_counter()
+        runner, _, labels = train_variants(trainer, group, seeds, lanes_per_run)
+        jax.block_until_ready(runner.params)
+        t1 = time.perf_counter()
+        env, params = make(scenario, num_agents=robots, max_agents=max(robots, trainer.slots),
+                           **trainer.config.env.make_kwargs())
+        team = evaluate_lanes(trainer, runner, env, params, episodes, key)
+        t2 = time.perf_counter()
+        seconds["compile and train"] += t1 - t0
+        seconds["evaluate"] += t2 - t1
+        for (name, _), value in zip(labels, team, strict=True):
+            scores.setdefault(name, []).append(float(value))
+        log(f"trained and evaluated {len(labels)} lanes ({', '.join(group)}; network "
+            f"{trainer.config.network.kind}) in {t1 - t0:.0f} s + {t2 - t1:.0f} s")
+    return {"scores": {name: scores[name] for name in variants}, "seconds": seconds}
+
+
+def format_table(scores: Mapping[str, list[float]], paper: Mapping[str, int | None],
+                 scenario: str, robots: int, episodes: int) -> str:
+    """The ablation table as markdown: team success over seeds (mean ± 95% Student-t half
+    width), the share of seeds above the baseline's mean, and the paper's share."""
+    base = float(np.mean(scores[BASELINE]))
+    rows = []
+    for name, values in scores.items():
+        beats = "" if name == BASELINE else f"{100 * np.mean(np.asarray(values) > base):.0f}"
+        cited = paper.get(name)
+        rows.append([name, format_summary(summarize(np.asarray(values), binary=False), True),
+                     beats, "" if cited is None else str(cited)])
+    seeds = len(scores[BASELINE])
+    lines = ["# SocialGym 2.0 Table 4 (reward and observation ablation), reproduced with sgjax",
+             "", f"Team success (%) on {scenario} with {robots} robots, {episodes} episodes per "
+             f"seed: the mean over {seeds} seeds ± the half width of its 95% Student-t interval;"
+             " seeds beating the baseline: the % of seeds above the baseline's mean (the "
+             "paper's measure).", "",
+             *markdown_table(["Variant", "Team success (%)", "Seeds beating the baseline (%)",
+                              "Paper (%)"], rows)]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(
+        prog="python -m train.ablation",
+        description="Train reward and observation ablations as vmap lanes and print the "
+                    "paper's Table 4 (the share of seeds beating the baseline).")
+    parser.add_argument("--config", required=True, help="YAML file (train/configs/ablation.yaml)")
+    parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                        help="override one config key (repeatable)")
+    parser.add_argument("--variants", default=None,
+                        help="YAML variants file (default: the paper's Table 4 variants)")
+    parser.add_argument("--seeds", type=int, default=3, help="seeds per variant")
+    parser.add_argument("--lanes-per-run", type=int, default=None,
+                        help="lanes per compiled call (default: all lanes in one call)")
+    parser.add_argument("--episodes", type=int, default=None,
+                        help="evaluation episodes per lane (default: evaluation.episodes)")
+    parser.add_argument("--robots", type=int, default=None,
+                        help="evaluation robot count (default: the curriculum's last)")
+    parser.add_argument("--out", default=None, help="folder for ablation.md and ablation.json")
+    add_cache_arguments(parser)
+    args = parser.parse_args(argv)
+    try:
+        if args.seeds < 1 or (args.lanes_per_run is not None and args.lanes_per_run < 1):
+            raise ConfigError("--seeds and --lanes-per-run must be at least 1")
+        cache_from_arguments(args)
+        config = load_config(args.config, args.set)
+        if args.variants is None:
+            variants = {name: v for name, (v, _) in PAPER_VARIANTS.items()}
+            paper = {name: cited for name, (_, cited) in PAPER_VARIANTS.items()}
+        else:
+            variants, paper = load_variants(args.variants), {}
+        episodes = args.episodes or config.evaluation.episodes
+        robots = args.robots or config.env.curriculum[-1][1]
+        start = time.perf_counter()
+        result = run_ablation(config, variants, args.seeds, args.lanes_per_run, episodes,
+                              robots)
+        table = format_table(result["scores"], paper, config.env.scenarios[0], robots,
+                             episodes)
+        t_write = time.perf_counter()
+        if args.out is not None:
+            out = Path(args.out)
+            out.mkdir(parents=True, exist_ok=True)
+            (out / "ablation.md").write_text(table)
+            (out / "ablation.json").write_text(json.dumps(
+                {"config": config.to_dict(), "seeds": args.seeds, "episodes": episodes,
+                 "robots": robots, "team_success": result["scores"],
+                 "seconds": result["seconds"]}, indent=1))
+        print("\n" + table)
+        times = {**result["seconds"], "write": time.perf_counter() - t_write}
+        print("time: " + ", ".join(f"{k} {v:.0f} s" for k, v in times.items())
+              + f"; total {time.perf_counter() - start:.0f} s")
+    except (ConfigError, ValueError) as err:
+        raise SystemExit(f"ablation: {err}") from err
+
+
+if __name__ == "__main__":
+    main()

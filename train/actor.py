@@ -17,7 +17,7 @@ import jax.numpy as jnp
 from flax import struct
 from jax import Array
 
-from sgjax.evaluate import episode_runner
+from sgjax.evaluate import check_steps, episode_runner
 from sgjax.policies import RecurrentPolicy
 from train.config import NetworkConfig
 from train.networks import ActorCritic, OthersLayout, greedy, initial_carry, sample
@@ -119,14 +119,25 @@ def acting_policy(network: NetworkConfig, layout: ActorLayout, weights: ActorWei
 
 def lane_evaluator(network: NetworkConfig, layout: ActorLayout, env: Any, env_params: Any,
                    episodes: int, deterministic: bool = False):
-    """A jitted ``(weights, key) -> (values, robot)`` evaluating every lane (seed or variant) of
-    lane-batched :class:`ActorWeights` at once, ``vmap``-ed over the lanes: ``values`` is
-    ``{metric: [lanes, episodes]}``, ``robot`` ``{metric: [lanes, episodes, R]}``. Compiled
-    once per shape; the weights are arguments."""
+    """A ``(weights, key, params=env_params) -> (values, robot)`` evaluating every lane (seed or
+    variant) of lane-batched :class:`ActorWeights` at once, ``vmap``-ed over the lanes:
+    ``values`` is ``{metric: [lanes, episodes]}``, ``robot`` ``{metric: [lanes, episodes, R]}``.
+    Compiled once per shape: the weights and the environment params are arguments, so every
+    robot count up to ``env.max_agents`` (same time limit) reuses one compilation."""
+    num_steps = int(env_params.max_steps)
 
-    def one(weights: ActorWeights, key: Array) -> tuple[dict, dict]:
+    def one(weights: ActorWeights, key: Array, params: Any) -> tuple[dict, dict]:
         policy = acting_policy(network, layout, weights, deterministic)
-        values, robot, _ = episode_runner(env, env_params, policy, episodes)(key)
+        values, robot, _ = episode_runner(env, env_params, policy, episodes)(key, params)
         return values, robot
 
-    return jax.jit(jax.vmap(one, in_axes=(0, None)))
+    compiled = jax.jit(jax.vmap(one, in_axes=(0, None, None)))
+
+    def evaluate(weights: ActorWeights, key: Array, params: Any = None) -> tuple[dict, dict]:
+        params = env_params if params is None else params
+        env.check_params(params)
+        check_steps(params, num_steps, "lane_evaluator")
+        return compiled(weights, key, params)
+
+    evaluate.compiled = compiled  # the jitted function, for lowering and compile counts
+    return evaluate

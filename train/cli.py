@@ -21,6 +21,7 @@ import jax
 import numpy as np
 import yaml
 
+from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluate import evaluate, run_episodes
 from sgjax.maps.io import load as load_map
 from sgjax.metrics import DEFAULT_CONSTANTS
@@ -115,12 +116,17 @@ def _updates_per_chunk(config: TrainConfig) -> int:
     return max(1, min(a.num_updates, interval // a.steps_per_update))
 
 
-def make_evaluator(trainer: Trainer, scenario: str, num_agents: int, episodes: int):
-    """A jitted ``(seed-batched ActorWeights, key) -> (values, robot)`` evaluating every seed at
-    once (:func:`train.actor.lane_evaluator`), compiled once with the weights as arguments."""
-    env, params = make(scenario, num_agents=num_agents, **trainer.config.env.make_kwargs())
-    return lane_evaluator(trainer.config.network, trainer.actor, env, params, episodes,
-                          trainer.config.evaluation.deterministic)
+def make_evaluator(trainer: Trainer, scenario: str, episodes: int):
+    """``(seed-batched ActorWeights, key, num_agents) -> (values, robot)`` evaluating every seed
+    at once (:func:`train.actor.lane_evaluator`), compiled once for every robot count of the
+    curriculum (the environment at the trainer's slots; counts are params)."""
+    made = {n: make(scenario, num_agents=n, max_agents=trainer.slots,
+                    **trainer.config.env.make_kwargs())
+            for n in sorted({n for _, n in trainer.config.env.curriculum})}
+    env, params = next(iter(made.values()))
+    evaluator = lane_evaluator(trainer.config.network, trainer.actor, env, params, episodes,
+                               trainer.config.evaluation.deterministic)
+    return lambda weights, key, n: evaluator(weights, key, made[n][1])
 
 
 def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any]:
@@ -158,7 +164,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
           f"call in {time.perf_counter() - t0:.1f} s")
 
     scenario = config.env.scenarios[0]
-    evaluators: dict[int, Any] = {}
+    evaluator = None
     logger = Logger(out, config.logging.tensorboard, append=resume)
     progress = Progress(a.num_updates * a.steps_per_update, meta["steps"],
                         config.logging.progress)
@@ -182,9 +188,9 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
         if meta["steps"] >= next_eval or meta["updates"] >= a.num_updates:
             next_eval += config.evaluation.every
             n = int(np.max(logs["num_agents"]))
-            if n not in evaluators:
-                evaluators[n] = make_evaluator(trainer, scenario, n, config.evaluation.episodes)
-            team, robot = _evaluate_seeds(evaluators[n], runner)
+            if evaluator is None:
+                evaluator = make_evaluator(trainer, scenario, config.evaluation.episodes)
+            team, robot = _evaluate_seeds(evaluator, runner, n)
             row["eval_team_success"], row["eval_robot_success"] = float(np.mean(team)), float(
                 np.mean(robot))
             progress.write(f"step {meta['steps']:,}: evaluation ({config.evaluation.episodes} "
@@ -228,9 +234,10 @@ def _row(logs: dict, meta: dict, wall: float, env_rate: float, trainer: Trainer)
     }
 
 
-def _evaluate_seeds(evaluator, runner) -> tuple[np.ndarray, np.ndarray]:
-    """Team and robot success of every seed, ``[num_seeds]`` each."""
-    values, _ = jax.device_get(evaluator(ActorWeights.of(runner), jax.random.PRNGKey(1234)))
+def _evaluate_seeds(evaluator, runner, num_agents: int) -> tuple[np.ndarray, np.ndarray]:
+    """Team and robot success of every seed with ``num_agents`` robots, ``[num_seeds]`` each."""
+    values, _ = jax.device_get(evaluator(ActorWeights.of(runner), jax.random.PRNGKey(1234),
+                                         num_agents))
     return (np.mean(values["team_success"], axis=1),
             np.nanmean(values["success"], axis=1))
 
@@ -283,8 +290,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", default=None, help="run folder (default: logging.out)")
     parser.add_argument("--resume", action="store_true",
                         help="continue from <out>/checkpoints/latest.msgpack")
+    add_cache_arguments(parser)
     args = parser.parse_args(argv)
     try:
+        cache_from_arguments(args)
         config = load_config(args.config, args.set)
         train(config, Path(args.out or config.logging.out), resume=args.resume)
     except (ConfigError, ValueError) as err:

@@ -197,6 +197,7 @@ class Trainer:
         stages = config.env.curriculum
         self._stage_steps = jnp.asarray([s for s, _ in stages], jnp.int32)
         self._stage_counts = jnp.asarray([n for _, n in stages], jnp.int32)
+        self._fresh_run = jax.jit(self._start)
 
     # ------------------------------------------------------------------ inputs
     def num_agents_at(self, steps: Array) -> Array:
@@ -236,6 +237,11 @@ class Trainer:
                                   f"configuration pays {list(names)}")
             weights[name] = jnp.asarray(value, jnp.float32)
         mask = jnp.ones(self.batch.obs_size) if obs_mask is None else jnp.asarray(obs_mask)
+        return self._fresh_run(key, weights, mask)
+
+    def _start(self, key: Array, weights: dict, mask: Array) -> RunnerState:
+        """``init``'s body, compiled (``_fresh_run``): called eagerly, the network and
+        environment initialisation ran op by op (seconds per call on a CPU)."""
         k_net, k_env, k_run = jax.random.split(key, 3)
         steps = jnp.zeros((), jnp.int32)
         obs, states = self.batch.reset(k_env, self.num_agents_at(steps))

@@ -31,11 +31,13 @@ from typing import Any
 import jax
 import numpy as np
 
-from sgjax.evaluate import run_episodes
+from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
+from sgjax.evaluate import episode_runner
+from sgjax.policies import load_policy
 from sgjax.registry import make
 from sgjax.report import format_summary, markdown_table
 from sgjax.statistics import summarize
-from train.ablation import lane_metrics
+from train.actor import ActorWeights, lane_evaluator
 from train.config import config_from_dict
 from train.ppo import Trainer, seed_keys
 
@@ -78,16 +80,24 @@ def train_baseline(config: Any) -> tuple[Trainer, Any, float]:
 def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: int,
                    trainer: Trainer | None, runner: Any, make_kwargs: dict[str, Any]
                    ) -> dict[int, dict[str, list[float]]]:
-    """``{robots: {metric: [per-seed mean over episodes]}}`` (one seed for Only Local)."""
+    """``{robots: {metric: [per-seed mean over episodes]}}`` (one seed for Only Local). One
+    compilation serves every count: the environment has ``max(counts)`` slots and each count is
+    a params value; the seeds are ``vmap`` lanes of it."""
     out: dict[int, dict[str, list[float]]] = {}
     key = jax.random.PRNGKey(seed + 1000)
+    made = {n: make(scenario, num_agents=n, max_agents=max(counts), **make_kwargs)
+            for n in counts}
+    env, first = made[counts[0]]
+    if trainer is None:
+        run = episode_runner(env, first, load_policy("only_local", env), episodes)
+    else:
+        evaluator = lane_evaluator(trainer.config.network, trainer.actor, env, first, episodes)
     for n in counts:
-        env, params = make(scenario, num_agents=n, **make_kwargs)
+        params = made[n][1]
         if trainer is None:
-            batch = run_episodes(env, params, "only_local", key, episodes)
-            values = {name: v[None] for name, v in batch.values.items()}
+            values = {name: v[None] for name, v in jax.device_get(run(key, params)[0]).items()}
         else:
-            values = lane_metrics(trainer, runner, env, params, episodes, key)
+            values, _ = jax.device_get(evaluator(ActorWeights.of(runner), key, params))
         out[n] = {name: [float(np.nanmean(row)) if np.isfinite(row).any() else math.nan
                          for row in v] for name, v in values.items()}
     return out
@@ -185,7 +195,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--time-limit", type=float, default=75.0, help="seconds per episode")
     parser.add_argument("--out", default="runs/reproduce")
+    add_cache_arguments(parser)
     args = parser.parse_args(argv)
+    cache_from_arguments(args)
     reproduce(args.scenarios, args.baselines, args.seeds, args.total_steps, args.num_envs,
               args.robots, args.episodes, args.table_robots, Path(args.out), args.seed,
               args.time_limit)

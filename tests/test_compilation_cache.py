@@ -1,0 +1,46 @@
+"""The commands' persistent compilation cache: its folder, the switch that turns it off, and a
+second process that compiles nothing the first compiled."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from sgjax.compilation_cache import default_cache_dir
+
+PROGRAM = """
+import jax, jax.numpy as jnp
+from sgjax.compilation_cache import enable_compilation_cache
+folder = enable_compilation_cache()
+print("folder", folder)
+jax.jit(lambda x: jnp.sin(x) * 3 + jnp.cos(x))(jnp.arange(7.0)).block_until_ready()
+"""
+
+
+def run(env):
+    clean = {k: v for k, v in os.environ.items() if not k.startswith(("JAX_", "SGJAX_"))}
+    return subprocess.run([sys.executable, "-c", PROGRAM], env={**clean, **env},
+                          capture_output=True, text=True, timeout=300, check=True).stdout
+
+
+def test_default_folder_follows_xdg_and_the_override(monkeypatch, tmp_path):
+    monkeypatch.delenv("SGJAX_COMPILATION_CACHE", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert default_cache_dir() == tmp_path / "sgjax" / "jax"
+    monkeypatch.setenv("SGJAX_COMPILATION_CACHE", str(tmp_path / "mine"))
+    assert default_cache_dir() == tmp_path / "mine"
+
+
+def test_a_second_process_reads_what_the_first_wrote_and_off_means_off(tmp_path):
+    folder = tmp_path / "cache"
+    first = run({"SGJAX_COMPILATION_CACHE": str(folder)})
+    assert f"folder {folder}" in first
+    written = {p.name: p.stat().st_mtime_ns for p in folder.iterdir()}
+    assert written, "nothing was written to the cache"
+    run({"SGJAX_COMPILATION_CACHE": str(folder)})
+    # nothing compiled again: JAX writes an entry only on a miss
+    assert {p.name: p.stat().st_mtime_ns for p in folder.iterdir()} == written
+    off = tmp_path / "off"
+    assert "folder None" in run({"SGJAX_COMPILATION_CACHE": str(off),
+                                 "SGJAX_NO_COMPILATION_CACHE": "1"})
+    assert not Path(off).exists()
