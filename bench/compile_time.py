@@ -1,0 +1,111 @@
+"""Compile time of the batched rollout for every shipped map, action mode and loop order.
+
+Prints one row per (map, action mode, loop order): the seconds to trace and lower
+(``jit(...).lower``) and the seconds XLA takes to compile, for a rollout of ``--steps`` steps
+over ``--num-envs`` environments with ``--robots`` robots (random actions drawn inside the
+loop). Loop orders:
+
+- ``scan(vmap)``: ``jit(scan(vmap(step)))``, one loop whose body steps every environment (what
+  ``bench/throughput.py``, the evaluator and the trainer's rollout use);
+- ``vmap(scan)``: ``jit(vmap(scan(step)))``, one loop per environment, batched afterwards.
+
+The persistent compilation cache is off (every compile is measured afresh); each row compiles
+a new program. Run it on a GPU when one is available (the issue's target: every row under 60 s
+on a GPU, under 30 s on the CPU).
+
+    python bench/compile_time.py
+    python bench/compile_time.py --maps doorway office --modes go_stop --orders "scan(vmap)"
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Callable
+
+import jax
+import jax.numpy as jnp
+
+import sgjax
+from sgjax.compilation_cache import disable_compilation_cache
+
+ORDERS = ("scan(vmap)", "vmap(scan)")
+MODES = ("go_stop", "continuous")
+
+
+def random_actions(env, key: jax.Array) -> jax.Array:
+    """One environment's random actions: GO/STOP ``[R]`` or continuous ``[R, A]``."""
+    if env.config.action_mode == "go_stop":
+        return jax.random.bernoulli(key, 0.3, (env.max_agents,)).astype(jnp.int32)
+    return jax.random.uniform(key, (env.max_agents, env.config.action_dim), minval=-1.0,
+                              maxval=1.0)
+
+
+def rollout(env, params, order: str, num_envs: int, steps: int) -> Callable:
+    """A jitted ``(states [E], key) -> states`` running ``steps`` steps in loop order ``order``."""
+
+    def one_step(key, state):
+        k_act, k_step = jax.random.split(key)
+        return env.step(k_step, state, random_actions(env, k_act), params)[1]
+
+    if order == "scan(vmap)":
+        def run(states, key):
+            def body(states, k):
+                return jax.vmap(one_step)(jax.random.split(k, num_envs), states), None
+
+            return jax.lax.scan(body, states, jax.random.split(key, steps))[0]
+    else:
+        def run(states, key):
+            def single(state, k):
+                body = lambda s, kk: (one_step(kk, s), None)  # noqa: E731
+                return jax.lax.scan(body, state, jax.random.split(k, steps))[0]
+
+            return jax.vmap(single)(states, jax.random.split(key, num_envs))
+    return jax.jit(run)
+
+
+def measure(scenario: str, mode: str, order: str, robots: int | None, num_envs: int,
+            steps: int) -> tuple[float, float, int]:
+    """(trace and lower seconds, compile seconds, robot slots) of one configuration."""
+    counts = {} if robots is None else {"num_agents": robots}
+    env, params = sgjax.make(scenario, action_mode=mode, **counts)
+    keys = jax.random.split(jax.random.key(0), num_envs)
+    _, states = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+    run = rollout(env, params, order, num_envs, steps)
+    t0 = time.perf_counter()
+    lowered = run.lower(states, jax.random.key(1))
+    t1 = time.perf_counter()
+    lowered.compile()
+    return t1 - t0, time.perf_counter() - t1, env.max_agents
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(prog="python bench/compile_time.py",
+                                     description=__doc__.split("\n\n")[0])
+    parser.add_argument("--maps", nargs="+", default=list(sgjax.registered()))
+    parser.add_argument("--modes", nargs="+", default=list(MODES), choices=MODES)
+    parser.add_argument("--orders", nargs="+", default=list(ORDERS), choices=ORDERS)
+    parser.add_argument("--robots", type=int, default=None,
+                        help="robots per environment (default: each map's default)")
+    parser.add_argument("--num-envs", type=int, default=64)
+    parser.add_argument("--steps", type=int, default=16)
+    args = parser.parse_args(argv)
+    disable_compilation_cache()
+    device = jax.devices()[0]
+    print(f"jax {jax.__version__} on {device.platform} ({device.device_kind}); "
+          f"{args.num_envs} envs x {args.steps} steps")
+    print(f"{'map':>14}{'mode':>12}{'order':>12}{'robots':>8}{'lower s':>9}{'compile s':>11}")
+    worst = 0.0
+    for scenario in args.maps:
+        for mode in args.modes:
+            for order in args.orders:
+                lower_s, compile_s, robots = measure(scenario, mode, order, args.robots,
+                                                     args.num_envs, args.steps)
+                worst = max(worst, lower_s + compile_s)
+                print(f"{scenario:>14}{mode:>12}{order:>12}{robots:>8}{lower_s:>9.1f}"
+                      f"{compile_s:>11.1f}", flush=True)
+    print(f"slowest row: {worst:.1f} s (lower + compile)")
+
+
+if __name__ == "__main__":
+    main()
