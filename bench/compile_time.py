@@ -24,29 +24,23 @@ import time
 from collections.abc import Callable
 
 import jax
-import jax.numpy as jnp
 
 import sgjax
 from sgjax.compilation_cache import disable_compilation_cache
+from sgjax.policies import random_policy
 
 ORDERS = ("scan(vmap)", "vmap(scan)")
 MODES = ("go_stop", "continuous")
 
 
-def random_actions(env, key: jax.Array) -> jax.Array:
-    """One environment's random actions: GO/STOP ``[R]`` or continuous ``[R, A]``."""
-    if env.config.action_mode == "go_stop":
-        return jax.random.bernoulli(key, 0.3, (env.max_agents,)).astype(jnp.int32)
-    return jax.random.uniform(key, (env.max_agents, env.config.action_dim), minval=-1.0,
-                              maxval=1.0)
-
-
 def rollout(env, params, order: str, num_envs: int, steps: int) -> Callable:
     """A jitted ``(states [E], key) -> states`` running ``steps`` steps in loop order ``order``."""
 
+    policy = random_policy(env)
+
     def one_step(key, state):
         k_act, k_step = jax.random.split(key)
-        return env.step(k_step, state, random_actions(env, k_act), params)[1]
+        return env.step(k_step, state, policy(None, k_act, state, params), params)[1]
 
     if order == "scan(vmap)":
         def run(states, key):

@@ -40,6 +40,7 @@ def enable_compilation_cache(path: str | Path | None = None) -> Path | None:
     :func:`default_cache_dir`) for this process. Returns the folder in use, or None when
     ``SGJAX_NO_COMPILATION_CACHE=1`` turns it off. A folder JAX was already given wins."""
     if os.environ.get(ENV_OFF) == "1":
+        disable_compilation_cache()
         return None
     configured = jax.config.jax_compilation_cache_dir
     if configured:
@@ -75,7 +76,7 @@ def disable_compilation_cache() -> None:
 def cache_from_arguments(args: argparse.Namespace) -> Path | None:
     """Apply a command's cache arguments (see :func:`add_cache_arguments`); returns the
     folder in use, or None."""
-    if args.no_compilation_cache or os.environ.get(ENV_OFF) == "1":
+    if args.no_compilation_cache:
         disable_compilation_cache()
         return None
     return enable_compilation_cache(args.compilation_cache)

@@ -45,7 +45,8 @@ from sgjax.statistics import (
 
 __all__ = [
     "CONFIDENCE", "DEFAULT_EPISODES", "DEFAULT_NUM_AGENTS", "ConfigResult", "Episodes",
-    "Summary", "check_steps", "episode_runner", "evaluate", "run_episodes", "summarize",
+    "Summary", "check_steps", "episode_runner", "evaluate", "params_by_count", "run_episodes",
+    "summarize",
     "summarize_episodes", "t_interval", "wilson_interval", "with_zone_books",
 ]
 
@@ -137,6 +138,19 @@ def episode_runner(
     return run
 
 
+def params_by_count(scenario: Any, counts: Sequence[int], **make_kwargs: Any
+                    ) -> tuple[SocialNavEnv, dict[int, EnvParams]]:
+    """One environment for every robot count in ``counts``, and its params at each count: made
+    once with ``max_agents`` = the largest count (unless ``make_kwargs`` sets it); the count
+    is a params value, so one compiled runner serves them all."""
+    kwargs = {"max_agents": max(counts), **make_kwargs}
+    env, params = make(scenario, num_agents=max(counts), **kwargs)
+    by_count = {n: params.replace(num_agents=jnp.asarray(n, jnp.int32)) for n in counts}
+    for n in counts:
+        env.check_params(by_count[n])
+    return env, by_count
+
+
 def check_steps(params: EnvParams, num_steps: int, where: str) -> None:
     """Raise unless episodes under ``params`` end within ``num_steps`` steps (the length a
     runner from :func:`episode_runner` was built for)."""
@@ -207,17 +221,14 @@ def evaluate(
             name = (policy_names[p] if policy_names is not None
                     else policy if isinstance(policy, str) else f"policy{p}")
             t0 = time.perf_counter()
-            kwargs = {**policy_make_kwargs(policy), **(make_kwargs or {})}
-            kwargs.setdefault("max_agents", max(num_agents))
-            made = {n: make(scenario, num_agents=n, **kwargs) for n in num_agents}
-            env, params = made[num_agents[0]]
+            env, by_count = params_by_count(
+                scenario, num_agents, **policy_make_kwargs(policy), **(make_kwargs or {}))
+            params = by_count[num_agents[0]]
             run = episode_runner(env, params, load_policy(policy, env), episodes, constants)
             compiled = run.lower(key, params).compile()
             compile_seconds = time.perf_counter() - t0
             for n in num_agents:
-                params = made[n][1]
-                env.check_params(params)
-                check_steps(params, int(made[num_agents[0]][1].max_steps), "evaluate")
+                params = by_count[n]
                 batch = _play(compiled, key, params, compile_seconds)
                 result = ConfigResult(
                     scenario=str(scenario), policy=name, num_agents=n, episodes=episodes,

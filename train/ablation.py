@@ -206,12 +206,13 @@ def load_variants(path: str | Path) -> dict[str, Variant]:
     return variants
 
 
-def _variant_config(config: TrainConfig, variant: Variant, seeds: int, where: str
-                    ) -> TrainConfig:
+def _with_network(config: TrainConfig, network: tuple[tuple[str, Any], ...], seeds: int
+                  ) -> TrainConfig:
+    """``config`` with ``seeds`` seeds and the network keys of a variant changed."""
     data = config.to_dict()
     data["num_seeds"] = seeds
-    data["network"] = {**data["network"], **dict(variant.network)}
-    return config_from_dict(data, where)
+    data["network"] = {**data["network"], **dict(network)}
+    return config_from_dict(data, f"variant network {dict(network)}")
 
 
 def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: int,
@@ -227,8 +228,7 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
     scenario = config.env.scenarios[0]
     key = jax.random.PRNGKey(config.seed + 7)
     for network, group in groups.items():
-        trainer = Trainer(_variant_config(config, Variant(network=network), seeds,
-                                          f"variant network {dict(network)}"))
+        trainer = Trainer(_with_network(config, network, seeds))
         t0 = time.perf_counter()
         runner, _, labels = train_variants(trainer, group, seeds, lanes_per_run)
         jax.block_until_ready(runner.params)

@@ -139,5 +139,4 @@ def lane_evaluator(network: NetworkConfig, layout: ActorLayout, env: Any, env_pa
         check_steps(params, num_steps, "lane_evaluator")
         return compiled(weights, key, params)
 
-    evaluate.compiled = compiled  # the jitted function, for lowering and compile counts
     return evaluate

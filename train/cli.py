@@ -22,7 +22,7 @@ import numpy as np
 import yaml
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
-from sgjax.evaluate import evaluate, run_episodes
+from sgjax.evaluate import evaluate, params_by_count, run_episodes
 from sgjax.maps.io import load as load_map
 from sgjax.metrics import DEFAULT_CONSTANTS
 from sgjax.registry import make
@@ -120,13 +120,12 @@ def make_evaluator(trainer: Trainer, scenario: str, episodes: int):
     """``(seed-batched ActorWeights, key, num_agents) -> (values, robot)`` evaluating every seed
     at once (:func:`train.actor.lane_evaluator`), compiled once for every robot count of the
     curriculum (the environment at the trainer's slots; counts are params)."""
-    made = {n: make(scenario, num_agents=n, max_agents=trainer.slots,
-                    **trainer.config.env.make_kwargs())
-            for n in sorted({n for _, n in trainer.config.env.curriculum})}
-    env, params = next(iter(made.values()))
-    evaluator = lane_evaluator(trainer.config.network, trainer.actor, env, params, episodes,
-                               trainer.config.evaluation.deterministic)
-    return lambda weights, key, n: evaluator(weights, key, made[n][1])
+    counts = sorted({n for _, n in trainer.config.env.curriculum})
+    env, by_count = params_by_count(scenario, counts, max_agents=trainer.slots,
+                                    **trainer.config.env.make_kwargs())
+    evaluator = lane_evaluator(trainer.config.network, trainer.actor, env, by_count[counts[0]],
+                               episodes, trainer.config.evaluation.deterministic)
+    return lambda weights, key, n: evaluator(weights, key, by_count[n])
 
 
 def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any]:

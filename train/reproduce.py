@@ -32,9 +32,8 @@ import jax
 import numpy as np
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
-from sgjax.evaluate import episode_runner
+from sgjax.evaluate import episode_runner, params_by_count
 from sgjax.policies import load_policy
-from sgjax.registry import make
 from sgjax.report import format_summary, markdown_table
 from sgjax.statistics import summarize
 from train.actor import ActorWeights, lane_evaluator
@@ -85,15 +84,14 @@ def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: in
     a params value; the seeds are ``vmap`` lanes of it."""
     out: dict[int, dict[str, list[float]]] = {}
     key = jax.random.PRNGKey(seed + 1000)
-    made = {n: make(scenario, num_agents=n, max_agents=max(counts), **make_kwargs)
-            for n in counts}
-    env, first = made[counts[0]]
+    env, by_count = params_by_count(scenario, counts, **make_kwargs)
+    first = by_count[counts[0]]
     if trainer is None:
         run = episode_runner(env, first, load_policy("only_local", env), episodes)
     else:
         evaluator = lane_evaluator(trainer.config.network, trainer.actor, env, first, episodes)
     for n in counts:
-        params = made[n][1]
+        params = by_count[n]
         if trainer is None:
             values = {name: v[None] for name, v in jax.device_get(run(key, params)[0]).items()}
         else:
