@@ -66,14 +66,17 @@ def baseline_config(name: str, scenario: str, seeds: int, total_steps: int, num_
     }, f"reproduce:{name}")
 
 
-def train_baseline(config: Any) -> tuple[Trainer, Any, float]:
-    """Train every seed of ``config`` at once; returns the trainer, the seed-batched runner
-    and the wall time."""
+def train_baseline(config: Any) -> tuple[Trainer, Any, float, float]:
+    """Train every seed of ``config`` at once; returns the trainer, the seed-batched runner,
+    the seconds spent compiling and the seconds spent training."""
     trainer = Trainer(config)
+    keys = seed_keys(config)
     t0 = time.perf_counter()
-    runner, _ = jax.jit(jax.vmap(trainer.train))(seed_keys(config))
+    compiled = jax.jit(jax.vmap(trainer.train)).lower(keys).compile()
+    t1 = time.perf_counter()
+    runner, _ = compiled(keys)
     jax.block_until_ready(runner.params)
-    return trainer, runner, time.perf_counter() - t0
+    return trainer, runner, t1 - t0, time.perf_counter() - t1
 
 
 def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: int,
@@ -142,26 +145,35 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
         raise ValueError(f"unknown baseline(s) {unknown}; choose from {list(BASELINES)}")
     results: dict[str, dict[str, dict[int, dict[str, list[float]]]]] = {}
     timing: dict[str, float] = {}
+    seconds = dict.fromkeys(("compile training", "train", "evaluate", "write"), 0.0)
+    start = time.perf_counter()
     for scenario in scenarios:
         results[scenario] = {}
         for name in baselines:
             if BASELINES[name] is None:
+                t0 = time.perf_counter()
                 by_count = evaluate_seeds(scenario, counts, episodes, seed, None, None,
                                           {"time_limit": time_limit})
+                seconds["evaluate"] += time.perf_counter() - t0
                 print(f"{scenario:>12} {name:>15}: not trained", flush=True)
             else:
                 config = baseline_config(name, scenario, seeds, total_steps, num_envs, seed,
                                          time_limit)
-                trainer, runner, wall = train_baseline(config)
-                timing[f"{scenario}/{name}"] = wall
+                trainer, runner, compile_s, train_s = train_baseline(config)
+                timing[f"{scenario}/{name}"] = train_s
+                seconds["compile training"] += compile_s
+                seconds["train"] += train_s
+                t0 = time.perf_counter()
                 by_count = evaluate_seeds(scenario, counts, episodes, seed, trainer, runner,
                                           config.env.make_kwargs())
+                seconds["evaluate"] += time.perf_counter() - t0
                 print(f"{scenario:>12} {name:>15}: trained {seeds} seeds x {total_steps:,} "
-                      f"steps in {wall:.0f} s", flush=True)
+                      f"steps in {train_s:.0f} s (compiled in {compile_s:.0f} s)", flush=True)
             results[scenario][name] = by_count
             team = {n: np.nanmean(v["team_success"]) for n, v in by_count.items()}
             print("    team success by robots: " + ", ".join(f"{n}: {t:.2f}"
                                                           for n, t in team.items()))
+    t0 = time.perf_counter()
     tables = format_tables(results, counts, table_robots, seeds)
     out.mkdir(parents=True, exist_ok=True)
     for name, text in tables.items():
@@ -170,9 +182,13 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
                 "episodes": episodes, "counts": list(counts), "train_seconds": timing,
                 "results": {s: {b: {str(n): m for n, m in c.items()} for b, c in r.items()}
                             for s, r in results.items()}}
+    seconds["write"] = time.perf_counter() - t0
+    document["seconds"] = seconds
     (out / "results.json").write_text(json.dumps(document, indent=1))
     for text in tables.values():
         print(f"\n{text}")
+    print("time: " + ", ".join(f"{k} {v:.0f} s" for k, v in seconds.items())
+          + f" (evaluation includes its compiles); total {time.perf_counter() - start:.0f} s")
     return results
 
 
