@@ -12,12 +12,14 @@ WALL_SKIN = 1e-3  # m: robots stop this far short of the contact point with a wa
 
 
 def separate_robots(
-    x: Array, y: Array, radius: Array, in_world: Array
+    x: Array, y: Array, radius: Array, in_world: Array, movable: Array | None = None,
 ) -> tuple[Array, Array, Array]:
-    """Push overlapping robots apart along their centre line, each by half the overlap.
+    """Push overlapping robots apart along their centre line: each by half the overlap, or a
+    movable robot by all of it when the other is not movable (a parked robot).
 
-    ``x, y, radius, in_world`` are ``[R]``; robots not ``in_world`` neither push nor get pushed.
-    Returns the push ``(px, py)`` ``[R]`` (m) and a per-robot overlap flag ``[R]``.
+    ``x, y, radius, in_world, movable`` are ``[R]``; robots not ``in_world`` neither push nor get
+    pushed; robots not ``movable`` (default: all movable) push but are never pushed. Returns the
+    push ``(px, py)`` ``[R]`` (m) and a per-robot overlap flag ``[R]``.
     """
     num_robots = x.shape[0]
     dx = x[:, None] - x[None, :]
@@ -32,7 +34,11 @@ def separate_robots(
     close = dist < 1e-6
     ux = jnp.where(close, fallback, dx / jnp.where(close, 1.0, dist))
     uy = jnp.where(close, 0.0, dy / jnp.where(close, 1.0, dist))
-    push = jnp.where(touching, 0.5 * overlap, 0.0)
+    if movable is None:
+        share = 0.5
+    else:
+        share = jnp.where(movable[:, None], jnp.where(movable[None, :], 0.5, 1.0), 0.0)
+    push = jnp.where(touching, share * overlap, 0.0)
     return jnp.sum(push * ux, axis=1), jnp.sum(push * uy, axis=1), jnp.any(touching, axis=1)
 
 

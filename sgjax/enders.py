@@ -125,7 +125,8 @@ class Stuck(Ender):
 class CollisionEnder(Ender):
     """On a collision onset of the chosen kinds, ``scope="team"`` terminates every robot still
     on its way (SocialGym's ``CollisionEpisodeEnder``), ``"robot"`` only the robots that
-    collided (they leave the world)."""
+    collided (they leave the world, or stay parked where they stopped with
+    ``make(ended="park")``)."""
 
     name = "collision"
     scope: str = "team"

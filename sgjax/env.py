@@ -8,8 +8,11 @@ One environment is written for one episode; batch it with ``jax.vmap`` from outs
     step = jax.jit(jax.vmap(env.step, in_axes=(0, 0, 0, None)))
 
 Robots are ``[R]`` arrays padded to ``env.max_agents``; ``params.num_agents`` of them take part in
-an episode (``present``). A robot that reaches its goal is terminated, absorbing (frozen, reward 0)
-and leaves the world (nobody collides with it or plans around it).
+an episode (``present``). A robot that reaches its goal is terminated and absorbing (frozen,
+reward 0). With ``arrived="park"`` (the default, as SocialGym 2.0 ran) it stays parked at rest
+where it arrived, a static body that the others plan around, collide with and observe; with
+``arrived="leave"`` it leaves the world. ``ended`` makes the same choice for robots an ender
+terminates (default ``"leave"``).
 
 Actions (static ``action_mode``):
   * ``"go_stop"``: ``[R]`` ints, 0 = GO (follow the local planner), any other value = STOP
@@ -51,6 +54,7 @@ from sgjax.types import (
     ACTION_MODES,
     GO,
     STOP,
+    WORLD_SEMANTICS,
     CollisionCounts,
     EnvParams,
     EnvState,
@@ -89,11 +93,17 @@ class EnvConfig:
         default_factory=lambda: parse_enders(REWARD_PRESETS["default"]["enders"]))
     num_zones: int = 0  # conflict zones on the map (sizes the zone terms)
     track_zones: bool = False  # keep zone books even when no term reads them (for metrics)
+    arrived: str = "park"  # an arrived robot stays parked as a body, or leaves the world
+    ended: str = "leave"  # the same for a robot an ender terminates (e.g. a fatal collision)
 
     def __post_init__(self) -> None:
         if self.action_mode not in ACTION_MODES:
             raise ValueError(f"action_mode must be one of {ACTION_MODES}, "
                              f"got {self.action_mode!r}")
+        for name in ("arrived", "ended"):
+            if getattr(self, name) not in WORLD_SEMANTICS:
+                raise ValueError(f"{name} must be one of {WORLD_SEMANTICS}, "
+                                 f"got {getattr(self, name)!r}")
 
     @property
     def layout(self) -> Layout:
@@ -245,7 +255,7 @@ class SocialNavEnv:
             kin=Kinematics(heading=heading, v_forward=zeros, v_lateral=zeros, omega=zeros,
                            steering=zeros),
             present=jnp.asarray(present, bool), succeeded=jnp.zeros(num_robots, bool),
-            ended=jnp.zeros(num_robots, bool),
+            ended=jnp.zeros(num_robots, bool), parked=jnp.zeros(num_robots, bool),
         )
         no = jnp.zeros(num_robots, bool)
         none = jnp.zeros(num_robots, jnp.int32)
@@ -333,7 +343,8 @@ class SocialNavEnv:
             moved = self._book(state, robots, humans, contacts, params)
         with jax.named_scope("enders"):
             outcome, ender_rewards = cfg.enders(state, moved, params, layout)
-            next_state = self._conclude(state, moved, outcome)
+            next_state = self._conclude(state, moved, outcome, cfg.arrived == "park",
+                                        cfg.ended == "park")
         with jax.named_scope("rewards"):
             reward, reward_terms = cfg.rewarder(state, next_state, actions, params, layout)
             was_active = state.robots.active
@@ -393,11 +404,15 @@ class SocialNavEnv:
         )
 
     @staticmethod
-    def _conclude(state: EnvState, moved: EnvState, outcome: Outcome) -> EnvState:
-        """Robots the enders terminate without success end (absorbing) in the next state."""
+    def _conclude(state: EnvState, moved: EnvState, outcome: Outcome, park_arrived: bool,
+                  park_ended: bool) -> EnvState:
+        """Robots the enders terminate without success end (absorbing) in the next state; the
+        robots that finish this step park where they are if their kind parks (their kinematic
+        state stays frozen as it was; as bodies they are at rest: ``RobotState.body_velocity``)."""
         r = moved.robots
         ended = r.ended | (outcome.terminated & state.robots.active & ~r.succeeded)
-        return moved.replace(robots=r.replace(ended=ended))
+        newly = state.robots.active & ((r.succeeded & park_arrived) | (ended & park_ended))
+        return moved.replace(robots=r.replace(ended=ended, parked=r.parked | newly))
 
     def _commands(self, state: EnvState, actions: Array, params: EnvParams) -> Commands:
         """Decode actions into per-robot commands: continuous actions directly, GO through the
@@ -418,8 +433,8 @@ class SocialNavEnv:
         carrot_x, carrot_y = carrot_point(params.planner, state.route, state.progress)
         forward, turn = plan(
             cfg.planner, params.planner, rp, params.map, robots.x, robots.y, robots.heading,
-            robots.kin.v_forward, params.dt, robots.active, carrot_x, carrot_y,
-            bodies=self._pedestrian_bodies(state, params),
+            robots.kin.v_forward, params.dt, robots.in_world, carrot_x, carrot_y,
+            velocity=robots.body_velocity, bodies=self._pedestrian_bodies(state, params),
         )
         go = actions == GO
         # STOP: brake to rest; Ackermann robots hold their steering.
@@ -428,13 +443,13 @@ class SocialNavEnv:
 
     def _pedestrian_bodies(
         self, state: EnvState, params: EnvParams
-    ) -> tuple[Array, Array, Array, Array] | None:
-        """Pedestrians as discs ``(x, y, radius, active)`` for the planner (None if there are
-        none)."""
+    ) -> tuple[Array, Array, Array, Array, Array, Array] | None:
+        """Pedestrians as moving discs ``(x, y, vx, vy, radius, active)`` for the planner (None
+        if there are none)."""
         if not self.config.humans.max_humans:
             return None
         h = state.humans
-        return h.x, h.y, params.humans.radius, h.active
+        return h.x, h.y, h.vx, h.vy, params.humans.radius, h.active
 
     # ------------------------------------------------------------ observation
     def observe(self, state: EnvState, params: EnvParams, key: Array | None = None) -> Array:

@@ -138,7 +138,8 @@ METRICS: tuple[MetricInfo, ...] = (
        "min over active steps and pedestrians of centre distance - both radii (NaN without "
        "pedestrians)", "HuNavSim, socialnav.md C1"),
     _m("min_distance_robot", "m", "robot", "mean",
-       "min over active steps and other unfinished robots of centre distance - both radii",
+       "min over active steps and other robots in the world (active or parked) of centre "
+       "distance - both radii",
        "socialnav.md C1"),
     *(_m(f"{space}_space_{kind}", "fraction", "robot", "mean",
          f"fraction of active steps with the nearest {kind} body gap < {radius} m "
@@ -288,7 +289,7 @@ def update(
     radius = params.robots.radius
     x, y = robots1.x, robots1.y
     num_robots = x.shape[0]
-    other_robot = info["was_active"][None, :] & ~jnp.eye(num_robots, dtype=bool)
+    other_robot = prev.robots.in_world[None, :] & ~jnp.eye(num_robots, dtype=bool)
     gap_robot = _gaps(x, y, radius, x, y, radius, other_robot)
     humans = state.humans
     human_radius = jnp.broadcast_to(params.humans.radius, humans.x.shape)
@@ -301,8 +302,9 @@ def update(
     # Time to collision with every other body at constant velocity.
     ox = jnp.concatenate([x, humans.x])
     oy = jnp.concatenate([y, humans.y])
-    ovx = jnp.concatenate([v1[:, 0], humans.vx])
-    ovy = jnp.concatenate([v1[:, 1], humans.vy])
+    body_v = jnp.where(robots1.parked[:, None], 0.0, v1)  # parked robots are at rest
+    ovx = jnp.concatenate([body_v[:, 0], humans.vx])
+    ovy = jnp.concatenate([body_v[:, 1], humans.vy])
     oradius = jnp.concatenate([radius, human_radius])
     ttc = time_to_collision(ox[None, :] - x[:, None], oy[None, :] - y[:, None],
                             ovx[None, :] - v1[:, 0:1], ovy[None, :] - v1[:, 1:2],

@@ -4,7 +4,7 @@
 each belongs to one group:
 
 * :class:`RobotOptions`: ``num_agents``, ``max_agents``, ``robots``, ``action_mode``,
-  ``goal_tolerance``;
+  ``goal_tolerance``, ``arrived``, ``ended``;
 * :class:`HumanOptions`: ``num_humans``, ``max_humans``, ``human_model``, ``human_walls``,
   ``human_goals``, ``human_radius``;
 * :class:`TermOptions`: ``observations``, ``rewards``, ``enders``, ``terms``,
@@ -30,7 +30,7 @@ import numpy as np
 from sgjax.dynamics.limits import RobotPreset
 from sgjax.humans.crowd import FORCE_MODELS, GOAL_MODES, WALL_MODELS, HumanConfig
 from sgjax.terms import suggest
-from sgjax.types import ACTION_MODES
+from sgjax.types import ACTION_MODES, WORLD_SEMANTICS
 
 
 def _positive_int(name: str, value: Any) -> None:
@@ -75,12 +75,16 @@ class RobotOptions:
     robots: Any = "socialgym"  # preset name, RobotPreset, or a list (one per slot, cycled)
     action_mode: str = "go_stop"  # or "continuous"
     goal_tolerance: float = 0.5  # m (SocialGym's success radius)
+    arrived: str = "park"  # an arrived robot stays at its goal as a static body, or will "leave"
+    ended: str = "leave"  # the same for a robot an ender terminates (e.g. a fatal collision)
 
     def __post_init__(self) -> None:
         _within_slots("num_agents", self.num_agents, "max_agents", self.max_agents,
                       _positive_int)
         _choice("action_mode", self.action_mode, ACTION_MODES)
         _positive_float("goal_tolerance", self.goal_tolerance)
+        _choice("arrived", self.arrived, WORLD_SEMANTICS)
+        _choice("ended", self.ended, WORLD_SEMANTICS)
         if not isinstance(self.robots, str | RobotPreset | list | tuple):
             raise ValueError(f"robots must be a preset name, a RobotPreset or a list of them, "
                              f"got {self.robots!r}")

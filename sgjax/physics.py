@@ -4,7 +4,9 @@ Each of ``substeps`` sub-steps of ``dt / substeps`` s moves pedestrians by their
 integrates each robot's commands under its own limits, separates overlapping robots, clamps every
 robot to the walls (swept: nobody passes through a wall), lets pedestrians yield to robots, and
 stops robots whose bumpers touch something. Only ``active`` robots move; the others keep their
-state. Shapes: ``R`` robots, ``H`` pedestrians; SI units.
+state. Parked robots (``RobotState.parked``) are static bodies: pedestrians avoid them and
+moving robots are pushed off them, but they never move. Shapes: ``R`` robots, ``H``
+pedestrians; SI units.
 """
 
 from __future__ import annotations
@@ -50,38 +52,39 @@ def advance(
     and kinematics; the flags are unchanged), the moved pedestrians and the contacts.
     """
     rp = params.robots
-    active = robots.active
+    active, in_world = robots.active, robots.in_world
     dt_sub = params.dt / substeps
     num_robots = robots.x.shape[0]
     x, y, kin = robots.x, robots.y, robots.kin
     touched = Contacts(*(jnp.zeros(num_robots, bool),) * 3)
     for _ in range(substeps):
         if human_config.max_humans:
-            velocity = robots.replace(kin=kin).velocity
+            velocity = robots.replace(kin=kin).body_velocity
             fx, fy = human_forces(human_config, params.humans, params.map, humans, x, y,
-                                  velocity[:, 0], velocity[:, 1], active)
+                                  velocity[:, 0], velocity[:, 1], in_world)
             humans = move_humans(params.humans, params.map, humans, fx, fy, dt_sub)
         new_kin, dx, dy = integrate(kin, commands.forward, commands.lateral, commands.turn, rp,
                                     dt_sub)
         dx, dy = jnp.where(active, dx, 0.0), jnp.where(active, dy, 0.0)
-        push_x, push_y, overlap = separate_robots(x + dx, y + dy, rp.radius, active)
+        push_x, push_y, overlap = separate_robots(x + dx, y + dy, rp.radius, in_world, active)
         dx, dy, wall = clamp_to_walls(x, y, dx + push_x, dy + push_y, rp.radius, params.map)
         x, y = x + dx, y + dy
         # Optional relaxation: a robot pinned against a wall cannot take its half of a push, so
         # the overlap left over is split again (each pass halves what a pinned pair leaves).
         # Robots in contact also stop (below), which bounds what is left.
         for _ in range(contact_passes - 1):
-            push_x, push_y, _ = separate_robots(x, y, rp.radius, active)
+            push_x, push_y, _ = separate_robots(x, y, rp.radius, in_world, active)
             push_x, push_y, pinned = clamp_to_walls(x, y, push_x, push_y, rp.radius, params.map)
             x, y, wall = x + push_x, y + push_y, wall | pinned
         if human_config.max_humans:
             humans, met = yield_to_robots(params.humans, params.map, humans, x, y, rp.radius,
-                                          active)
+                                          in_world)
         else:
             met = jnp.zeros(num_robots, bool)
         # Bumpers: a robot touching a wall, another robot or a pedestrian stops.
         new_kin = stop_on_contact(new_kin, wall | overlap | met, rp)
         kin = jax.tree.map(lambda new, old: jnp.where(active, new, old), new_kin, kin)
-        touched = Contacts(robot=touched.robot | overlap, wall=touched.wall | (wall & active),
+        touched = Contacts(robot=touched.robot | (overlap & active),
+                           wall=touched.wall | (wall & active),
                            human=touched.human | (met & active))
     return robots.replace(x=x, y=y, kin=kin), humans, touched

@@ -10,11 +10,16 @@ Per robot and step:
      ``[-max_curvature, max_curvature]`` (SocialGym: 41 arcs in [-2, 2] 1/m; Ackermann robots are
      limited to ``1 / min_turn_radius``) are sampled at ``arc_lengths`` (m, each arc cut at a
      quarter turn). An arc is free up to the last sample whose disc (own radius +
-     ``obstacle_margin``) clears every wall and every other robot's disc. The arc whose free end is
-     closest to the carrot wins, with ``clearance_weight`` per metre of wall clearance (up to 1 m)
-     as a tie-breaker. Walls come from the map's per-cell lists (``MapArrays.cell_walls``), which
-     hold every wall within reach of the cell: ``make`` sizes them for the longest arc plus the
-     inflated radius;
+     ``obstacle_margin``) clears every wall and every other body (robots in the world,
+     pedestrians) where the body will be when the robot gets to the sample at full speed (its
+     velocity extrapolated, times ``prediction``); a sample that is
+     farther from a body than the robot is now is never blocked by it, so a robot that is
+     already close can move away. The arc whose free end is closest to the carrot wins, with
+     ``clearance_weight`` per metre of wall clearance (up to 1 m) as a tie-breaker; a robot
+     meeting a body (one blocks any of its arcs) pays up to ``pass_bias`` for left arcs, so two
+     robots meeting both keep right and pass. Walls come from the map's per-cell lists
+     (``MapArrays.cell_walls``), which hold every wall within reach of the cell: ``make`` sizes
+     them for the longest arc plus the inflated radius;
   4. the speed is the largest from which the robot can stop within the arc's free length:
      ``min(max_speed, sqrt(2 max_decel (free - stop_margin)))``, and the yaw rate is the speed the
      robot reaches this step x curvature (steering ``atan(wheelbase x curvature)`` for Ackermann).
@@ -83,6 +88,8 @@ class PlannerParams:
     stop_margin: Array | float = 0.05  # m
     halt_speed: Array | float = 0.1  # m/s: turn in place only below this speed
     clearance_weight: Array | float = 0.5  # cost per m of clearance
+    prediction: Array | float = 1.0  # bodies extrapolated this x arrival time ahead (0: static)
+    pass_bias: Array | float = 0.3  # cost (m) of the sharpest left arc when meeting a body
 
 
 def route_progress(route: Route, x: Array, y: Array, progress: Array) -> Array:
@@ -130,7 +137,8 @@ def plan(
     in_world: Array,
     carrot_x: Array,
     carrot_y: Array,
-    bodies: tuple[Array, Array, Array, Array] | None = None,
+    velocity: Array | None = None,
+    bodies: tuple[Array, Array, Array, Array, Array, Array] | None = None,
 ) -> tuple[Array, Array]:
     """GO commands ``(forward m/s, turn)`` ``[R]`` toward the carrots, avoiding walls, robots and
     other bodies.
@@ -138,8 +146,9 @@ def plan(
     ``v_forward [R]`` is each robot's current forward speed (m/s) and ``dt`` the step (s).
 
     ``turn`` is a yaw rate (rad/s), or a steering angle (rad) for Ackermann robots.
-    ``in_world [R]`` masks which robots are obstacles. ``bodies`` adds discs ``(x, y, radius,
-    present)``, each ``[B]`` (pedestrians).
+    ``in_world [R]`` masks which robots are obstacles and ``velocity [R, 2]`` (m/s, world frame;
+    default at rest) is how they move. ``bodies`` adds discs ``(x, y, vx, vy, radius, present)``,
+    each ``[B]`` (pedestrians).
     """
     ackermann = robots.model == ACKERMANN
     cos_h, sin_h = jnp.cos(heading), jnp.sin(heading)
@@ -169,18 +178,32 @@ def plan(
     wall_clearance = jnp.sqrt(jnp.min(d_sq, axis=1)) - inflate  # [R, S]
     num_robots = x.shape[0]
     other = in_world[None, :] & ~jnp.eye(num_robots, dtype=bool)  # [R, R]
+    if velocity is None:
+        velocity = jnp.zeros((num_robots, 2), jnp.float32)
     body_x, body_y, body_r = x, y, robots.radius
+    body_vx, body_vy = velocity[:, 0], velocity[:, 1]
     if bodies is not None:
+        bx, by, bvx, bvy, br, bthere = bodies
         other = jnp.concatenate(
-            [other, jnp.broadcast_to(bodies[3][None, :], (num_robots, bodies[3].shape[0]))],
-            axis=1)
-        body_x = jnp.concatenate([x, bodies[0]])
-        body_y = jnp.concatenate([y, bodies[1]])
-        body_r = jnp.concatenate([robots.radius, jnp.broadcast_to(bodies[2], bodies[0].shape)])
-    body_sq = jnp.square(px[:, None, :] - body_x[None, :, None]) + jnp.square(
-        py[:, None, :] - body_y[None, :, None])  # [R, R + B, S]
-    reach_sq = jnp.square(inflate[:, :, None] + body_r[None, :, None])
-    body_blocked = jnp.any(other[:, :, None] & (body_sq < reach_sq), axis=1)
+            [other, jnp.broadcast_to(bthere[None, :], (num_robots, bthere.shape[0]))], axis=1)
+        body_x, body_y = jnp.concatenate([x, bx]), jnp.concatenate([y, by])
+        body_vx, body_vy = jnp.concatenate([body_vx, bvx]), jnp.concatenate([body_vy, bvy])
+        body_r = jnp.concatenate([robots.radius, jnp.broadcast_to(br, bx.shape)])
+    reach_sq = jnp.square(inflate[:, :, None] + body_r[None, :, None])  # [R, 1 + B, 1]
+    # A body blocks a sample that comes within reach of where the body will be when the robot,
+    # at full speed, gets to the sample, and nearer to it than the robot is now (so a robot
+    # already within reach may still move away).
+    now_sq = (jnp.square(x[:, None] - body_x[None, :])
+              + jnp.square(y[:, None] - body_y[None, :]))[:, :, None]  # [R, B, 1]
+    arrival = pp.prediction * s_km.reshape(-1)[None, :] / robots.max_speed[:, None]  # [R, S]
+    gap_x = px[:, None, :] - body_x[None, :, None] - body_vx[None, :, None] * arrival[:, None]
+    gap_y = py[:, None, :] - body_y[None, :, None] - body_vy[None, :, None] * arrival[:, None]
+    gap_sq = jnp.square(gap_x) + jnp.square(gap_y)  # [R, B, S]
+    hit = gap_sq < jnp.minimum(reach_sq, now_sq)
+    body_blocked = jnp.any(other[:, :, None] & hit, axis=1)  # [R, S]
+    # Keep right: a robot with a body on any of its arcs pays ``pass_bias`` per unit of left
+    # curvature (as a fraction of the largest), so two robots meeting pass on the same side.
+    meeting = jnp.any(body_blocked, axis=1)
     blocked = ((wall_clearance < 0.0) | body_blocked).reshape(num_robots, num_arcs, num_samples)
     wall_clearance = wall_clearance.reshape(num_robots, num_arcs, num_samples)
     # Walk each arc's samples in order ([R, K] slices: no argmax, gathers or short reductions).
@@ -199,7 +222,9 @@ def plan(
     free_clear = jnp.where(free_len > 0.0, free_clear, 0.0)
     to_carrot = jnp.sqrt(
         jnp.square(end_x - local_x[:, None]) + jnp.square(end_y - local_y[:, None]))
-    cost = jnp.where(allowed, to_carrot - pp.clearance_weight * free_clear, jnp.inf)
+    left = jnp.maximum(curv_k, 0.0) / config.max_curvature  # [K] in [0, 1]
+    side_cost = jnp.where(meeting[:, None], pp.pass_bias * left[None, :], 0.0)
+    cost = jnp.where(allowed, to_carrot - pp.clearance_weight * free_clear + side_cost, jnp.inf)
     lowest = jnp.min(cost, axis=1, keepdims=True)
     arc_index = jnp.arange(config.num_arcs)
     best = jnp.min(jnp.where(cost <= lowest, arc_index, config.num_arcs), axis=1)  # first minimum
@@ -220,9 +245,17 @@ def plan(
     turn_rate = jnp.sign(bearing) * jnp.minimum(
         robots.max_omega, jnp.sqrt(2.0 * robots.max_alpha * jnp.abs(bearing))
     )
-    turn_in_place = ~ackermann & (jnp.abs(bearing) > pp.turn_in_place_angle)
-    # Blocked ahead on every arc: rotate toward the carrot rather than wait forever.
+    # While meeting a body a robot may drive on arcs up to a right angle off the carrot (it is
+    # passing); otherwise it turns in place beyond ``turn_in_place_angle``.
+    limit = jnp.where(meeting, jnp.maximum(pp.turn_in_place_angle, jnp.pi / 2),
+                      pp.turn_in_place_angle)
+    turn_in_place = ~ackermann & (jnp.abs(bearing) > limit)
+    # Blocked ahead on every arc: rotate toward the carrot rather than wait forever, or, when
+    # bodies block it, to the right (keep right), up to a right angle off the carrot.
     stuck = ~ackermann & (best_free <= 0.0)
+    right_limit = bearing < jnp.pi / 2 - 0.05
+    give_way = stuck & meeting & right_limit
+    turn_rate = jnp.where(give_way, -robots.max_omega * 0.5, turn_rate)
     rotate = turn_in_place | stuck
     halted = jnp.abs(v_forward) <= pp.halt_speed
     forward = jnp.where(rotate, 0.0, speed)

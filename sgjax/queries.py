@@ -35,19 +35,19 @@ class Bodies:
     vy: Array
     radius: Array
     is_human: Array  # float 0/1
-    active: Array  # bool
+    in_world: Array  # bool: the body is there (an active or parked robot, an active pedestrian)
 
 
 def gather_bodies(state: EnvState, params: EnvParams, robots: bool = True,
                   humans: bool = True) -> Bodies:
-    """Robots (taking part and not finished) and active pedestrians as one body list.
+    """Robots in the world (active, or parked at rest) and active pedestrians as one body list.
     Pedestrians face along their velocity (+x when standing)."""
     r, h = state.robots, state.humans
-    vel = r.velocity
+    vel = r.body_velocity
     parts = []
     if robots:
         parts.append((r.x, r.y, jnp.cos(r.heading), jnp.sin(r.heading), vel[:, 0], vel[:, 1],
-                      params.robots.radius, jnp.zeros_like(r.x), r.active))
+                      params.robots.radius, jnp.zeros_like(r.x), r.in_world))
     if humans and h.x.shape[0]:
         speed = safe_norm(h.vx, h.vy)
         moving = speed > 1e-3
@@ -58,7 +58,7 @@ def gather_bodies(state: EnvState, params: EnvParams, robots: bool = True,
                       h.active))
     if not parts:
         empty = jnp.zeros((0,), jnp.float32)
-        return Bodies(*(empty,) * 8, active=jnp.zeros((0,), bool))
+        return Bodies(*(empty,) * 8, in_world=jnp.zeros((0,), bool))
     columns = [jnp.concatenate(c) for c in zip(*parts, strict=True)]
     return Bodies(*columns)
 
@@ -86,7 +86,7 @@ def body_gaps(state: EnvState, params: EnvParams, layout: Layout, robots: bool =
     b = gather_bodies(state, params, robots=robots, humans=humans)
     gap = (safe_norm(b.x[None, :] - r.x[:, None], b.y[None, :] - r.y[:, None])
            - b.radius[None, :] - params.robots.radius[:, None])
-    there = jnp.broadcast_to(b.active[None, :], gap.shape)
+    there = jnp.broadcast_to(b.in_world[None, :], gap.shape)
     if robots:
         there = there & ~jnp.eye(layout.max_agents, b.x.shape[0], dtype=bool)
     return jnp.where(there, gap, FAR)

@@ -92,6 +92,7 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
         action_dim=action_dim, substeps=substeps, planner=planner_config,
         contact_passes=physics.contact_passes, humans=human_config, observer=observer,
         rewarder=rewarder, enders=enders, num_zones=len(spec.zones),
+        arrived=robot_opts.arrived, ended=robot_opts.ended,
     )
     params = EnvParams(
         robots=robot_params(presets),

@@ -16,7 +16,12 @@ Robot slots, one vocabulary everywhere:
   ``params.num_agents`` slots that ``reset`` could place); absent slots are padding;
 * **finished** (``RobotState.finished``): present and terminated, by arrival (``succeeded``) or
   by an ender (``ended``, e.g. a fatal collision); absorbing: frozen, reward 0;
-* **active** (``RobotState.active``): present and not finished: it moves, is rewarded and can end.
+* **active** (``RobotState.active``): present and not finished: it moves, is rewarded and can end;
+* **parked** (``RobotState.parked``): finished and kept in the world at rest, a static body that
+  the others plan around, collide with and observe (``make(arrived="park")``, the default, for
+  robots that arrived; ``ended="park"`` for robots an ender stopped). With ``"leave"`` a finished
+  robot leaves the world instead;
+* **in world** (``RobotState.in_world``): active or parked: a body that others meet.
 
 Units are SI throughout (m, s, rad; angles wrapped to (-pi, pi]).
 """
@@ -39,6 +44,9 @@ from sgjax.planner import PlannerParams
 from sgjax.zones import ZoneState
 
 ACTION_MODES = ("go_stop", "continuous")
+# What becomes of a finished robot: it stays at rest where it finished as a static body ("park",
+# SocialGym 2.0's behaviour for arrived robots) or leaves the world ("leave").
+WORLD_SEMANTICS = ("park", "leave")
 GO, STOP = 0, 1  # the two GO/STOP actions
 
 
@@ -59,7 +67,8 @@ class Layout:
 
 @struct.dataclass
 class RobotState:
-    """Robots, each field ``[R]``. Public: ``position``, ``heading``, ``velocity``, ``active``."""
+    """Robots, each field ``[R]``. Public: ``position``, ``heading``, ``velocity``, ``active``,
+    ``in_world``."""
 
     x: Array  # m, world
     y: Array  # m, world
@@ -67,6 +76,7 @@ class RobotState:
     present: Array  # bool: takes part in this episode
     succeeded: Array  # bool: reached its goal (absorbing)
     ended: Array  # bool: terminated by an ender without success, e.g. a collision (absorbing)
+    parked: Array  # bool: finished and kept in the world at rest as a static body
 
     @property
     def position(self) -> Array:
@@ -86,6 +96,12 @@ class RobotState:
         return jnp.stack([vf * c - vl * s, vf * s + vl * c], axis=-1)
 
     @property
+    def body_velocity(self) -> Array:
+        """World-frame velocity ``[R, 2]`` (m/s) of each robot as a body in the world: its
+        velocity while active, zero once finished (a parked robot is at rest)."""
+        return jnp.where(self.active[:, None], self.velocity, 0.0)
+
+    @property
     def finished(self) -> Array:
         """``[R]`` bool: terminated (arrived, or ended by an ender)."""
         return self.succeeded | self.ended
@@ -94,6 +110,11 @@ class RobotState:
     def active(self) -> Array:
         """``[R]`` bool: present and not finished."""
         return self.present & ~self.finished
+
+    @property
+    def in_world(self) -> Array:
+        """``[R]`` bool: a body in the world (active, or parked where it finished)."""
+        return self.active | self.parked
 
 
 @struct.dataclass

@@ -101,7 +101,7 @@ class Lidar(ObservationTerm):
         if bodies.x.shape[0]:
             hits = ray_disc_hits(px, py, ux[..., None], uy[..., None], bodies.x, bodies.y,
                                  bodies.radius)  # [R, N, B]
-            seen = bodies.active[None, :]
+            seen = bodies.in_world[None, :]
             if self.robots:
                 seen = seen & ~jnp.eye(layout.max_agents, bodies.x.shape[0], dtype=bool)
             hits = jnp.where(seen[:, None, :], hits, jnp.inf)

@@ -81,7 +81,7 @@ class Others(ObservationTerm):
         dxw = bodies.x[None, :] - r.x[:, None]  # [R, B]
         dyw = bodies.y[None, :] - r.y[:, None]
         centre = safe_norm(dxw, dyw)
-        visible = jnp.broadcast_to(bodies.active[None, :], (num_robots, count))
+        visible = jnp.broadcast_to(bodies.in_world[None, :], (num_robots, count))
         if self.robots:  # a robot does not see itself
             visible = visible & ~jnp.eye(num_robots, count, dtype=bool)
         if self.max_range is not None:

@@ -3,7 +3,7 @@ SA-CADRL social norms (right-handed: pass, overtake and cross the way pedestrian
 
 Geometry is in the robot's frame (x forward, y to the left); ``dh`` is the other's heading
 minus the robot's, wrapped. Pedestrians face along their velocity. Bodies counted: other robots
-that take part and have not finished, and active pedestrians.
+in the world (active, or parked at rest) and active pedestrians.
 """
 
 from __future__ import annotations
@@ -80,7 +80,7 @@ def _norm_geometry(state: EnvState, params: EnvParams, layout: Layout
                           c * b.cos_h[None, :] + s * b.sin_h[None, :])
     bearing = polynomial_atan2(py, px)
     other_speed = jnp.broadcast_to(safe_norm(b.vx, b.vy)[None, :], px.shape)
-    there = b.active[None, :] & ~jnp.eye(layout.max_agents, b.x.shape[0], dtype=bool)
+    there = b.in_world[None, :] & ~jnp.eye(layout.max_agents, b.x.shape[0], dtype=bool)
     return px, py, dh, bearing, other_speed, there
 
 
