@@ -42,7 +42,8 @@ assert diff < 1e-5, diff
 
 @pytest.mark.slow
 def test_sharded_and_unsharded_runs_agree_on_one_step():
-    env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=2",
+    flags = f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count=2"
+    env = {**os.environ, "XLA_FLAGS": flags.strip(),
            "JAX_PLATFORMS": "cpu", "PYTHONPATH": str(ROOT)}
     result = subprocess.run([sys.executable, "-c", SHARDED], env=env, capture_output=True,
                             text=True, timeout=600)
