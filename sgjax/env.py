@@ -189,6 +189,9 @@ class SocialNavEnv:
             if not 0 <= n <= self.max_agents:
                 raise ValueError(f"params.num_agents must be in [0, max_agents={self.max_agents}]"
                                  f", got {n}")
+        fewest = params.min_agents
+        if not isinstance(fewest, jax.core.Tracer) and int(fewest) < 0:
+            raise ValueError(f"params.min_agents must be >= 0, got {int(fewest)}")
         num_humans = params.humans.num_humans
         if not isinstance(num_humans, jax.core.Tracer):
             n, most = int(num_humans), self.config.humans.max_humans
@@ -210,14 +213,18 @@ class SocialNavEnv:
                              f" for this environment, got {zones}")
 
     def reset(self, key: Array, params: EnvParams) -> tuple[Array, EnvState]:
-        """Sample a scenario: starts, goals and routes for ``params.num_agents`` robots.
+        """Sample a scenario: starts, goals and routes for ``params.num_agents`` robots (a count
+        drawn from ``[params.min_agents, params.num_agents]`` when ``min_agents`` is set).
         Returns ``obs [R, D], state``."""
         self.check_params(params)
         return self._reset_compiled(key, params)
 
     def _reset(self, key: Array, params: EnvParams) -> tuple[Array, EnvState]:
         key_robots, key_humans = jax.random.split(key)
-        wanted = jnp.arange(self.max_agents) < params.num_agents
+        fewest = jnp.where(params.min_agents > 0,
+                           jnp.minimum(params.min_agents, params.num_agents), params.num_agents)
+        count = jax.random.randint(jax.random.fold_in(key, 1), (), fewest, params.num_agents + 1)
+        wanted = jnp.arange(self.max_agents) < count
         start, goal, placed = sample_starts_goals(key_robots, params.map, params.robots.radius,
                                                   wanted)
         return self._reset_to(start, goal, placed, params, key_humans)

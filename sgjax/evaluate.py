@@ -145,7 +145,8 @@ def params_by_count(scenario: Any, counts: Sequence[int], **make_kwargs: Any
     is a params value, so one compiled runner serves them all."""
     kwargs = {"max_agents": max(counts), **make_kwargs}
     env, params = make(scenario, num_agents=max(counts), **kwargs)
-    by_count = {n: params.replace(num_agents=jnp.asarray(n, jnp.int32)) for n in counts}
+    by_count = {n: params.replace(num_agents=jnp.asarray(n, jnp.int32),
+                                  min_agents=jnp.asarray(0, jnp.int32)) for n in counts}
     for n in counts:
         env.check_params(by_count[n])
     return env, by_count

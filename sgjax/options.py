@@ -3,8 +3,8 @@
 ``make(scenario, **keywords)`` takes flat keywords (``num_agents=4, human_model="helbing"``);
 each belongs to one group:
 
-* :class:`RobotOptions`: ``num_agents``, ``max_agents``, ``robots``, ``action_mode``,
-  ``goal_tolerance``, ``arrived``, ``ended``;
+* :class:`RobotOptions`: ``num_agents``, ``min_agents``, ``max_agents``, ``robots``,
+  ``action_mode``, ``goal_tolerance``, ``arrived``, ``ended``;
 * :class:`HumanOptions`: ``num_humans``, ``max_humans``, ``human_model``, ``human_walls``,
   ``human_goals``, ``human_radius``;
 * :class:`TermOptions`: ``observations``, ``rewards``, ``enders``, ``terms``,
@@ -71,6 +71,7 @@ class RobotOptions:
     """Who drives: how many robots, which kinds, how they act and when they have arrived."""
 
     num_agents: int = 4  # robots in an episode (a param: change it without recompiling)
+    min_agents: int | None = None  # draw each episode's count from [min_agents, num_agents]
     max_agents: int | None = None  # robot slots R (static); default: num_agents
     robots: Any = "socialgym"  # preset name, RobotPreset, or a list (one per slot, cycled)
     action_mode: str = "go_stop"  # or "continuous"
@@ -81,6 +82,9 @@ class RobotOptions:
     def __post_init__(self) -> None:
         _within_slots("num_agents", self.num_agents, "max_agents", self.max_agents,
                       _positive_int)
+        if self.min_agents is not None:
+            _within_slots("min_agents", self.min_agents, "num_agents", self.num_agents,
+                          _positive_int)
         _choice("action_mode", self.action_mode, ACTION_MODES)
         _positive_float("goal_tolerance", self.goal_tolerance)
         _choice("arrived", self.arrived, WORLD_SEMANTICS)

@@ -104,6 +104,7 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
         dt=jnp.asarray(physics.dt, jnp.float32),
         max_steps=jnp.asarray(physics.max_steps, jnp.int32),
         goal_tolerance=jnp.asarray(robot_opts.goal_tolerance, jnp.float32),
+        min_agents=jnp.asarray(robot_opts.min_agents or 0, jnp.int32),
     )
     _check_capacity(spec.source, params, max_agents, human_config)
     return SocialNavEnv(config, params), params

@@ -204,7 +204,10 @@ class EnvParams:
     planner: PlannerParams
     reward: RewardParams  # weight schedules by reward-term name
     humans: HumanParams
-    num_agents: Array  # int32 scalar: robots that take part in an episode
+    num_agents: Array  # int32 scalar: robots that take part in an episode (the most, see below)
     dt: Array  # s per step
     max_steps: Array  # int32: truncation after this many steps
     goal_tolerance: Array  # m
+    # int32 scalar: 0 (off): every episode has num_agents robots; n >= 1: each episode draws
+    # its robot count uniformly from [min(n, num_agents), num_agents]
+    min_agents: Array

@@ -305,3 +305,18 @@ def test_make_options_grouped_and_flat_agree():
     assert env.max_agents == 3 and int(params.num_agents) == 3
     assert int(params.max_steps) == 200 and env.config.humans.force_model == "helbing"
     assert env.config.layout.max_humans == 1 and env.config.layout.max_agents == 3
+
+
+def test_min_agents_draws_each_episodes_robot_count():
+    """``min_agents`` draws every episode's count from [min_agents, num_agents]; without it
+    every episode has ``num_agents`` (one compiled reset for both)."""
+    env, params = sgjax.make("doorway", num_agents=5, min_agents=2)
+    reset = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))
+    _, state = reset(jax.random.split(jax.random.key(0), 400), params)
+    counts = np.asarray(state.robots.present.sum(axis=1))
+    assert set(counts.tolist()) == {2, 3, 4, 5}
+    _, state = reset(jax.random.split(jax.random.key(0), 8), params.replace(
+        min_agents=jnp.asarray(0, jnp.int32)))
+    assert np.all(np.asarray(state.robots.present.sum(axis=1)) == 5)
+    with pytest.raises(ValueError, match="min_agents"):
+        sgjax.make("doorway", num_agents=3, min_agents=4)

@@ -224,3 +224,15 @@ def test_gru_state_resets_at_episode_starts():
     _, fresh = gru.apply(params, jnp.zeros((2, 4)), (x, starts))
     assert np.allclose(ys[:, 0], fresh[:, 0])  # robot 0 was reset at step 0
     assert not np.allclose(ys[:, 1], fresh[:, 1])  # robot 1 kept its memory
+
+
+def test_team_reward_shares_the_mean_of_the_robots_that_acted():
+    from train.ppo import share_rewards
+
+    reward = jnp.array([[1.0, 3.0, 100.0], [2.0, 0.0, 0.0]])
+    acted = jnp.array([[True, True, False], [True, False, False]])
+    np.testing.assert_allclose(share_rewards(reward, acted, 0.0), [[1, 3, 0], [2, 0, 0]])
+    np.testing.assert_allclose(share_rewards(reward, acted, 1.0), [[2, 2, 0], [2, 0, 0]])
+    np.testing.assert_allclose(share_rewards(reward, acted, 0.5), [[1.5, 2.5, 0], [2, 0, 0]])
+    with pytest.raises(ValueError, match="team_reward"):
+        config_from_dict({"algorithm": {"team_reward": 1.5}})

@@ -137,6 +137,9 @@ class AlgorithmConfig:
     normalize_observations: bool = True
     normalize_rewards: bool = True
     reward_clip: float = 10.0  # after normalisation
+    # Share of the team's mean reward in each robot's reward: 0 independent (each its own), 1
+    # fully shared (every active robot gets the mean over the robots active that step).
+    team_reward: float = 0.0
 
     def __post_init__(self) -> None:
         if self.name not in ("ippo", "mappo"):
@@ -145,7 +148,7 @@ class AlgorithmConfig:
                       "num_minibatches"):
             if getattr(self, field) < 1:
                 raise ValueError(f"{field} must be >= 1, got {getattr(self, field)}")
-        for field in ("gamma", "gae_lambda"):
+        for field in ("gamma", "gae_lambda", "team_reward"):
             if not 0.0 <= getattr(self, field) <= 1.0:
                 raise ValueError(f"{field} must be in [0, 1], got {getattr(self, field)}")
 

@@ -136,6 +136,15 @@ class EnvBatch:
         return tuple(info["reward_terms"])
 
 
+def share_rewards(reward: Array, acted: Array, share: float) -> Array:
+    """Each robot's reward ``[E, R]`` mixed with its team's: ``(1 - share) x own + share x
+    the mean over the robots of its environment that acted this step`` (``acted [E, R]``);
+    robots that did not act get 0."""
+    team = (jnp.sum(jnp.where(acted, reward, 0.0), axis=1, keepdims=True)
+            / jnp.maximum(jnp.sum(acted, axis=1, keepdims=True), 1))
+    return jnp.where(acted, (1.0 - share) * reward + share * team, 0.0)
+
+
 @struct.dataclass
 class RunnerState:
     params: Any
@@ -289,6 +298,8 @@ class Trainer:
         obs = obs * runner.obs_mask
         reward = sum(runner.term_weights[name] * value
                      for name, value in info["reward_terms"].items())
+        if a.team_reward:
+            reward = share_rewards(reward, info["was_active"], a.team_reward)
 
         done = term | trunc
         returns = runner.returns * a.gamma + reward
