@@ -34,10 +34,8 @@ def separate_robots(
     close = dist < 1e-6
     ux = jnp.where(close, fallback, dx / jnp.where(close, 1.0, dist))
     uy = jnp.where(close, 0.0, dy / jnp.where(close, 1.0, dist))
-    if movable is None:
-        share = 0.5
-    else:
-        share = jnp.where(movable[:, None], jnp.where(movable[None, :], 0.5, 1.0), 0.0)
+    movable = in_world if movable is None else movable
+    share = jnp.where(movable[:, None], jnp.where(movable[None, :], 0.5, 1.0), 0.0)
     push = jnp.where(touching, share * overlap, 0.0)
     return jnp.sum(push * ux, axis=1), jnp.sum(push * uy, axis=1), jnp.any(touching, axis=1)
 

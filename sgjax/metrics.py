@@ -302,7 +302,7 @@ def update(
     # Time to collision with every other body at constant velocity.
     ox = jnp.concatenate([x, humans.x])
     oy = jnp.concatenate([y, humans.y])
-    body_v = jnp.where(robots1.parked[:, None], 0.0, v1)  # parked robots are at rest
+    body_v = robots1.body_velocity  # parked robots are at rest
     ovx = jnp.concatenate([body_v[:, 0], humans.vx])
     ovy = jnp.concatenate([body_v[:, 1], humans.vy])
     oradius = jnp.concatenate([radius, human_radius])

@@ -97,9 +97,10 @@ class RobotState:
 
     @property
     def body_velocity(self) -> Array:
-        """World-frame velocity ``[R, 2]`` (m/s) of each robot as a body in the world: its
-        velocity while active, zero once finished (a parked robot is at rest)."""
-        return jnp.where(self.active[:, None], self.velocity, 0.0)
+        """World-frame velocity ``[R, 2]`` (m/s) of each robot as a body: zero once parked (at
+        rest), else its velocity (a robot that left the world is masked out wherever bodies
+        are read)."""
+        return jnp.where(self.parked[:, None], 0.0, self.velocity)
 
     @property
     def finished(self) -> Array:
