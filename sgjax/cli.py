@@ -1,10 +1,12 @@
-"""The ``sgjax`` command: ``sgjax evaluate ...`` and ``sgjax render ...``.
+"""The ``sgjax`` command: ``sgjax evaluate ...``, ``sgjax render ...`` and ``sgjax maps show ...``.
 
 Examples::
 
     sgjax evaluate --scenario doorway --policy only_local --num-agents 3 4 --episodes 8 \\
         --out runs/eval
     sgjax render --scenario doorway --policy only_local --out episode.gif
+    sgjax maps show doorway --out doorway.png
+    sgjax maps show path/to/SocialGym2/door --socialgym-scenario envs_door
 """
 
 from __future__ import annotations
@@ -83,6 +85,64 @@ def run_render(args: argparse.Namespace) -> None:
     print(f"wrote {out} ({len(frames)} frames at {fps} fps) and {trajectory}")
 
 
+def _map_summary(spec: Any, robots: str) -> list[str]:
+    """Lines describing a map: its parts, groups, zones and how many robots fit."""
+    import numpy as np
+
+    from sgjax.maps.arrays import spawn_groups
+    from sgjax.maps.routing import connected_components
+    from sgjax.registry import robots_that_fit
+
+    parts = connected_components(spec.num_nodes, spec.edges)
+    sizes = sorted(np.bincount(parts)[np.unique(parts)].tolist(), reverse=True)
+    groups = spawn_groups(spec)
+    xmin, ymin, xmax, ymax = spec.bounds
+    lines = [
+        f"{spec.name}: {spec.description}",
+        f"  source      {spec.source}",
+        f"  bounds      x {xmin:.2f} .. {xmax:.2f} m, y {ymin:.2f} .. {ymax:.2f} m",
+        f"  walls       {len(spec.walls)}",
+        f"  graph       {spec.num_nodes} nodes, {len(spec.edges)} edges, {len(sizes)} connected "
+        f"part(s) of {', '.join(str(s) for s in sizes[:8])}{' ...' if len(sizes) > 8 else ''} "
+        "nodes",
+        f"  placement   {len(spec.groups)} group(s) and {len(spec.routes)} route(s) -> "
+        f"{len(groups)} spawn group(s): " + "; ".join(
+            f"{len(starts)} starts x {len(goals)} goals" for starts, goals in groups[:6])
+        + (" ..." if len(groups) > 6 else ""),
+    ]
+    for zone in spec.zones:
+        x0, y0, x1, y1 = zone.rect
+        lines.append(f"  zone        {zone.name}: x {x0:.2f} .. {x1:.2f} m, y {y0:.2f} .. "
+                     f"{y1:.2f} m")
+    lines.append(f"  robots fit  {robots_that_fit(spec, robots)} {robots} robots in every "
+                 "draw (distinct starts and goals, bodies apart)")
+    return lines
+
+
+def run_maps_show(args: argparse.Namespace) -> None:
+    from sgjax.dynamics.limits import resolve_robots
+    from sgjax.maps.socialgym import import_socialgym
+
+    target = Path(args.map)
+    if target.is_dir():
+        reports: list = []
+        radius = max(preset.radius for _, preset in resolve_robots(args.robots, 1))
+        spec = import_socialgym(target, scenario=args.socialgym_scenario, clearance=radius,
+                                report=reports.append)
+        for report in reports:
+            print(report)
+    else:
+        if args.socialgym_scenario:
+            raise ValueError("--socialgym-scenario needs a SocialGym map folder, got "
+                             f"{args.map!r}")
+        spec = load_map(args.map)
+    print("\n".join(_map_summary(spec, args.robots)))
+    if args.out:
+        from sgjax.render import draw_scenario, save_png
+
+        print(f"wrote {save_png(draw_scenario(spec, width_px=args.width), Path(args.out))}")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="sgjax", description=__doc__.split("\n\n")[0])
     commands = parser.add_subparsers(dest="command", required=True)
@@ -115,6 +175,25 @@ def build_parser() -> argparse.ArgumentParser:
     rd.add_argument("--max-frames", type=int, default=300)
     _add_environment_options(rd)
     rd.set_defaults(run=run_render)
+
+    maps = commands.add_parser("maps", help="inspect maps").add_subparsers(
+        dest="maps_command", required=True)
+    show = maps.add_parser(
+        "show", help="what a map offers (walls, graph, groups, zones, robots that fit), drawn",
+        description="Describe a shipped map, a map .json file or a SocialGym 2.0 map folder "
+                    "(imported as sgjax.maps.import_socialgym does, with its import report)")
+    show.add_argument("map", help=f"a shipped id ({', '.join(registered())}), a .json map or "
+                                  "a SocialGym 2.0 folder")
+    show.add_argument("--socialgym-scenario", default=None,
+                      help="for a SocialGym folder: one of its own scenarios (e.g. envs_door) "
+                           "whose robot paths and zone to use (default: one group per "
+                           "connected part)")
+    show.add_argument("--robots", default="socialgym",
+                      help="robot preset for the clearance and capacity count")
+    show.add_argument("--out", default=None, help="PNG picture of the map")
+    show.add_argument("--width", type=int, default=640, help="picture width in pixels")
+    add_cache_arguments(show)
+    show.set_defaults(run=run_maps_show)
     return parser
 
 
@@ -123,7 +202,7 @@ def main(argv: list[str] | None = None) -> None:
     try:
         cache_from_arguments(args)
         args.run(args)
-    except (ValueError, KeyError, TypeError, RuntimeError) as err:
+    except (ValueError, KeyError, TypeError, RuntimeError, FileNotFoundError) as err:
         raise SystemExit(f"sgjax {args.command}: {err}") from err
 
 

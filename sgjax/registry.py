@@ -17,7 +17,7 @@ from sgjax.env import EnvConfig, SocialNavEnv
 from sgjax.humans.crowd import HumanConfig, HumanParams, spawn_humans
 from sgjax.humans.forces import SocialForceParams
 from sgjax.humans.slots import spawn_slots, wall_sample_points
-from sgjax.maps.arrays import MapArrays, compile_map
+from sgjax.maps.arrays import MapArrays, compile_map, spawn_groups
 from sgjax.maps.io import load, shipped_map_names
 from sgjax.maps.sampling import sample_starts_goals
 from sgjax.maps.schema import MapSpec, parse_map
@@ -225,3 +225,19 @@ def _check_capacity(source: str, params: EnvParams, max_agents: int,
             f"{radius} m beside {max_agents} robots (the map has {slots} spawn slots; managed "
             f"only {humans} in some draws); use fewer pedestrians"
         )
+
+
+def robots_that_fit(scenario: str | Path | MapSpec, robots: str = "socialgym",
+                    trials: int = CAPACITY_TRIALS) -> int:
+    """How many ``robots`` (a preset name, ``docs/robots.md``) ``reset`` places on the map in
+    every one of ``trials`` draws: distinct starts and goals, bodies apart (the check ``make``
+    runs for ``max_agents``)."""
+    spec = scenario if isinstance(scenario, MapSpec) else load(scenario)
+    env, params = make(spec, num_agents=1, max_agents=1, robots=robots)
+    starts = {s for group, _ in spawn_groups(spec) for s in group}
+    most = max(1, len(starts))
+    radius = jnp.full(most, params.robots.radius[0])
+    hp = params.humans.replace(num_humans=jnp.asarray(0, jnp.int32))
+    placed, _ = _placements(jax.random.split(jax.random.key(0), trials), params.map, radius, hp,
+                            max_agents=most, human_config=HumanConfig(max_humans=0))
+    return int(jnp.min(placed))

@@ -61,8 +61,31 @@ class MapArrays:
 
 
 def spawn_groups(spec: MapSpec) -> list[tuple[tuple[int, ...], tuple[int, ...]]]:
-    """Groups and explicit routes as (starts, goals) row tuples; a route is a one-pair group."""
-    return list(spec.groups) + [((r[0],), (r[-1],)) for r in spec.routes]
+    """Groups and explicit routes as (starts, goals) row tuples.
+
+    Routes are folded into as few groups as allow exactly their (start, goal) pairs: starts with
+    the same goals share a group, and starts whose goals are "every member but me" of one set
+    (SocialGym's open map: every ordered pair of 48 nodes, 2256 routes) share a group of that set
+    (a group never pairs a start with itself). Drawing a group by free starts x free goals and then
+    a start and a goal in it is then the same as drawing a free route uniformly, as SocialGym's
+    ``ManualScenario`` did, at the cost of a few groups instead of thousands.
+    """
+    goals_of: dict[int, set[int]] = {}
+    for route in spec.routes:
+        goals_of.setdefault(route[0], set()).add(route[-1])
+    by_goals: dict[frozenset, list[int]] = {}
+    for start, goals in goals_of.items():
+        by_goals.setdefault(frozenset(goals), []).append(start)
+    folded, alone = [], {}
+    for goals, starts in by_goals.items():
+        if len(starts) > 1:
+            folded.append((tuple(starts), tuple(sorted(goals))))
+        else:
+            alone.setdefault(goals | {starts[0]}, []).append(starts[0])
+    for members, starts in alone.items():
+        folded.append((tuple(starts), tuple(sorted(members if len(starts) > 1
+                                                   else members - {starts[0]}))))
+    return list(spec.groups) + folded
 
 
 def wall_grid(
