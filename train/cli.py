@@ -32,9 +32,10 @@ from sgjax.terms import ConfigError
 from sgjax.version import __version__
 from train import checkpoint
 from train.actor import ActorWeights, lane_evaluator
-from train.config import TrainConfig, load_config
+from train.config import TrainConfig, apply_overrides, config_from_dict, load_config
 from train.ppo import Trainer, seed_keys
 from train.sharding import device_mesh, shard_runner
+from train.socialgym_config import convert, is_socialgym_config, read_socialgym_config, table
 
 COLUMNS = ("steps", "updates", "wall_s", "env_steps_per_s", "agent_steps_per_s", "num_agents",
            "episodes", "team_success", "robot_success", "mean_return", "policy_loss",
@@ -281,9 +282,25 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
     return {"trained_team_success": mine, "baseline_team_success": base, "results": results}
 
 
+def _socialgym_config(path: str, overrides: list[str]) -> TrainConfig | None:
+    """A SocialGym 2.0 experiment config (JSON), converted with its key table printed; None for
+    an sgjax config."""
+    if not path.endswith(".json") or not Path(path).is_file():
+        return None
+    data = read_socialgym_config(path)
+    if not is_socialgym_config(data):
+        return None
+    converted, rows = convert(data, path)
+    print(f"{path}: a SocialGym 2.0 experiment config, read as (python -m "
+          f"train.socialgym_config {path} --out <file.yaml> writes it):\n{table(rows)}\n")
+    return config_from_dict(apply_overrides(converted, overrides), f"{path} (converted)")
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m train", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--config", required=True, help="YAML file (train/configs/*.yaml)")
+    parser.add_argument("--config", required=True,
+                        help="YAML file (train/configs/*.yaml), or a SocialGym 2.0 experiment "
+                             "config (.json)")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                         help="override one config key (repeatable), e.g. algorithm.total_steps=1e6")
     parser.add_argument("--out", default=None, help="run folder (default: logging.out)")
@@ -293,7 +310,7 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     try:
         cache_from_arguments(args)
-        config = load_config(args.config, args.set)
+        config = _socialgym_config(args.config, args.set) or load_config(args.config, args.set)
         train(config, Path(args.out or config.logging.out), resume=args.resume)
     except (ConfigError, ValueError) as err:
         raise SystemExit(f"train: {err}") from err

@@ -247,6 +247,12 @@ def load_config(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -
     data = yaml.safe_load(path.read_text()) or {}
     if not isinstance(data, Mapping):
         raise ConfigError(f"{path}: expected a mapping of sections, got {type(data).__name__}")
+    return config_from_dict(apply_overrides(data, overrides), str(path))
+
+
+def apply_overrides(data: Mapping[str, Any], overrides: list[str] | tuple[str, ...]
+                    ) -> dict[str, Any]:
+    """A copy of a config dict with ``"section.key=value"`` overrides (values read as YAML)."""
     data = {k: dict(v) if isinstance(v, Mapping) else v for k, v in data.items()}
     for item in overrides:
         key, sep, value = item.partition("=")
@@ -260,7 +266,7 @@ def load_config(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -
             data[section][field] = yaml.safe_load(value)
         else:
             data[section] = yaml.safe_load(value)
-    return config_from_dict(data, str(path))
+    return data
 
 
 def config_from_dict(data: Mapping[str, Any], source: str = "config") -> TrainConfig:
