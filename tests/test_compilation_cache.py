@@ -44,3 +44,26 @@ def test_a_second_process_reads_what_the_first_wrote_and_off_means_off(tmp_path)
     assert "folder None" in run({"SGJAX_COMPILATION_CACHE": str(off),
                                  "SGJAX_NO_COMPILATION_CACHE": "1"})
     assert not Path(off).exists()
+
+
+FLAGS = """
+import os, jax
+from sgjax.compilation_cache import fast_cpu_compile
+before = fast_cpu_compile()
+jax.devices()  # backends start: too late to change the flags afterwards
+print(before, fast_cpu_compile(), repr(os.environ.get("XLA_FLAGS", "")))
+"""
+
+
+def test_commands_compile_with_the_elemental_emitters_unless_told_not_to():
+    def flags(env):
+        clean = {k: v for k, v in os.environ.items()
+                 if not k.startswith(("JAX_", "SGJAX_")) and k != "XLA_FLAGS"}
+        return subprocess.run([sys.executable, "-c", FLAGS], env={**clean, **env},
+                              capture_output=True, text=True, timeout=300,
+                              check=True).stdout.split(maxsplit=2)
+
+    assert flags({}) == ["True", "True", "'--xla_cpu_use_fusion_emitters=false'\n"]
+    assert flags({"SGJAX_XLA_DEFAULT_EMITTERS": "1"})[:2] == ["False", "False"]
+    mine = "--xla_cpu_use_fusion_emitters=true --xla_backend_optimization_level=2"
+    assert flags({"XLA_FLAGS": mine}) == ["False", "False", repr(mine) + "\n"]
