@@ -297,6 +297,9 @@ def test_socialgym_default_groups_follow_connected_parts_and_unseen_nodes_stay_a
     assert sorted(groups) == [[0, 1, 2], [3, 4]]  # node 2 joined its part; 9 stays out
     assert reports[0].unattached == [9] and "see no edge" in str(reports[0])
     assert "2 group(s), one per connected part" in spec.description
+    reports.clear()
+    import_socialgym(tmp_path / "two", scenario="envs_multi", report=reports.append)
+    assert "written for SocialGym's multienv map file(s), not two" in str(reports[0])
 
 
 def test_socialgym_errors_print_plain_numbers_and_name_unknown_scenarios(tmp_path):
@@ -306,8 +309,14 @@ def test_socialgym_errors_print_plain_numbers_and_name_unknown_scenarios(tmp_pat
         import_socialgym(tmp_path / "slot")
     assert "node 1 at (0.000, 0.000) is 0.100 m from wall" in str(err.value)
     assert "np.float64" not in str(err.value)
-    with pytest.raises(KeyError, match="did you mean 'envs_door'"):
+    with pytest.raises(ValueError, match="did you mean 'envs_door'"):
         import_socialgym(tmp_path / "slot", scenario="envs_dor")
+    with pytest.raises(MapError, match="conflict zone needs nodes 20 and 21; this map has no "
+                                       "node 20"):
+        import_socialgym(tmp_path / "slot", scenario="envs_door")
+    write_socialgym(tmp_path / "apart", [], {0: (0.0, 0.0), 1: (2.0, 0.0)}, [])
+    with pytest.raises(MapError, match="no two nodes are joined by the graph"):
+        import_socialgym(tmp_path / "apart")
 
 
 def test_socialgym_json_vectormap_beside_an_empty_txt(tmp_path):

@@ -31,6 +31,9 @@ def test_listing_1_converts_key_by_key():
     assert {"stuck": {"distance": 0.25, "steps": 100, "penalty": -100000.0}} in env["enders"]
     others = next(o["others"] for o in env["observations"] if isinstance(o, dict) and "others" in o)
     assert others["features"] == ["position", "heading", "velocity", "mask"]
+    assert others["k"] == 9 and others["relative_velocity"]  # all others of 10 robots
+    assert env["rewards"]["collision"] == {"per_step": True, "weight": 10.0}
+    assert "proximity" not in env["rewards"]
     assert "zone_priority" in env["observations"]
     assert config["network"]["others_encoder"] == "lstm"
     assert config["logging"]["out"] == "runs/door/ao"

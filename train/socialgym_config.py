@@ -30,7 +30,7 @@ from sgjax.terms import ConfigError, suggest
 from train.config import config_from_dict
 
 SOCIALGYM_DT = 0.025  # s: UTMRS's delta_t in every shipped template (40 Hz)
-SOCIALGYM_MAX_STEPS = 3200  # UTMRS max_steps, the only limit when `timelimit` is off
+SOCIALGYM_MAX_STEPS = 3200  # UTMRS max_steps: the stand-in limit when `timelimit` is off
 SB3_PPO = {"learning_rate": 3e-4, "n_steps": 2048, "batch_size": 64, "n_epochs": 10,
            "gamma": 0.99, "gae_lambda": 0.95, "clip_range": 0.2, "ent_coef": 0.0,
            "vf_coef": 0.5, "max_grad_norm": 0.5}
@@ -99,7 +99,7 @@ def is_socialgym_config(data: Mapping[str, Any]) -> bool:
     return bool(set(data) & (set(DEFAULTS) | set(ALIASES))) and "env" not in data
 
 
-def _observations(c: dict[str, Any]) -> list[Any]:
+def _observations(c: dict[str, Any], most_robots: int) -> list[Any]:
     obs: list[Any] = []
     if c["agent_goal_distance_obs"]:
         obs.append({"goal_distance": {"history": 2}})
@@ -118,8 +118,9 @@ def _observations(c: dict[str, Any]) -> list[Any]:
     if c["other_velocities_obs"]:
         features.append("velocity")
     if features:
-        obs.append({"others": {"k": 6, "features": [*features, "mask"],
-                               "line_of_sight": bool(c["partially_observable"])}})
+        obs.append({"others": {"k": max(1, most_robots - 1), "features": [*features, "mask"],
+                               "line_of_sight": bool(c["partially_observable"]),
+                               "relative_velocity": True}})
     if c["run_type"] in ("AO", "EO"):
         obs += ZONE_OBSERVATIONS
     if not obs:
@@ -127,25 +128,23 @@ def _observations(c: dict[str, Any]) -> list[Any]:
     return obs
 
 
-def _rewards(c: dict[str, Any]) -> dict[str, Any]:
+def _rewards(c: dict[str, Any], limit_steps: int) -> dict[str, Any]:
     rewards: dict[str, Any] = {}
     if c["existence_penalty"]:
         rewards["existence"] = float(c["existence_penalty"])
     if c["success_reward"]:
         rewards["success"] = float(c["success_reward"])
-    if c["collision_penalty_scale_duration"]:
-        rewards["collision"] = {"weight": {
+    if c["collision_penalty_scale_duration"]:  # episodes of one env -> steps of each of ours
+        steps = max(1, int(c["collision_penalty_scale_duration"]) * limit_steps // NUM_ENVS)
+        rewards["collision"] = {"per_step": True, "weight": {
             "schedule": "linear", "start": float(c["starting_collision_penalty"]),
-            "end": float(c["collision_penalty"]),
-            "steps": int(c["collision_penalty_scale_duration"])}}
-    elif c["collision_penalty"]:
-        rewards["collision"] = float(c["collision_penalty"])
+            "end": float(c["collision_penalty"]), "steps": steps}}
+    elif c["collision_penalty"]:  # SocialGym: -1 on every step the collision flag is up
+        rewards["collision"] = {"per_step": True, "weight": float(c["collision_penalty"])}
     if c["goal_distance_reward"]:
         rewards["progress"] = ({"weight": 1.0, "clip": [0.0, 1.0]}
                                if c["goal_distance_reward_clip"] else 1.0)
-    if c["run_type"] == "SACADRL":
-        rewards["proximity"] = {"weight": 100.0, "threshold": 0.2}
-    else:
+    if c["run_type"] != "SACADRL":  # SACADRL: no zone terms, nothing else (config_run)
         rewards["zone_order"] = {
             "weight": float(c["enforced_order_reward"]), "any_order": c["run_type"] == "AO",
             "incorrect_penalty": (c["run_type"] == "EO"
@@ -230,9 +229,11 @@ def convert(data: Mapping[str, Any], source: str = "config") -> tuple[dict[str, 
             f"{limit_steps * SOCIALGYM_DT:g} s)")
     else:
         limit_steps = SOCIALGYM_MAX_STEPS
-        row("timelimit", f"off: episodes end at UTMRS's max_steps, {limit_steps} steps = "
-            f"{limit_steps * SOCIALGYM_DT:g} s (sgjax always has a time limit)")
-    row("timelimit_threshold", f"env.time_limit {limit_steps * SOCIALGYM_DT:g} s")
+        row("timelimit", f"off: SocialGym had no time limit then (UTMRS's max_steps fed a done "
+            f"nobody read); sgjax always has one, so {limit_steps} steps = "
+            f"{limit_steps * SOCIALGYM_DT:g} s stands in")
+    row("timelimit_threshold", f"env.time_limit {limit_steps * SOCIALGYM_DT:g} s" if c["timelimit"]
+        else "unused (timelimit off)")
     curriculum = _curriculum(c["num_agents"], limit_steps, where)
     row("num_agents", f"env.curriculum {curriculum} (episode e -> environment step e x "
         f"{limit_steps}: every episode counted at the full time limit)")
@@ -284,20 +285,29 @@ def convert(data: Mapping[str, Any], source: str = "config") -> tuple[dict[str, 
     # Terms.
     if c["run_type"] not in RUN_TYPES:
         refuse("run_type", f"expected one of {', '.join(RUN_TYPES)}")
-    observations, rewards = _observations(c), _rewards(c)
+    most = max([slots, *evaluation_counts])
+    observations, rewards = _observations(c, most), _rewards(c, limit_steps)
     enders = _enders(c, where)
-    row("run_type", {"SACADRL": "the CADRL reward set (proximity x100 under 0.2 m)",
+    row("run_type", {"SACADRL": "no zone terms (as config_run; sgjax's cadrl preset adds the "
+                                "paper's CADRL proximity term, this conversion does not)",
                      "AO": "zone_order reward, any order, and the 7 zone observations",
                      "EO": "zone_order reward, enforced order, and the 7 zone observations"}[
         c["run_type"]])
     for key in ("collision_obs", "agent_goal_distance_obs", "agent_pose_obs",
-                "agent_velocity_obs", "other_poses_obs", "other_velocities_obs",
-                "agent_pose_ignore_theta", "agent_velocity_ignore_theta",
-                "other_poses_ignore_theta", "other_velocities_ignore_theta", "socialnavAPI",
+                "agent_velocity_obs", "other_poses_obs", "agent_pose_ignore_theta",
+                "agent_velocity_ignore_theta", "other_poses_ignore_theta", "socialnavAPI",
                 "partially_observable"):
         row(key, "env.observations (below)")
-    for key in ("existence_penalty", "success_reward", "collision_penalty",
-                "starting_collision_penalty", "collision_penalty_scale_duration",
+    row("other_velocities_obs", f"env.observations: others' velocity relative to the robot, "
+        f"for the {max(1, most - 1)} others the most robots ({most}) can have")
+    row("other_velocities_ignore_theta", "no effect: an other's velocity is its 2-vector in "
+        "sgjax (no separate turn rate)")
+    row("collision_penalty", "env.rewards.collision, paid on every step in contact as "
+        "SocialGym's Collisions term")
+    row("collision_penalty_scale_duration", "a linear weight schedule over duration x the time "
+        f"limit / {NUM_ENVS} steps of each environment (SocialGym's ramp was hyperbolic, in "
+        "episodes)" if c["collision_penalty_scale_duration"] else "0: a constant weight")
+    for key in ("existence_penalty", "success_reward", "starting_collision_penalty",
                 "goal_distance_reward", "goal_distance_reward_clip", "enforced_order_reward",
                 "enforced_order_penalty_for_incorrect_order",
                 "enforced_order_weak_signal_out_of_zone", "penalty_for_multiple_agents_entering"):

@@ -63,12 +63,14 @@ class MapArrays:
 def spawn_groups(spec: MapSpec) -> list[tuple[tuple[int, ...], tuple[int, ...]]]:
     """Groups and explicit routes as (starts, goals) row tuples.
 
-    Routes are folded into as few groups as allow exactly their (start, goal) pairs: starts with
-    the same goals share a group, and starts whose goals are "every member but me" of one set
+    Routes are folded into groups that allow exactly their (start, goal) pairs: starts with the
+    same goals share a group, and starts whose goals are "every member but me" of one set
     (SocialGym's open map: every ordered pair of 48 nodes, 2256 routes) share a group of that set
-    (a group never pairs a start with itself). Drawing a group by free starts x free goals and then
-    a start and a goal in it is then the same as drawing a free route uniformly, as SocialGym's
-    ``ManualScenario`` did, at the cost of a few groups instead of thousands.
+    (a group never pairs a start with itself), so SocialGym's scenarios become one or two groups
+    instead of hundreds or thousands. Drawing a group by free starts x free goals, then a start and
+    a goal in it, is close to SocialGym's ``ManualScenario`` (a free route uniformly): the same for
+    a product of starts and goals with nothing taken yet; otherwise a group's weight also counts
+    its start = goal pairs, and taken goals shift the odds within it.
     """
     goals_of: dict[int, set[int]] = {}
     for route in spec.routes:

@@ -18,9 +18,10 @@ How SocialGym ran these files, and what the import does the same way:
 * Most spawn nodes of the real mini-games have no edge. graph_navigation added a start or goal as
   a *dynamic state* projected onto the closest edge, splitting the edge there
   (``../shared/reference/socialgym2.md`` section 1.3). The import does that once per edgeless node:
-  it joins the node to the nearest point of the nearest edge it can see (no wall in between, the
-  point at least ``clearance`` from every wall), adding a node at that point (a new id above the
-  file's) that splits the edge, or joining the edge's end when the nearest point is an end.
+  of the edges whose nearest point to the node it can see (no wall in between, the point at least
+  ``clearance`` from every wall), it takes the nearest and joins the node to that point, adding a
+  node there (a new id above the file's) that splits the edge, or joining the edge's end when the
+  nearest point is an end.
 * Nodes closer than ``clearance`` to a wall (SocialGym never checked) are moved straight away
   from it until they keep it (exp1's test map has one 0.18 m from a wall).
 * Edge attributes (``max_speed``, ``max_clearance``, ``has_door``, ``has_stairs``,
@@ -68,11 +69,12 @@ class ImportReport:
     ignored_attributes: dict[str, str] = dataclasses.field(default_factory=dict)
     default_groups: int = 0
     moved: list[tuple[int, float]] = dataclasses.field(default_factory=list)
+    other_map: str = ""  # a scenario written for another map file
 
     @property
     def lines(self) -> list[str]:
         """One sentence per kind of change (empty when nothing changed)."""
-        out = []
+        out = [self.other_map] if self.other_map else []
         if self.dropped_walls:
             out.append(f"dropped {self.dropped_walls} zero-length wall(s)")
         if self.moved:
@@ -216,8 +218,9 @@ def attach_edgeless_nodes(
     position = {n["id"]: np.asarray(n["position"], float) for n in nodes}
     linked = {i for edge in edges for i in edge}
     lonely = [i for i in ids if i not in linked]
-    if not lonely or not edges:
-        report.unattached = lonely if edges else []
+    usable = [e for e, (s0, s1) in enumerate(edges) if s0 in position and s1 in position]
+    if not lonely or not usable:  # (edges naming missing nodes: parse_map reports them)
+        report.unattached = lonely
         return nodes, edges
     next_id = max(ids) + 1
     cuts: dict[int, list[tuple[float, int]]] = {}  # edge index -> (fraction along it, new id)
@@ -225,7 +228,8 @@ def attach_edgeless_nodes(
     for node in lonely:
         p = position[node]
         best = None
-        for e, (s0, s1) in enumerate(edges):
+        for e in usable:
+            s0, s1 = edges[e]
             a, b = position[s0], position[s1]
             ab = b - a
             t = float(np.clip(np.dot(p - a, ab) / max(float(np.dot(ab, ab)), 1e-12), 0.0, 1.0))
@@ -306,9 +310,10 @@ def import_socialgym(
     given, receives the :class:`ImportReport` (its lines are also in the description).
 
     ``scenario`` names one of SocialGym's own scenarios (:data:`SOCIALGYM_SCENARIOS`, e.g.
-    ``"envs_door"``): its robot paths become the routes and its conflict zone (``build_zone``:
-    x from the start hub to the end hub, y within the half-height of the start hub) the map's
-    zone, unless ``routes`` / ``groups`` are given too.
+    ``"envs_door"``): its conflict zone (``build_zone``: x from the start hub to the end hub, y
+    within the half-height of the start hub) becomes the map's zone, and its robot paths the
+    routes unless ``routes`` / ``groups`` are given. A scenario written for another map file
+    than this folder's is reported (SocialGym's ids repeat across maps, so it would load).
     """
     folder = Path(folder)
     zone = None
@@ -316,8 +321,8 @@ def import_socialgym(
         if scenario not in SOCIALGYM_SCENARIOS:
             close = difflib.get_close_matches(scenario, list(SOCIALGYM_SCENARIOS), n=1)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise KeyError(f"unknown SocialGym scenario {scenario!r}{hint}; known: "
-                           f"{', '.join(SOCIALGYM_SCENARIOS)}")
+            raise ValueError(f"unknown SocialGym scenario {scenario!r}{hint}; known: "
+                             f"{', '.join(SOCIALGYM_SCENARIOS)}")
         _, scenario_routes, zone = SOCIALGYM_SCENARIOS[scenario]
         if routes is None and groups is None:
             routes = scenario_routes
@@ -337,6 +342,9 @@ def import_socialgym(
     if not txt.exists() and not js.exists():
         raise FileNotFoundError(f"no {txt.name} or {js.name} in {folder}")
     info = ImportReport(source=str(folder), ignored_attributes=ignored)
+    if scenario is not None and name not in SCENARIO_MAP_FILES[scenario]:
+        info.other_map = (f"scenario {scenario} was written for SocialGym's "
+                          f"{'/'.join(SCENARIO_MAP_FILES[scenario])} map file(s), not {name}")
     kept = [w for w in walls if np.hypot(w[2] - w[0], w[3] - w[1]) >= SAME_POINT]
     info.dropped_walls = len(walls) - len(kept)  # SocialGym's intersection ships 4 stubs
     wall_array = np.asarray(kept, dtype=float).reshape(-1, 4)
@@ -355,6 +363,10 @@ def import_socialgym(
     }
     if zone is not None:
         position = {n["id"]: n["position"] for n in nodes}
+        missing = [i for i in zone[:2] if i not in position]
+        if missing:
+            raise MapError(str(nav), "$.nodes", f"scenario {scenario}'s conflict zone needs "
+                           f"nodes {zone[0]} and {zone[1]}; this map has no node {missing[0]}")
         (x0, y0), (x1, _), half = position[zone[0]], position[zone[1]], zone[2]
         data["zones"] = [{"name": scenario, "rect": [min(x0, x1), y0 - half, max(x0, x1),
                                                     y0 + half]}]
@@ -366,6 +378,9 @@ def import_socialgym(
         added = {n["id"] for n in nodes} - file_ids
         data["groups"] = _default_groups(nodes, edges, exclude=added)
         info.default_groups = len(data["groups"])
+        if not data["groups"]:
+            raise MapError(str(nav), "$.edges", "no two nodes are joined by the graph, so no "
+                           "robot has anywhere to go (pass routes or groups)")
     if info.lines:
         data["description"] += "; " + "; ".join(info.lines)
     spec = parse_map(data, source=str(nav), clearance=clearance)
@@ -378,19 +393,21 @@ def _product(starts: list[int], via: list[int], goals: list[int]) -> list[list[i
     return [[s, *via, g] for s in starts for g in goals]
 
 
-def _door_like(starts: list[int], hubs: list[int], goals: list[int]) -> list[list[int]]:
-    return _product(starts, hubs, goals)
-
-
 # SocialGym 2.0's own scenarios (ut-amrl/SocialGym2 src/environment/scenarios/common_scenarios.py
 # at 05b43db; node ids are facts of its map files): scenario name -> (map folder, robot paths,
 # conflict zone (start node, end node, half-height m) or None).
 _DOOR_STARTS = [0, 43, *range(1, 20)]
 _BOTTOM, _LEFT = [0, 1, 30, 2, 3, 4, 31], list(range(5, 12))
 _TOP, _RIGHT = list(range(12, 19)), list(range(19, 26))
+# The map file names (``<name>.navigation.json``) each scenario was written for.
+SCENARIO_MAP_FILES: dict[str, tuple[str, ...]] = {
+    "envs_door": ("door",), "envs_hallway": ("hallway",), "envs_intersection": ("intersection",),
+    "envs_round_about": ("round_about",), "envs_open": ("open",), "envs_multi": ("multienv",),
+    "closed_door_1__same_goals": ("t1", "t2"), "exp1_train_scenario": ("easy", "medium", "hard"),
+}
 SOCIALGYM_SCENARIOS: dict[str, tuple[str, list[list[int]], tuple[int, int, float] | None]] = {
-    "envs_door": ("door", _door_like(_DOOR_STARTS, [20, 21], list(range(22, 43))), (20, 21, 1)),
-    "envs_hallway": ("hallway", _door_like(list(range(21)), [21, 22], list(range(23, 44))),
+    "envs_door": ("door", _product(_DOOR_STARTS, [20, 21], list(range(22, 43))), (20, 21, 1)),
+    "envs_hallway": ("hallway", _product(list(range(21)), [21, 22], list(range(23, 44))),
                      (21, 22, 1)),
     "envs_intersection": ("intersection", _product(_BOTTOM, [29, 27], _TOP)
                           + _product(_LEFT, [26, 28], _RIGHT), (26, 28, 2)),
