@@ -154,3 +154,17 @@ def test_an_ippo_loop_shaped_like_jaxmarls_runs_and_learns_under_log_wrapper():
     returns = jax.jit(train)(jax.random.PRNGKey(0))
     assert returns.shape == (updates,) and bool(jnp.all(jnp.isfinite(returns)))
     assert float(returns[-4:].mean()) > float(returns[:4].mean()), returns
+
+
+def test_without_jaxmarl_the_error_names_the_extra():
+    import subprocess
+    import sys
+
+    program = ("import sys; sys.modules['jaxmarl'] = None\n"
+               "import sgjax.jaxmarl as m\n"
+               "builds = (lambda: m.SocialNavJaxMARL('open', 2), lambda: m.make('sgjax_open'))\n"
+               "for build in builds:\n"
+               "    try:\n        build()\n    except ImportError as err:\n        print(err)\n")
+    out = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True,
+                         timeout=300, check=True).stdout
+    assert out.count("pip install 'sgjax[jaxmarl]'") == 2, out
