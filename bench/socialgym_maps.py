@@ -3,8 +3,9 @@
     python bench/socialgym_maps.py ../shared/sg2maps --robots 3 --episodes 8
 
 For each folder: import it as ``sgjax.maps.import_socialgym`` does, with SocialGym's own scenario
-for that map when it had one (``SOCIALGYM_SCENARIOS``; the folder names of ``../shared/sg2maps``),
-else one group per connected part; then run ``--episodes`` episodes of ``--robots`` robots
+for that map when it had one (``FOLDER_SCENARIOS``: the folders of ``../shared/sg2maps``; a
+file name alone is ambiguous, exp1's and exp2's are both ``easy``), else one group per connected
+part; then run ``--episodes`` episodes of ``--robots`` robots
 (fewer where the map or its scenario cannot hold that many: the table says so) for the time limit,
 every robot always GO over the local planner. Prints, per map: nodes and edges after the import,
 how many robots arrived in each episode, and the smallest gap between a robot body and a wall
@@ -23,19 +24,17 @@ import numpy as np
 
 import sgjax
 from sgjax.maps.schema import point_segment_distances
-from sgjax.maps.socialgym import SOCIALGYM_SCENARIOS, import_socialgym
+from sgjax.maps.socialgym import import_socialgym
 from sgjax.registry import robots_that_fit
 
-# Folders of ../shared/sg2maps that reuse another map's scenario (same node ids).
-SHARED_SCENARIOS = {"closed_door_t2": "closed_door_1__same_goals",
-                    "exp1_train_medium": "exp1_train_scenario",
-                    "exp1_train_hard": "exp1_train_scenario"}
-
-
-def scenario_for(folder: Path) -> str | None:
-    """SocialGym's own scenario for a map folder, or None (then: one group per part)."""
-    by_folder = {map_folder: name for name, (map_folder, _, _) in SOCIALGYM_SCENARIOS.items()}
-    return by_folder.get(folder.name, SHARED_SCENARIOS.get(folder.name))
+# The folders of ../shared/sg2maps whose map SocialGym ran with one of its own scenarios.
+FOLDER_SCENARIOS = {
+    "door": "envs_door", "hallway": "envs_hallway", "intersection": "envs_intersection",
+    "round_about": "envs_round_about", "open": "envs_open", "multienv": "envs_multi",
+    "closed_door_t1": "closed_door_1__same_goals", "closed_door_t2": "closed_door_1__same_goals",
+    "exp1_train_easy": "exp1_train_scenario", "exp1_train_medium": "exp1_train_scenario",
+    "exp1_train_hard": "exp1_train_scenario",
+}
 
 
 def drive(spec: sgjax.maps.MapSpec, robots: int, episodes: int) -> tuple[np.ndarray, float]:
@@ -69,7 +68,7 @@ def main() -> None:
     print(f"{'map':20s} {'scenario':26s} {'nodes':>5s} {'edges':>5s}  robots  arrived per "
           "episode              wall gap   seconds")
     for folder in folders:
-        scenario = scenario_for(folder)
+        scenario = FOLDER_SCENARIOS.get(folder.name)
         t0 = time.perf_counter()
         try:
             spec = import_socialgym(folder, scenario=scenario)

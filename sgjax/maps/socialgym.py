@@ -323,7 +323,7 @@ def import_socialgym(
             hint = f" (did you mean {close[0]!r}?)" if close else ""
             raise ValueError(f"unknown SocialGym scenario {scenario!r}{hint}; known: "
                              f"{', '.join(SOCIALGYM_SCENARIOS)}")
-        _, scenario_routes, zone = SOCIALGYM_SCENARIOS[scenario]
+        map_files, scenario_routes, zone = SOCIALGYM_SCENARIOS[scenario]
         if routes is None and groups is None:
             routes = scenario_routes
     if name is None:
@@ -342,9 +342,9 @@ def import_socialgym(
     if not txt.exists() and not js.exists():
         raise FileNotFoundError(f"no {txt.name} or {js.name} in {folder}")
     info = ImportReport(source=str(folder), ignored_attributes=ignored)
-    if scenario is not None and name not in SCENARIO_MAP_FILES[scenario]:
+    if scenario is not None and name not in map_files:
         info.other_map = (f"scenario {scenario} was written for SocialGym's "
-                          f"{'/'.join(SCENARIO_MAP_FILES[scenario])} map file(s), not {name}")
+                          f"{'/'.join(map_files)} map file(s), not {name}")
     kept = [w for w in walls if np.hypot(w[2] - w[0], w[3] - w[1]) >= SAME_POINT]
     info.dropped_walls = len(walls) - len(kept)  # SocialGym's intersection ships 4 stubs
     wall_array = np.asarray(kept, dtype=float).reshape(-1, 4)
@@ -394,29 +394,27 @@ def _product(starts: list[int], via: list[int], goals: list[int]) -> list[list[i
 
 
 # SocialGym 2.0's own scenarios (ut-amrl/SocialGym2 src/environment/scenarios/common_scenarios.py
-# at 05b43db; node ids are facts of its map files): scenario name -> (map folder, robot paths,
-# conflict zone (start node, end node, half-height m) or None).
+# at 05b43db; node ids are facts of its map files): scenario name -> (the map file names
+# ``<name>.navigation.json`` it was written for, robot paths, conflict zone (start node, end
+# node, half-height m) or None).
 _DOOR_STARTS = [0, 43, *range(1, 20)]
 _BOTTOM, _LEFT = [0, 1, 30, 2, 3, 4, 31], list(range(5, 12))
 _TOP, _RIGHT = list(range(12, 19)), list(range(19, 26))
-# The map file names (``<name>.navigation.json``) each scenario was written for.
-SCENARIO_MAP_FILES: dict[str, tuple[str, ...]] = {
-    "envs_door": ("door",), "envs_hallway": ("hallway",), "envs_intersection": ("intersection",),
-    "envs_round_about": ("round_about",), "envs_open": ("open",), "envs_multi": ("multienv",),
-    "closed_door_1__same_goals": ("t1", "t2"), "exp1_train_scenario": ("easy", "medium", "hard"),
-}
-SOCIALGYM_SCENARIOS: dict[str, tuple[str, list[list[int]], tuple[int, int, float] | None]] = {
-    "envs_door": ("door", _product(_DOOR_STARTS, [20, 21], list(range(22, 43))), (20, 21, 1)),
-    "envs_hallway": ("hallway", _product(list(range(21)), [21, 22], list(range(23, 44))),
+SOCIALGYM_SCENARIOS: dict[str, tuple[tuple[str, ...], list[list[int]],
+                                     tuple[int, int, float] | None]] = {
+    "envs_door": (("door",), _product(_DOOR_STARTS, [20, 21], list(range(22, 43))), (20, 21, 1)),
+    "envs_hallway": (("hallway",), _product(list(range(21)), [21, 22], list(range(23, 44))),
                      (21, 22, 1)),
-    "envs_intersection": ("intersection", _product(_BOTTOM, [29, 27], _TOP)
+    "envs_intersection": (("intersection",), _product(_BOTTOM, [29, 27], _TOP)
                           + _product(_LEFT, [26, 28], _RIGHT), (26, 28, 2)),
-    "envs_round_about": ("round_about", _product(_BOTTOM, [29, 27], _TOP + _RIGHT + _LEFT)
+    "envs_round_about": (("round_about",), _product(_BOTTOM, [29, 27], _TOP + _RIGHT + _LEFT)
                          + _product(_LEFT, [26, 28], _TOP + _RIGHT + _BOTTOM), (26, 28, 2)),
-    "envs_open": ("open", [[i, j] for i in range(48) for j in range(48) if i != j], (12, 36, 6)),
-    "envs_multi": ("multienv", [[0, 1], [1, 0], [1, 2]], None),
-    "closed_door_1__same_goals": ("closed_door_t1", [[1, 4, 2, 5], [1, 4, 2, 0], [3, 4, 2, 5],
-                                                     [3, 4, 2, 0]], None),
-    "exp1_train_scenario": ("exp1_train_easy", _product(
+    "envs_open": (("open",), [[i, j] for i in range(48) for j in range(48) if i != j],
+                  (12, 36, 6)),
+    "envs_multi": (("multienv",), [[0, 1], [1, 0], [1, 2]], None),
+    "closed_door_1__same_goals": (("t1", "t2"), [[1, 4, 2, 5], [1, 4, 2, 0], [3, 4, 2, 5],
+                                                 [3, 4, 2, 0]], None),
+    "exp1_train_scenario": (("easy", "medium", "hard"), _product(
         [1, 6, 18, 17, 0, 10, 3, 8, 15, 12], [7, 11], [19, 5, 14, 4, 16, 9, 21, 2, 13, 20]), None),
 }
+
