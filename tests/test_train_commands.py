@@ -4,6 +4,7 @@
 
 import json
 import os
+import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -62,6 +63,7 @@ def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
     train_main(["--config", str(config)])
     out = capsys.readouterr().out
     assert "trained (ippo)" in out and "only_local" in out and "team success" in out
+    assert "time: compile" in out and "final evaluation" in out and "; total" in out
     run = tmp_path / "run"
     rows = (run / "progress.csv").read_text().splitlines()
     assert rows[0].startswith("steps,") and len(rows) == 4  # header + 3 updates
@@ -114,6 +116,77 @@ def test_ablation_command_prints_the_table(tmp_path, capsys):
     assert {k: len(v) for k, v in saved["team_success"].items()} == {
         "baseline": 2, "no collision penalty": 2, "no headings": 2}
     assert "compile and train" in saved["seconds"]
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def _run_two_processes(command: list[str], cwd: Path) -> list[str]:
+    """``command`` as processes 0 and 1 of a localhost jax.distributed run; their outputs."""
+    command = [*command, "--coordinator", f"127.0.0.1:{_free_port()}", "--num-processes", "2"]
+    env = {**os.environ, "JAX_PLATFORMS": "cpu", "PYTHONPATH": str(ROOT)}
+    runs = [subprocess.Popen([*command, "--process-id", str(i)], env=env, text=True,
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, cwd=cwd)
+            for i in range(2)]
+    try:
+        outputs = [run.communicate(timeout=400)[0] for run in runs]
+    finally:
+        for run in runs:
+            run.kill()
+    for run, out in zip(runs, outputs, strict=True):
+        assert run.returncode == 0, out[-3000:]
+    return outputs
+
+
+@pytest.mark.slow
+def test_two_processes_train_two_halves_of_one_sweep_and_gather(tmp_path):
+    """jax.distributed on localhost: each process trains its half of the 2 x 2 ablation lanes
+    (and of reproduce's seeds); process 0 writes the whole table."""
+    variants = tmp_path / "variants.yaml"
+    variants.write_text("baseline: {}\nno collision penalty: {rewards_off: [collision]}\n")
+    outputs = _run_two_processes(
+        [sys.executable, "-m", "train.ablation", "--config",
+         str(ROOT / "train/configs/ablation.yaml"), "--set", "algorithm.total_steps=64",
+         "--set", "algorithm.num_envs=8", "--set", "algorithm.num_steps=8",
+         "--set", "env.time_limit=3", "--set", "env.scenarios=[open]",
+         "--variants", str(variants), "--seeds", "2", "--episodes", "2",
+         "--out", str(tmp_path / "ablation")], tmp_path)
+    assert "process 0 of 2: lanes [0, 1]" in outputs[0]
+    assert "process 1 of 2: lanes [2, 3]" in outputs[1]
+    assert "| no collision penalty |" in outputs[0] and "process 0 writes" in outputs[1]
+    saved = json.loads((tmp_path / "ablation" / "ablation.json").read_text())["team_success"]
+    assert {k: len(v) for k, v in saved.items()} == {"baseline": 2, "no collision penalty": 2}
+    assert all(0.0 <= x <= 1.0 for v in saved.values() for x in v), saved
+
+    outputs = _run_two_processes(
+        [sys.executable, "-m", "train.reproduce", "--scenarios", "open", "--baselines", "cadrl",
+         "--seeds", "2", "--total-steps", "128", "--num-envs", "8", "--robots", "2", "3",
+         "--episodes", "2", "--table-robots", "2", "--time-limit", "10",
+         "--out", str(tmp_path / "reproduce")], tmp_path)
+    assert "trained 1 seeds" in outputs[0] and "trained 1 seeds" in outputs[1]
+    results = json.loads((tmp_path / "reproduce" / "results.json").read_text())["results"]
+    per_seed = results["open"]["cadrl"]["3"]["team_success"]
+    assert len(per_seed) == 2 and all(0.0 <= x <= 1.0 for x in per_seed), per_seed
+
+
+def test_lane_shares_cover_every_lane_once():
+    from train.multiprocess import Processes, gather_lanes, lane_share
+
+    for count in (1, 4, 7):
+        for processes in (1, 2, 3):
+            shares = [lane_share(count, Processes(p, processes)).tolist()
+                      for p in range(processes)]
+            assert sum(shares, []) == list(range(count)), (count, processes, shares)
+    assert gather_lanes([0.5, 0.25], 2, Processes()).tolist() == [0.5, 0.25]
+    from train.multiprocess import initialize
+
+    with pytest.raises(ValueError, match="--process-id must be in"):
+        initialize("127.0.0.1:1", 2, 2)
+    with pytest.raises(ValueError, match="--coordinator must be HOST:PORT"):
+        initialize(None, 2, 0)
 
 
 @pytest.mark.parametrize("text, message", [

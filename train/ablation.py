@@ -46,6 +46,7 @@ from sgjax.statistics import summarize
 from sgjax.terms import ConfigError, suggest
 from train.actor import ActorWeights, lane_evaluator
 from train.config import TrainConfig, config_from_dict, load_config
+from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
 from train.ppo import Trainer
 
 
@@ -113,13 +114,22 @@ def variant_inputs(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
 
 
 def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int,
-                   lanes_per_run: int | None = None) -> tuple[Any, dict, list[tuple[str, int]]]:
+                   lanes_per_run: int | None = None, lanes: Sequence[int] | None = None
+                   ) -> tuple[Any, dict, list[tuple[str, int]]]:
     """Train every variant x seed with one jitted ``vmap``: all lanes in one call, or
     ``lanes_per_run`` lanes at a time (the same compiled function for every group, the last
-    group padded; for memory). Returns the lane-batched runner, the per-update logs
-    ``[lanes, updates]`` and the lane labels ``(variant, seed)``. Wide vmaps used to hang on
-    XLA:CPU; the cause is fixed (docs/xla-cpu-deadlock.md)."""
+    group padded; for memory). ``lanes`` picks some of the lanes (indices into the variant x
+    seed order; this process's share of a multi-process sweep). Returns the lane-batched
+    runner, the per-update logs ``[lanes, updates]`` and the lane labels ``(variant, seed)``.
+    Wide vmaps used to hang on XLA:CPU; the cause is fixed (docs/xla-cpu-deadlock.md)."""
     keys, weights, masks, labels = variant_inputs(trainer, variants, seeds)
+    if lanes is not None:
+        index = np.asarray(lanes, int)
+        if not len(index):
+            raise ValueError("train_variants: no lanes to train")
+        keys, masks = keys[index], masks[index]
+        weights = jax.tree.map(lambda x: x[index], weights)
+        labels = [labels[i] for i in index]
     updates = trainer.config.algorithm.num_updates
     count = len(labels)
     width = count if lanes_per_run is None else max(1, min(lanes_per_run, count))
@@ -216,10 +226,14 @@ def _with_network(config: TrainConfig, network: tuple[tuple[str, Any], ...], see
 
 
 def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: int,
-                 lanes_per_run: int | None, episodes: int, robots: int, log=print) -> dict:
+                 lanes_per_run: int | None, episodes: int, robots: int, log=print,
+                 processes: Processes | None = None) -> dict:
     """Train every variant x seed (one vmap per network architecture), evaluate every lane on
     the config's first scenario with ``robots`` robots; returns ``{"scores": {variant: [seeds]},
-    "seconds": {phase: s}}`` (team success per seed)."""
+    "seconds": {phase: s}}`` (team success per seed). Under several ``processes`` each trains
+    and evaluates its share of every architecture's lanes and the scores are gathered, so
+    every process returns the whole sweep's."""
+    processes = processes or Processes()
     groups: dict[tuple, dict[str, Variant]] = {}
     for name, variant in variants.items():
         groups.setdefault(variant.network, {})[name] = variant
@@ -229,20 +243,29 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
     key = jax.random.PRNGKey(config.seed + 7)
     for network, group in groups.items():
         trainer = Trainer(_with_network(config, network, seeds))
-        t0 = time.perf_counter()
-        runner, _, labels = train_variants(trainer, group, seeds, lanes_per_run)
-        jax.block_until_ready(runner.params)
-        t1 = time.perf_counter()
-        env, params = make(scenario, num_agents=robots, max_agents=max(robots, trainer.slots),
-                           **trainer.config.env.make_kwargs())
-        team = evaluate_lanes(trainer, runner, env, params, episodes, key)
+        labels = [(name, seed) for name in group for seed in range(seeds)]
+        share = lane_share(len(labels), processes)
+        t0 = t1 = time.perf_counter()
+        team = np.zeros(0)
+        if len(share):
+            runner, _, _ = train_variants(trainer, group, seeds, lanes_per_run, share)
+            jax.block_until_ready(runner.params)
+            t1 = time.perf_counter()
+            env, params = make(scenario, num_agents=robots,
+                               max_agents=max(robots, trainer.slots),
+                               **trainer.config.env.make_kwargs())
+            team = evaluate_lanes(trainer, runner, env, params, episodes, key)
         t2 = time.perf_counter()
+        team = gather_lanes(team, len(labels), processes)
         seconds["compile and train"] += t1 - t0
         seconds["evaluate"] += t2 - t1
         for (name, _), value in zip(labels, team, strict=True):
             scores.setdefault(name, []).append(float(value))
-        log(f"trained and evaluated {len(labels)} lanes ({', '.join(group)}; network "
-            f"{trainer.config.network.kind}) in {t1 - t0:.0f} s + {t2 - t1:.0f} s")
+        where = "" if processes.count == 1 else (
+            f" (process {processes.index} of {processes.count}: lanes {share.tolist()})")
+        log(f"trained and evaluated {len(share)} of {len(labels)} lanes ({', '.join(group)}; "
+            f"network {trainer.config.network.kind}) in {t1 - t0:.0f} s + {t2 - t1:.0f} s"
+            f"{where}")
     return {"scores": {name: scores[name] for name in variants}, "seconds": seconds}
 
 
@@ -287,11 +310,13 @@ def main(argv: list[str] | None = None) -> None:
                         help="evaluation robot count (default: the curriculum's last)")
     parser.add_argument("--out", default=None, help="folder for ablation.md and ablation.json")
     add_cache_arguments(parser)
+    add_arguments(parser)
     args = parser.parse_args(argv)
     try:
         if args.seeds < 1 or (args.lanes_per_run is not None and args.lanes_per_run < 1):
             raise ConfigError("--seeds and --lanes-per-run must be at least 1")
         cache_from_arguments(args)
+        processes = initialize(args.coordinator, args.num_processes, args.process_id)
         config = load_config(args.config, args.set)
         if args.variants is None:
             variants = {name: v for name, (v, _) in PAPER_VARIANTS.items()}
@@ -302,10 +327,13 @@ def main(argv: list[str] | None = None) -> None:
         robots = args.robots or config.env.curriculum[-1][1]
         start = time.perf_counter()
         result = run_ablation(config, variants, args.seeds, args.lanes_per_run, episodes,
-                              robots)
+                              robots, processes=processes)
         table = format_table(result["scores"], paper, config.env.scenarios[0], robots,
                              episodes)
         t_write = time.perf_counter()
+        if not processes.is_main:
+            print(f"process {processes.index}: done; process 0 writes the table")
+            return
         if args.out is not None:
             out = Path(args.out)
             out.mkdir(parents=True, exist_ok=True)

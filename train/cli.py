@@ -130,7 +130,9 @@ def make_evaluator(trainer: Trainer, scenario: str, episodes: int):
 
 
 def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any]:
-    """Run the whole command; returns the final summary (also printed)."""
+    """Run the whole command; returns the final summary (also printed), with where its time
+    went under ``"seconds"`` (also printed last)."""
+    start = time.perf_counter()
     a = config.algorithm
     out.mkdir(parents=True, exist_ok=True)
     devices = jax.devices()
@@ -160,6 +162,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
     chunk = jax.jit(jax.vmap(lambda r: trainer.update_chunk(r, per_chunk)), donate_argnums=0)
     t0 = time.perf_counter()
     compiled = chunk.lower(runner).compile()
+    compile_s = time.perf_counter() - t0
     print(f"compiled {per_chunk} updates ({per_chunk * a.steps_per_update:,} env steps) per "
           f"call in {time.perf_counter() - t0:.1f} s")
 
@@ -172,6 +175,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
     next_save = (meta["steps"] // config.logging.checkpoint_every + 1) * \
         config.logging.checkpoint_every
     wall = meta["wall_s"]
+    wall_at_start, eval_s = wall, 0.0
     while meta["updates"] < a.num_updates:
         if meta["updates"] + per_chunk > a.num_updates:  # the last, shorter chunk
             per_chunk = a.num_updates - meta["updates"]
@@ -188,9 +192,11 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
         if meta["steps"] >= next_eval or meta["updates"] >= a.num_updates:
             next_eval += config.evaluation.every
             n = int(np.max(logs["num_agents"]))
+            t_eval = time.perf_counter()
             if evaluator is None:
                 evaluator = make_evaluator(trainer, scenario, config.evaluation.episodes)
             team, robot = _evaluate_seeds(evaluator, runner, n)
+            eval_s += time.perf_counter() - t_eval
             row["eval_team_success"], row["eval_robot_success"] = float(np.mean(team)), float(
                 np.mean(robot))
             progress.write(f"step {meta['steps']:,}: evaluation ({config.evaluation.episodes} "
@@ -213,9 +219,17 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
     progress.close()
     logger.close()
     print(f"trained {meta['steps']:,} env steps in {wall:.0f} s "
-          f"({meta['steps'] * trainer.slots / max(wall, 1e-9):,.0f} agent-steps/s incl. "
-          f"evaluation); best evaluation team success {meta['best_success']:.3f} -> {best_path}")
-    return final_evaluation(config, out, best_path if best_path.is_file() else latest)
+          f"({meta['steps'] * trainer.slots / max(wall, 1e-9):,.0f} agent-steps/s, "
+          f"periodic evaluation apart); best evaluation team success "
+          f"{meta['best_success']:.3f} -> {best_path}")
+    train_s = wall - wall_at_start
+    other_s = time.perf_counter() - start - compile_s - train_s - eval_s
+    summary = final_evaluation(config, out, best_path if best_path.is_file() else latest)
+    seconds = {"compile": compile_s, "train": train_s, "periodic evaluation": eval_s,
+               "start-up, logs and checkpoints": other_s, **summary["seconds"]}
+    print("time: " + ", ".join(f"{k} {v:.0f} s" for k, v in seconds.items())
+          + f"; total {time.perf_counter() - start:.0f} s (each phase includes its compiles)")
+    return {**summary, "seconds": seconds}
 
 
 def _row(logs: dict, meta: dict, wall: float, env_rate: float, trainer: Trainer) -> dict:
@@ -246,6 +260,7 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
     """Evaluate the checkpoint at every evaluation robot count beside the baseline; print the
     tables, write them and a GIF of one episode."""
     e = config.evaluation
+    t0 = time.perf_counter()
     policy = checkpoint.load_policy(path, deterministic=e.deterministic)
     print(f"\nfinal evaluation of {path} ({e.episodes} episodes per configuration)")
     kwargs = config.env.make_kwargs()
@@ -261,6 +276,8 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
     summary = {(r.policy, r.num_agents, r.scenario): r.metrics["team_success"].mean
                for r in results}
     trained_name = f"trained ({config.algorithm.name})"
+    seconds = {"final evaluation": time.perf_counter() - t0}
+    t0 = time.perf_counter()
     count = config.env.curriculum[-1][1]
     scenario = config.env.scenarios[0]
     mine = summary.get((trained_name, count, scenario))
@@ -276,10 +293,12 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
         gif = save_gif(frames, out / "eval" / "episode.gif",
                        fps=max(1, round(1 / (float(params.dt) * stride))))
         print(f"wrote {gif}")
+    seconds["GIF"] = time.perf_counter() - t0
     if mine is not None and base is not None:
         print(f"\n{scenario}, {count} robots: team success {mine:.3f} trained vs {base:.3f} "
               f"{e.baseline}")
-    return {"trained_team_success": mine, "baseline_team_success": base, "results": results}
+    return {"trained_team_success": mine, "baseline_team_success": base, "results": results,
+            "seconds": seconds}
 
 
 def _socialgym_config(path: str, overrides: list[str]) -> TrainConfig | None:

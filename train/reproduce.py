@@ -38,6 +38,7 @@ from sgjax.report import format_summary, markdown_table
 from sgjax.statistics import summarize
 from train.actor import ActorWeights, lane_evaluator
 from train.config import config_from_dict
+from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
 from train.ppo import Trainer, seed_keys
 
 MINI_GAMES = ("open", "doorway", "hallway", "intersection", "roundabout")
@@ -137,12 +138,35 @@ def format_tables(results: dict, counts: Sequence[int], table_robots: int, seeds
             "success_table.md": "\n".join(success) + "\n"}
 
 
+def gather_seeds(by_count: dict[int, dict[str, list[float]]], seeds: int,
+                 processes: Processes) -> dict[int, dict[str, list[float]]]:
+    """This process's seeds' values (``{robots: {metric: [its seeds]}}``) joined with every
+    other process's, in seed order (:func:`train.multiprocess.gather_lanes`)."""
+    if processes.count == 1:
+        return by_count
+    counts = sorted(by_count)
+    names = sorted(by_count[counts[0]])
+    mine = np.asarray([[by_count[n][m] for m in names] for n in counts])  # [counts, M, seeds]
+    every = gather_lanes(np.moveaxis(mine, -1, 0), seeds, processes)  # [seeds, counts, M]
+    return {n: {m: every[:, i, j].tolist() for j, m in enumerate(names)}
+            for i, n in enumerate(counts)}
+
+
 def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
               total_steps: int, num_envs: int, counts: Sequence[int], episodes: int,
-              table_robots: int, out: Path, seed: int = 0, time_limit: float = 75.0) -> dict:
+              table_robots: int, out: Path, seed: int = 0, time_limit: float = 75.0,
+              processes: Processes | None = None) -> dict:
+    """Train and evaluate every (scenario, baseline); write and print the two tables. Under
+    several ``processes`` (``jax.distributed``) each trains its share of the seeds of every
+    trained baseline, the values are gathered, and process 0 writes the outputs."""
+    processes = processes or Processes()
     unknown = [b for b in baselines if b not in BASELINES]
     if unknown:
         raise ValueError(f"unknown baseline(s) {unknown}; choose from {list(BASELINES)}")
+    if seeds < processes.count:
+        raise ValueError(f"--seeds ({seeds}) must be at least --num-processes "
+                         f"({processes.count}): the processes share the seeds")
+    share = lane_share(seeds, processes)
     results: dict[str, dict[str, dict[int, dict[str, list[float]]]]] = {}
     timing: dict[str, float] = {}
     seconds = dict.fromkeys(("compile training", "train", "evaluate", "write"), 0.0)
@@ -157,8 +181,8 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
                 seconds["evaluate"] += time.perf_counter() - t0
                 print(f"{scenario:>12} {name:>15}: not trained", flush=True)
             else:
-                config = baseline_config(name, scenario, seeds, total_steps, num_envs, seed,
-                                         time_limit)
+                config = baseline_config(name, scenario, len(share), total_steps, num_envs,
+                                         seed + int(share[0]), time_limit)
                 trainer, runner, compile_s, train_s = train_baseline(config)
                 timing[f"{scenario}/{name}"] = train_s
                 seconds["compile training"] += compile_s
@@ -167,12 +191,17 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
                 by_count = evaluate_seeds(scenario, counts, episodes, seed, trainer, runner,
                                           config.env.make_kwargs())
                 seconds["evaluate"] += time.perf_counter() - t0
-                print(f"{scenario:>12} {name:>15}: trained {seeds} seeds x {total_steps:,} "
-                      f"steps in {train_s:.0f} s (compiled in {compile_s:.0f} s)", flush=True)
+                by_count = gather_seeds(by_count, seeds, processes)
+                print(f"{scenario:>12} {name:>15}: trained {len(share)} seeds x "
+                      f"{total_steps:,} steps in {train_s:.0f} s (compiled in {compile_s:.0f} s)",
+                      flush=True)
             results[scenario][name] = by_count
             team = {n: np.nanmean(v["team_success"]) for n, v in by_count.items()}
             print("    team success by robots: " + ", ".join(f"{n}: {t:.2f}"
                                                           for n, t in team.items()))
+    if not processes.is_main:
+        print(f"process {processes.index}: done; process 0 writes the tables")
+        return results
     t0 = time.perf_counter()
     tables = format_tables(results, counts, table_robots, seeds)
     out.mkdir(parents=True, exist_ok=True)
@@ -210,11 +239,16 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--time-limit", type=float, default=75.0, help="seconds per episode")
     parser.add_argument("--out", default="runs/reproduce")
     add_cache_arguments(parser)
+    add_arguments(parser)
     args = parser.parse_args(argv)
-    cache_from_arguments(args)
-    reproduce(args.scenarios, args.baselines, args.seeds, args.total_steps, args.num_envs,
-              args.robots, args.episodes, args.table_robots, Path(args.out), args.seed,
-              args.time_limit)
+    try:
+        cache_from_arguments(args)
+        processes = initialize(args.coordinator, args.num_processes, args.process_id)
+        reproduce(args.scenarios, args.baselines, args.seeds, args.total_steps, args.num_envs,
+                  args.robots, args.episodes, args.table_robots, Path(args.out), args.seed,
+                  args.time_limit, processes)
+    except ValueError as err:
+        raise SystemExit(f"reproduce: {err}") from err
 
 
 if __name__ == "__main__":
