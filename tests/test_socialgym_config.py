@@ -26,7 +26,10 @@ def test_listing_1_converts_key_by_key():
     assert config["algorithm"]["total_steps"] == 250000
     a = config["algorithm"]
     assert a["num_envs"] * a["num_steps"] == 4096 and a["update_epochs"] == 10
-    assert a["ent_coef"] == 0.0 and a["num_minibatches"] == 4096 * 5 // 64
+    # SB3's batch_size 64 asks for 320 minibatches of the 20480 transitions; sgjax splits whole
+    # sequences (16 envs x 5 slots), so 80: a config that trains as it is.
+    assert a["ent_coef"] == 0.0 and a["num_minibatches"] == 80
+    Trainer(config_from_dict(config))  # raised "num_minibatches must divide" before
     assert env["rewards"]["zone_order"]["any_order"] is True  # run_type AO
     assert {"stuck": {"distance": 0.25, "steps": 100, "penalty": -100000.0}} in env["enders"]
     others = next(o["others"] for o in env["observations"] if isinstance(o, dict) and "others" in o)
@@ -76,3 +79,25 @@ def test_listing_1_trains(capsys):
     assert any(not np.allclose(a, b) for a, b in zip(jax.tree.leaves(after.params),
                                                      jax.tree.leaves(runner.params),
                                                      strict=True))
+
+
+@pytest.mark.parametrize("baseline", ["cadrl", "cadrl_lstm", "any_order", "enforced_order"])
+def test_reproduce_socialgym_profile_is_listing_1_per_run_type(baseline):
+    """train.reproduce --profile socialgym: each baseline as the paper's Listing 1 with its run
+    type, on every mini-game; Only Local at SocialGym's step and time limit."""
+    from train.reproduce import MINI_GAMES, only_local_settings, socialgym_baseline_config
+
+    for scenario in MINI_GAMES:
+        config = socialgym_baseline_config(baseline, scenario, 3, 250_000, 0, [3, 4, 5, 7, 10],
+                                           25)
+        env = config.env.make_kwargs()
+        assert env["dt"] == 0.025 and env["time_limit"] == 80.0
+        assert config.env.scenarios == (scenario,) and config.num_seeds == 3
+        assert config.env.curriculum == ((0, 3), (35 * 3200, 4), (70 * 3200, 5))
+        assert config.evaluation.deterministic and config.algorithm.total_steps == 250_000
+    assert config.network.kind == ("gru" if baseline == "cadrl_lstm" else "mlp")
+    zones = "zone_order" in str(config.env.make_kwargs()["rewards"])
+    assert zones == (baseline in ("any_order", "enforced_order"))
+    assert only_local_settings("socialgym", None) == {"dt": 0.025, "time_limit": 80.0}
+    with pytest.raises(ValueError, match="not one"):
+        socialgym_baseline_config(baseline, "office", 1, 1000, 0, [3], 1)

@@ -13,6 +13,20 @@ episode from a tenth of the steps on (the paper's "trained with up to 4 agents";
 met only 4 robots for most of its training forgets 3: open/cadrl scored 0.00 at 3 robots and
 1.00 at 4 without the draw). Each seed is one ``vmap`` lane of one jitted run.
 
+Two profiles (``--profile``):
+
+* ``sgjax`` (the default): the settings above, at sgjax's 10 Hz step (dt 0.1 s), 75 s
+  episodes, 256 environments per update, evaluation with sampled actions;
+* ``socialgym``: each baseline as SocialGym 2.0 itself ran it: its ``config_run.py`` defaults
+  for the baseline's run type (``SACADRL`` for CADRL, the same on RecurrentPPO for CADRL(L),
+  ``AO``, ``EO``) with the settings of the paper's Listing 1, converted by
+  :mod:`train.socialgym_config` (40 Hz steps, 3200-step episodes, its observation and reward
+  sets, the stuck ender with its -100000 penalty, SB3 PPO's hyperparameters and network with
+  n_steps 4096, 16 environments), the paper's curriculum (35 episodes of 3 robots, 35 of 4,
+  then 5), 250,000 environment steps by default, greedy evaluation. 4x the simulated steps
+  per second of an episode and SB3's minibatches of 64: far slower per environment step than
+  ``sgjax``.
+
 Outputs in ``--out``: ``metrics_table.md`` (the paper's Table 3: length, collisions, stop time,
 max delta-V and team success per scenario and baseline, at ``--table-robots``),
 ``success_table.md`` (its Table 4: team success % by robot count, with the average),
@@ -38,7 +52,7 @@ from sgjax.policies import load_policy
 from sgjax.report import format_summary, markdown_table
 from sgjax.statistics import summarize
 from train.actor import ActorWeights, lane_evaluator
-from train.config import config_from_dict
+from train.config import TrainConfig, config_from_dict
 from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
 from train.ppo import Trainer, seed_keys
 
@@ -68,6 +82,61 @@ def baseline_config(name: str, scenario: str, seeds: int, total_steps: int, num_
     }, f"reproduce:{name}")
 
 
+PROFILES = ("sgjax", "socialgym")
+# The socialgym profile: each trained baseline as a SocialGym 2.0 run (config_run.py keys).
+SOCIALGYM_RUNS: dict[str, dict[str, Any]] = {
+    "cadrl": {"run_type": "SACADRL"},
+    "cadrl_lstm": {"run_type": "SACADRL", "policy_algo_sb3_contrib": True,
+                   "policy_algo_name": "RecurrentPPO", "policy_name": "MlpLstmPolicy"},
+    "any_order": {"run_type": "AO"},
+    "enforced_order": {"run_type": "EO"},
+}
+# The paper's Listing 1 (its door/AO experiment) without the keys each run sets: the curriculum
+# (35 episodes of 3 robots, 35 of 4, then 5), SB3 PPO with n_steps 4096, velocities and
+# headings observed, the stuck ender's constant -100000 to the robots that had not finished.
+LISTING_1: dict[str, Any] = {
+    "num_agents": [[0, 3], [35, 4], [70, 5]], "intermediate_eval_trials": -1,
+    "policy_algo_kwargs": {"n_steps": 4096}, "monitor": False,
+    "other_velocities_obs": True, "agent_velocity_obs": True,
+    "agent_velocity_ignore_theta": False, "other_velocities_ignore_theta": False,
+    "other_poses_ignore_theta": False, "agent_pose_ignore_theta": False,
+    "entropy_constant_penalty": -100000,
+    "entropy_constant_penalty_only_those_that_did_not_finish": True,
+}
+LISTING_1_STEPS = 250_000  # its train_length (x 5 robots = the paper's 1.25M agent steps)
+
+
+def socialgym_baseline_config(name: str, scenario: str, seeds: int, total_steps: int,
+                              seed: int, counts: Sequence[int], episodes: int,
+                              time_limit: float | None = None) -> TrainConfig:
+    """Baseline ``name`` on ``scenario`` as SocialGym 2.0 ran it (the ``socialgym`` profile;
+    see the module doc): its config converted by :func:`train.socialgym_config.convert`."""
+    from train.socialgym_config import SCENARIOS, convert
+
+    names = {ours: theirs for theirs, ours in SCENARIOS.items()}
+    if scenario not in names:
+        raise ValueError(f"--profile socialgym runs SocialGym's mini-games "
+                         f"({', '.join(names)}); {scenario!r} is not one")
+    data, _ = convert({**LISTING_1, "experiment_names": names[scenario],
+                       "train_length": total_steps, "eval_num_agents": list(counts),
+                       "ending_eval_trials": episodes, "eval_frequency": 0,
+                       **SOCIALGYM_RUNS[name]}, f"reproduce --profile socialgym ({name})")
+    data["seed"], data["num_seeds"] = seed, seeds
+    if time_limit is not None:
+        data["env"]["time_limit"] = time_limit
+    return config_from_dict(data, f"reproduce:{name} (socialgym profile)")
+
+
+def only_local_settings(profile: str, time_limit: float | None) -> dict[str, Any]:
+    """``sgjax.make`` settings of the untrained Only Local baseline under ``profile``."""
+    if profile == "sgjax":
+        return {"time_limit": 75.0 if time_limit is None else time_limit}
+    config = socialgym_baseline_config("cadrl", "open", 1, 1, 0, [3], 1, time_limit)
+    kwargs = config.env.make_kwargs()
+    return {key: value for key, value in kwargs.items()
+            if key in ("dt", "time_limit", "robots", "arrived")}
+
+
 def train_baseline(config: Any) -> tuple[Trainer, Any, float, float]:
     """Train every seed of ``config`` at once; returns the trainer, the seed-batched runner,
     the seconds spent compiling and the seconds spent training."""
@@ -94,7 +163,8 @@ def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: in
     if trainer is None:
         run = episode_runner(env, first, load_policy("only_local", env), episodes)
     else:
-        evaluator = lane_evaluator(trainer.config.network, trainer.actor, env, first, episodes)
+        evaluator = lane_evaluator(trainer.config.network, trainer.actor, env, first, episodes,
+                                   trainer.config.evaluation.deterministic)
     for n in counts:
         params = by_count[n]
         if trainer is None:
@@ -155,12 +225,15 @@ def gather_seeds(by_count: dict[int, dict[str, list[float]]], seeds: int,
 
 def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
               total_steps: int, num_envs: int, counts: Sequence[int], episodes: int,
-              table_robots: int, out: Path, seed: int = 0, time_limit: float = 75.0,
-              processes: Processes | None = None) -> dict:
+              table_robots: int, out: Path, seed: int = 0, time_limit: float | None = None,
+              processes: Processes | None = None, profile: str = "sgjax") -> dict:
     """Train and evaluate every (scenario, baseline); write and print the two tables. Under
     several ``processes`` (``jax.distributed``) each trains its share of the seeds of every
-    trained baseline, the values are gathered, and process 0 writes the outputs."""
+    trained baseline, the values are gathered, and process 0 writes the outputs. ``profile``:
+    ``sgjax`` or ``socialgym`` (the module doc); ``time_limit`` (s) overrides the profile's."""
     processes = processes or Processes()
+    if profile not in PROFILES:
+        raise ValueError(f"unknown profile {profile!r}; choose from {list(PROFILES)}")
     unknown = [b for b in baselines if b not in BASELINES]
     if unknown:
         raise ValueError(f"unknown baseline(s) {unknown}; choose from {list(BASELINES)}")
@@ -178,12 +251,18 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
             if BASELINES[name] is None:
                 t0 = time.perf_counter()
                 by_count = evaluate_seeds(scenario, counts, episodes, seed, None, None,
-                                          {"time_limit": time_limit})
+                                          only_local_settings(profile, time_limit))
                 seconds["evaluate"] += time.perf_counter() - t0
                 print(f"{scenario:>12} {name:>15}: not trained", flush=True)
             else:
-                config = baseline_config(name, scenario, len(share), total_steps, num_envs,
-                                         seed + int(share[0]), time_limit)
+                if profile == "socialgym":
+                    config = socialgym_baseline_config(
+                        name, scenario, len(share), total_steps, seed + int(share[0]), counts,
+                        episodes, time_limit)
+                else:
+                    config = baseline_config(name, scenario, len(share), total_steps, num_envs,
+                                             seed + int(share[0]),
+                                             75.0 if time_limit is None else time_limit)
                 trainer, runner, compile_s, train_s = train_baseline(config)
                 timing[f"{scenario}/{name}"] = train_s
                 seconds["compile training"] += compile_s
@@ -208,7 +287,8 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
     out.mkdir(parents=True, exist_ok=True)
     for name, text in tables.items():
         (out / name).write_text(text)
-    document = {"seeds": seeds, "total_steps": total_steps, "num_envs": num_envs,
+    document = {"profile": profile, "seeds": seeds, "total_steps": total_steps,
+                "num_envs": num_envs if profile == "sgjax" else "the profile's",
                 "episodes": episodes, "counts": list(counts), "train_seconds": timing,
                 "results": {s: {b: {str(n): m for n, m in c.items()} for b, c in r.items()}
                             for s, r in results.items()}}
@@ -228,8 +308,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--scenarios", nargs="+", default=list(MINI_GAMES))
     parser.add_argument("--baselines", nargs="+", default=list(BASELINES))
     parser.add_argument("--seeds", type=int, default=3)
-    parser.add_argument("--total-steps", type=int, default=2_000_000,
-                        help="environment steps per seed")
+    parser.add_argument("--total-steps", type=int, default=None,
+                        help="environment steps per seed (default: 2,000,000 for the sgjax "
+                             "profile, Listing 1's 250,000 for socialgym)")
     parser.add_argument("--num-envs", type=int, default=256)
     parser.add_argument("--robots", nargs="+", type=int, default=[3, 4, 5, 7, 10],
                         help="evaluation robot counts")
@@ -237,7 +318,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--table-robots", type=int, default=4,
                         help="robot count of the metrics table")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--time-limit", type=float, default=75.0, help="seconds per episode")
+    parser.add_argument("--time-limit", type=float, default=None,
+                        help="seconds per episode (default: the profile's, 75 s or 80 s)")
+    parser.add_argument("--profile", choices=PROFILES, default="sgjax",
+                        help="sgjax's settings, or each baseline as SocialGym 2.0 ran it "
+                             "(see the module doc)")
     parser.add_argument("--out", default="runs/reproduce")
     add_cache_arguments(parser)
     add_arguments(parser)
@@ -245,9 +330,11 @@ def main(argv: list[str] | None = None) -> None:
     try:
         cache_from_arguments(args)
         processes = initialize(args.coordinator, args.num_processes, args.process_id)
-        reproduce(args.scenarios, args.baselines, args.seeds, args.total_steps, args.num_envs,
+        total_steps = args.total_steps or (LISTING_1_STEPS if args.profile == "socialgym"
+                                           else 2_000_000)
+        reproduce(args.scenarios, args.baselines, args.seeds, total_steps, args.num_envs,
                   args.robots, args.episodes, args.table_robots, Path(args.out), args.seed,
-                  args.time_limit, processes)
+                  args.time_limit, processes, args.profile)
     except ValueError as err:
         raise SystemExit(f"reproduce: {err}") from err
 

@@ -260,9 +260,14 @@ def convert(data: Mapping[str, Any], source: str = "config") -> tuple[dict[str, 
     n_steps = int(ppo["n_steps"]) if "n_steps" in kwargs else 512 * slots
     num_steps = max(1, n_steps // NUM_ENVS)
     batch = NUM_ENVS * num_steps * slots  # agent transitions per update
+    # sgjax's minibatches are whole agent sequences (NUM_ENVS x slots of them): as many as SB3's
+    # batch_size asks for, or the nearest count that splits the sequences evenly below it.
+    wanted = max(1, batch // int(ppo["batch_size"]))
+    sequences = NUM_ENVS * slots
+    minibatches = max(m for m in range(1, min(wanted, sequences) + 1) if sequences % m == 0)
     algorithm: dict[str, Any] = {
         "name": "ippo", "total_steps": total, "num_envs": NUM_ENVS, "num_steps": num_steps,
-        "num_minibatches": max(1, batch // int(ppo["batch_size"])),
+        "num_minibatches": minibatches,
         "anneal_lr": False, "normalize_observations": True, "normalize_rewards": True,
         "reward_clip": 10.0, **{SB3_TO_ALGORITHM[k]: ppo[k] for k in SB3_TO_ALGORITHM}}
     row("policy_algo_name", "algorithm.name ippo (PPO, one policy shared by the robots as "
@@ -273,7 +278,9 @@ def convert(data: Mapping[str, Any], source: str = "config") -> tuple[dict[str, 
         "of the others (64 units, config_run's LSTMAgentObs)")
     row("policy_algo_kwargs", f"PPO {json.dumps(ppo)} -> algorithm num_envs {NUM_ENVS} x "
         f"num_steps {num_steps} (= n_steps {n_steps} environment steps per update), "
-        f"num_minibatches {algorithm['num_minibatches']} (batch_size {ppo['batch_size']}), "
+        f"num_minibatches {minibatches} (batch_size {ppo['batch_size']} asks for {wanted} "
+        f"of {batch} transitions; sgjax's minibatches are whole sequences, {sequences} per "
+        f"update{'' if minibatches == wanted else ', so fewer and larger ones'}), "
         f"update_epochs {ppo['n_epochs']}; VecNormalize -> normalized observations and "
         "rewards, clip 10")
     network: dict[str, Any] = {"kind": "gru" if recurrent else "mlp", "hidden": [64, 64],
