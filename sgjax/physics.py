@@ -61,7 +61,8 @@ def advance(
         if human_config.max_humans:
             velocity = robots.replace(kin=kin).body_velocity
             fx, fy = human_forces(human_config, params.humans, params.map, humans, x, y,
-                                  velocity[:, 0], velocity[:, 1], in_world)
+                                  velocity[:, 0], velocity[:, 1], in_world, active, rp.radius,
+                                  dt_sub)
             humans = move_humans(params.humans, params.map, humans, fx, fy, dt_sub)
         new_kin, dx, dy = integrate(kin, commands.forward, commands.lateral, commands.turn, rp,
                                     dt_sub)

@@ -81,8 +81,8 @@ def test_num_humans_is_a_param_and_checked():
 
 
 def test_make_rejects_bad_pedestrian_options():
-    with pytest.raises(ValueError, match=r"human_model must be one of .* got 'orca'"):
-        sgjax.make("open", num_humans=2, human_model="orca")
+    with pytest.raises(ValueError, match=r"human_model must be one of .* got 'orka'"):
+        sgjax.make("open", num_humans=2, human_model="orka")
     with pytest.raises(ValueError, match="num_humans must be a non-negative integer"):
         sgjax.make("open", num_humans=-1)
     with pytest.raises(ValueError, match="must not exceed max_humans"):

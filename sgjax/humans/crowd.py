@@ -17,7 +17,7 @@ from flax import struct
 from jax import Array
 
 from sgjax.contacts import clamp_to_walls
-from sgjax.geometry import point_segment_offset, safe_norm
+from sgjax.geometry import point_segment_offset, safe_norm, swept_disc_segment_toi
 from sgjax.humans.forces import (
     SocialForceParams,
     cap_speed,
@@ -28,10 +28,11 @@ from sgjax.humans.forces import (
     moussaid_interaction,
     unit,
 )
+from sgjax.humans.orca_model import OrcaParams, orca_forces
 from sgjax.humans.slots import SPAWN_JITTER, SPAWN_MARGIN
 from sgjax.maps.arrays import MapArrays
 
-FORCE_MODELS = ("moussaid", "helbing")
+FORCE_MODELS = ("moussaid", "helbing", "orca")
 WALL_MODELS = ("segments", "points")
 GOAL_MODES = ("random", "return")
 
@@ -41,7 +42,9 @@ class HumanConfig:
     """Static pedestrian settings (changing them recompiles).
 
     ``force_model``: ``"moussaid"`` (Moussaid 2009 interaction, exponential obstacle term) or
-    ``"helbing"`` (Helbing-Molnar 1995 potentials with a field of view).
+    ``"helbing"`` (Helbing-Molnar 1995 potentials with a field of view) or ``"orca"``
+    (optimal reciprocal collision avoidance, :mod:`sgjax.humans.orca_model`, among the
+    ``orca_neighbors`` nearest bodies and the ``orca_walls`` nearest walls).
     ``wall_model`` (Moussaid only): ``"segments"`` sums the obstacle term over each wall's nearest
     point; ``"points"`` sums it over points sampled along the walls, as PySocialForce does.
     ``goal_mode``: ``"random"`` (a new random node at each goal) or ``"return"`` (walk back).
@@ -51,6 +54,8 @@ class HumanConfig:
     force_model: str = "moussaid"
     wall_model: str = "segments"
     goal_mode: str = "random"
+    orca_neighbors: int = 10  # CrowdNav's ORCA max_neighbors
+    orca_walls: int = 4
 
     def __post_init__(self):
         for name, allowed in (("force_model", FORCE_MODELS), ("wall_model", WALL_MODELS),
@@ -60,6 +65,9 @@ class HumanConfig:
                 raise ValueError(f"HumanConfig.{name} must be one of {allowed}, got {value!r}")
         if self.max_humans < 0:
             raise ValueError(f"HumanConfig.max_humans must be >= 0, got {self.max_humans}")
+        for name in ("orca_neighbors", "orca_walls"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"HumanConfig.{name} must be >= 1, got {getattr(self, name)}")
 
 
 @struct.dataclass
@@ -82,6 +90,7 @@ class HumanParams:
     spawn_nodes: Array  # [S, 2] int32: ends of the graph edge beside each slot
     wall_points_x: Array  # [P] m: sampled wall points (wall_model "points"; else empty)
     wall_points_y: Array
+    orca: OrcaParams = OrcaParams()  # the "orca" model's constants
 
 
 @struct.dataclass
@@ -160,11 +169,15 @@ def spawn_humans(
 def advance_waypoints(
     key: Array, config: HumanConfig, hp: HumanParams, m: MapArrays, humans: HumanState
 ) -> HumanState:
-    """Move each pedestrian's target on once it is within ``waypoint_radius`` of it; at the goal,
-    pick the next goal (``goal_mode``)."""
+    """Move each pedestrian's target on once it is within ``waypoint_radius`` of it and the next
+    waypoint is in plain view (its body can walk straight there without touching a wall), or
+    once it stands on the target (within its radius); at the goal, pick the next goal
+    (``goal_mode``). Without the view rule a pedestrian that turned early for a waypoint round a
+    corner walked into the corner's wall."""
     tx, ty = m.node_x[humans.target], m.node_y[humans.target]
-    reached = humans.active & (safe_norm(tx - humans.x, ty - humans.y) < hp.waypoint_radius)
-    at_goal = reached & (humans.target == humans.goal)
+    distance = safe_norm(tx - humans.x, ty - humans.y)
+    near = humans.active & (distance < hp.waypoint_radius)
+    at_goal = near & (humans.target == humans.goal)
     if config.goal_mode == "return":
         fresh = humans.origin
     else:
@@ -173,6 +186,13 @@ def advance_waypoints(
     goal = jnp.where(at_goal, fresh, humans.goal)
     origin = jnp.where(at_goal, humans.target, humans.origin)
     hop = m.next_hop[humans.target, goal]
+    toward_x = m.node_x[hop] - humans.x
+    toward_y = m.node_y[hop] - humans.y
+    hits = swept_disc_segment_toi(humans.x[:, None], humans.y[:, None], toward_x[:, None],
+                                  toward_y[:, None], hp.radius, m.wall_x1, m.wall_y1, m.wall_x2,
+                                  m.wall_y2)
+    in_view = ~jnp.any(m.wall_valid & (hits <= 1.0), axis=1)
+    reached = near & (in_view | (distance < hp.radius) | at_goal)
     target = jnp.where(reached & (hop >= 0), hop, humans.target)
     return humans.replace(target=target, goal=goal, origin=origin)
 
@@ -186,10 +206,20 @@ def _wall_offsets(h: HumanState, m: MapArrays) -> tuple[Array, Array]:
 def human_forces(
     config: HumanConfig, hp: HumanParams, m: MapArrays, humans: HumanState,
     robot_x: Array, robot_y: Array, robot_vx: Array, robot_vy: Array, robot_in_world: Array,
+    robot_moving: Array | None = None, robot_radius: Array | None = None,
+    dt: Array | None = None,
 ) -> tuple[Array, Array]:
     """Total force per unit mass ``(fx, fy)`` ``[H]`` (m/s^2) on every pedestrian: driving term,
     interaction with the other pedestrians and the robots (``[R]`` arrays; robots count
-    ``robot_weight``), and walls."""
+    ``robot_weight``), and walls. The ``"orca"`` model also needs which robots move
+    (``robot_moving``, ``[R]`` bool; parked robots are static), their radii (m) and the
+    sub-step ``dt`` (s): its force is the change to the ORCA velocity over ``dt``."""
+    if config.force_model == "orca":
+        if robot_radius is None or dt is None:
+            raise ValueError("human_forces: the orca model needs robot_radius and dt")
+        moving = robot_in_world if robot_moving is None else robot_moving
+        return orca_forces(hp, m, humans, robot_x, robot_y, robot_vx, robot_vy, robot_in_world,
+                           moving, robot_radius, dt, config.orca_neighbors, config.orca_walls)
     p = hp.forces
     h = humans
     num = h.x.shape[0]

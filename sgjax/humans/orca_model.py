@@ -1,0 +1,116 @@
+"""ORCA pedestrians (``make(..., human_model="orca")``): each pedestrian takes the ORCA velocity
+(:mod:`sgjax.orca`) toward its next waypoint among its nearest neighbours, as CrowdNav's,
+CrowdNav++'s and SocNavGym's simulated humans do.
+
+Per pedestrian and sub-step of ``dt`` s:
+
+* preferred velocity: ``desired_speed`` (m/s) toward the target waypoint (slowing within one
+  step of it), the speed limit ``desired_speed`` (an ORCA agent never walks faster than it
+  prefers);
+* neighbours: the ``HumanConfig.orca_neighbors`` nearest of the other active pedestrians
+  (reciprocal, share 1/2) and the robots in the world (share ``OrcaParams.robot_share``: 1, the
+  pedestrian does all the avoiding, for robots that do not run ORCA; parked robots are static,
+  share 1; none at all when ``robot_share`` is 0, humans that do not see robots), with
+  ``OrcaParams.time_horizon``;
+* walls: the nearest point of each of the ``HumanConfig.orca_walls`` nearest walls as a static
+  point obstacle (share 1) with ``OrcaParams.obstacle_time_horizon`` (RVO2 builds exact
+  polygon-obstacle lines; a wall's nearest point is the usual approximation, and the swept
+  wall clamp of :func:`sgjax.humans.crowd.move_humans` still keeps every pedestrian out of
+  every wall).
+
+The velocity is returned as the force per unit mass that reaches it in one sub-step,
+``(v_orca - v) / dt``, so pedestrians of every model share one integrator. Differentiable
+almost everywhere: the program's active set, the nearest-neighbour choice and the leg/cut-off
+choice switch discontinuously (``jax.grad`` is finite but piecewise).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+from jax import Array
+
+from sgjax.geometry import point_segment_offset, safe_norm
+from sgjax.maps.arrays import MapArrays
+from sgjax.orca import orca_velocity
+
+
+@struct.dataclass
+class OrcaParams:
+    """ORCA pedestrian constants (scalars; batch them for a sweep). Defaults: CrowdNav's ORCA
+    humans (RVO2's ``timeHorizon`` and ``timeHorizonObst`` of 5 s)."""
+
+    time_horizon: Array | float = 5.0  # s: how far ahead other bodies are avoided
+    obstacle_time_horizon: Array | float = 5.0  # s: the same for walls
+    robot_share: Array | float = 1.0  # avoidance a pedestrian takes from a moving robot
+
+
+def orca_forces(
+    hp, m: MapArrays, humans, robot_x: Array, robot_y: Array, robot_vx: Array,
+    robot_vy: Array, robot_in_world: Array, robot_moving: Array, robot_radius: Array,
+    dt: Array, neighbors: int, walls: int,
+) -> tuple[Array, Array]:
+    """``(fx, fy)`` ``[H]`` (m/s^2): the change to each pedestrian's ORCA velocity over ``dt``
+    s. ``hp``: :class:`~sgjax.humans.crowd.HumanParams`; ``humans``: ``HumanState``; robots are
+    ``[R]`` arrays; ``neighbors`` and ``walls`` (static) bound the lines per pedestrian."""
+    h, p = humans, hp.orca
+    num = h.x.shape[0]
+    tx, ty = m.node_x[h.target], m.node_y[h.target]
+    gx, gy = tx - h.x, ty - h.y
+    distance = safe_norm(gx, gy)
+    speed = jnp.minimum(h.desired_speed, distance / dt)
+    scale = speed / jnp.maximum(distance, 1e-9)
+    pref_x, pref_y = gx * scale, gy * scale
+
+    # Every body a pedestrian may avoid: pedestrians then robots, [H, H + R].
+    bx = jnp.concatenate([h.x, robot_x])
+    by = jnp.concatenate([h.y, robot_y])
+    moving = robot_moving & robot_in_world
+    bvx = jnp.concatenate([h.vx, jnp.where(moving, robot_vx, 0.0)])
+    bvy = jnp.concatenate([h.vy, jnp.where(moving, robot_vy, 0.0)])
+    bradius = jnp.concatenate([jnp.broadcast_to(hp.radius, h.x.shape), robot_radius])
+    robot_share = jnp.where(moving, p.robot_share, 1.0)
+    share = jnp.concatenate([jnp.full(h.x.shape, 0.5), robot_share])
+    present = jnp.concatenate([h.active, robot_in_world & (p.robot_share > 0.0)])
+    pair = present[None, :] & ~jnp.eye(num, bx.shape[0], dtype=bool)
+    gap_sq = jnp.square(bx[None, :] - h.x[:, None]) + jnp.square(by[None, :] - h.y[:, None])
+    k = min(neighbors, bx.shape[0] - 1) if bx.shape[0] > 1 else 0
+    if k:
+        _, near = jax.lax.top_k(jnp.where(pair, -gap_sq, -jnp.inf), k)  # [H, k]
+        near_valid = jnp.take_along_axis(pair, near, axis=1)
+    else:
+        near = jnp.zeros((num, 0), jnp.int32)
+        near_valid = jnp.zeros((num, 0), bool)
+
+    # Walls: the nearest point of each, the `walls` nearest of them.
+    ox, oy = point_segment_offset(h.x[:, None], h.y[:, None], m.wall_x1, m.wall_y1, m.wall_x2,
+                                  m.wall_y2)  # [H, W]: wall point -> pedestrian
+    wall_gap = jnp.where(m.wall_valid[None, :], ox * ox + oy * oy, jnp.inf)
+    kw = min(walls, m.wall_x1.shape[0])
+    _, wall_near = jax.lax.top_k(-wall_gap, kw)
+    wall_px = h.x[:, None] - jnp.take_along_axis(ox, wall_near, axis=1)
+    wall_py = h.y[:, None] - jnp.take_along_axis(oy, wall_near, axis=1)
+    wall_valid = jnp.take_along_axis(m.wall_valid[None, :] & jnp.isfinite(wall_gap), wall_near,
+                                     axis=1)
+
+    def one(i: Array) -> tuple[Array, Array]:
+        idx = near[i]
+        # Bodies with time horizon tau; walls rescaled so that one horizon serves both: a
+        # static obstacle's line depends on the horizon only through p / tau and r / tau.
+        ox_ = jnp.concatenate([bx[idx], wall_px[i]])
+        oy_ = jnp.concatenate([by[idx], wall_py[i]])
+        ovx = jnp.concatenate([bvx[idx], jnp.zeros(kw)])
+        ovy = jnp.concatenate([bvy[idx], jnp.zeros(kw)])
+        orad = jnp.concatenate([bradius[idx], jnp.zeros(kw)])
+        osh = jnp.concatenate([share[idx], jnp.ones(kw)])
+        ovalid = jnp.concatenate([near_valid[i], wall_valid[i]])
+        horizon = jnp.concatenate([jnp.full(idx.shape, p.time_horizon),
+                                   jnp.full((kw,), p.obstacle_time_horizon)])
+        return orca_velocity(h.x[i], h.y[i], h.vx[i], h.vy[i], hp.radius, pref_x[i],
+                             pref_y[i], h.desired_speed[i], ox_, oy_, ovx, ovy, orad, osh,
+                             ovalid, horizon, dt)
+
+    vx, vy = jax.vmap(one)(jnp.arange(num))
+    vx, vy = jnp.where(h.active, vx, 0.0), jnp.where(h.active, vy, 0.0)
+    return (vx - h.vx) / dt, (vy - h.vy) / dt
