@@ -6,7 +6,7 @@ each belongs to one group:
 * :class:`RobotOptions`: ``num_agents``, ``min_agents``, ``max_agents``, ``robots``,
   ``action_mode``, ``goal_tolerance``, ``arrived``, ``ended``;
 * :class:`HumanOptions`: ``num_humans``, ``max_humans``, ``human_model``, ``human_walls``,
-  ``human_goals``, ``human_radius``;
+  ``human_goals``, ``human_radius``, ``humans_see_robots``;
 * :class:`TermOptions`: ``observations``, ``rewards``, ``enders``, ``terms``,
   ``observation_preset``, ``reward_preset`` (``docs/terms.md``);
 * :class:`PhysicsOptions`: ``dt``, ``substeps``, ``time_limit``, ``num_arcs``,
@@ -109,8 +109,15 @@ class HumanOptions:
     human_walls: str = "segments"  # Moussaid wall term: "segments" or "points" (PySocialForce)
     human_goals: str = "random"  # at its goal a pedestrian takes a "random" node or will "return"
     human_radius: float = 0.25  # m (SocialGym 0.2, CrowdNav 0.3, PySocialForce 0.35)
+    # Pedestrians react to robots (True), or walk as if robots were not there (False, the robot
+    # CrowdNav's published results use): their force law or ORCA ignores robots; bodies still
+    # do not pass through each other.
+    humans_see_robots: bool = True
 
     def __post_init__(self) -> None:
+        if not isinstance(self.humans_see_robots, bool):
+            raise ValueError(f"humans_see_robots must be True or False, got "
+                             f"{self.humans_see_robots!r}")
         _within_slots("num_humans", self.num_humans, "max_humans", self.max_humans, _count)
         _positive_float("human_radius", self.human_radius)
         _choice("human_model", self.human_model, FORCE_MODELS)

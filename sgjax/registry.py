@@ -16,6 +16,7 @@ from sgjax.dynamics.limits import RobotPreset, resolve_robots, robot_params
 from sgjax.env import EnvConfig, SocialNavEnv
 from sgjax.humans.crowd import HumanConfig, HumanParams, spawn_humans
 from sgjax.humans.forces import SocialForceParams
+from sgjax.humans.orca_model import OrcaParams
 from sgjax.humans.slots import spawn_slots, wall_sample_points
 from sgjax.maps.arrays import MapArrays, compile_map, spawn_groups
 from sgjax.maps.io import load, shipped_map_names
@@ -99,7 +100,8 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
         map=map_arrays,
         planner=planner_params,
         reward=reward_params,
-        humans=human_params(spec, human_config, human_opts.num_humans, human_opts.human_radius),
+        humans=human_params(spec, human_config, human_opts.num_humans, human_opts.human_radius,
+                            human_opts.humans_see_robots),
         num_agents=jnp.asarray(robot_opts.num_agents, jnp.int32),
         dt=jnp.asarray(physics.dt, jnp.float32),
         max_steps=jnp.asarray(physics.max_steps, jnp.int32),
@@ -111,10 +113,13 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
 
 
 def human_params(
-    spec: MapSpec, config: HumanConfig, num_humans: int, radius: float
+    spec: MapSpec, config: HumanConfig, num_humans: int, radius: float,
+    see_robots: bool = True,
 ) -> HumanParams:
     """Default pedestrian params for a map: spawn slots for ``radius`` (m), desired speeds
-    N(1.34, 0.26) m/s clipped to [0.5, 2.0], a 1.3x speed cap (``socialnav.md`` B1)."""
+    N(1.34, 0.26) m/s clipped to [0.5, 2.0], a 1.3x speed cap (``socialnav.md`` B1).
+    ``see_robots`` False zeroes the robots' weight in the force laws and in ORCA
+    (``robot_weight``, ``orca.robot_share``): pedestrians that do not see robots."""
     slots, slot_nodes = spawn_slots(spec, radius) if config.max_humans else (
         np.zeros((0, 2)), np.zeros((0, 2), np.int64))
     points = (wall_sample_points(spec.walls, WALL_RESOLUTION) if config.wall_model == "points"
@@ -129,13 +134,16 @@ def human_params(
         speed_max=jnp.asarray(HUMAN_TOP_SPEED / 1.3, f32),
         max_speed_factor=jnp.asarray(1.3, f32),
         waypoint_radius=jnp.asarray(0.75, f32),
-        robot_weight=jnp.asarray(ROBOT_WEIGHT, f32),
+        robot_weight=jnp.asarray(ROBOT_WEIGHT if see_robots else 0.0, f32),
         forces=SocialForceParams(),
         spawn_x=jnp.asarray(slots[:, 0], f32),
         spawn_y=jnp.asarray(slots[:, 1], f32),
         spawn_nodes=jnp.asarray(slot_nodes, jnp.int32),
         wall_points_x=jnp.asarray(points[:, 0], f32),
         wall_points_y=jnp.asarray(points[:, 1], f32),
+        orca=OrcaParams(time_horizon=jnp.asarray(5.0, f32),
+                        obstacle_time_horizon=jnp.asarray(5.0, f32),
+                        robot_share=jnp.asarray(1.0 if see_robots else 0.0, f32)),
     )
 
 

@@ -187,3 +187,14 @@ def test_orca_constants_are_params_a_vmap_sweeps_them():
     assert len(traces) == 1
     assert not np.allclose(np.asarray(out.humans.x[0]), np.asarray(out.humans.x[1]))
     assert np.all(np.isfinite(np.asarray(out.humans.x)))
+
+
+def test_humans_see_robots_is_a_make_option():
+    _, seen = sgjax.make("open", num_agents=2, num_humans=3, human_model="orca")
+    _, unseen = sgjax.make("open", num_agents=2, num_humans=3, human_model="orca",
+                           humans_see_robots=False)
+    assert float(seen.humans.orca.robot_share) == 1.0 and float(seen.humans.robot_weight) > 0
+    assert float(unseen.humans.orca.robot_share) == 0.0
+    assert float(unseen.humans.robot_weight) == 0.0
+    with pytest.raises(ValueError, match="humans_see_robots must be True or False"):
+        sgjax.make("open", num_humans=3, humans_see_robots="no")
