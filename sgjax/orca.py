@@ -94,6 +94,38 @@ def orca_lines(px: Array, py: Array, vx: Array, vy: Array, radius: Array,
                  valid=valid & (dist_sq > EPS))
 
 
+def wall_lines(px: Array, py: Array, vx: Array, vy: Array, radius: Array, ax: Array,
+               ay: Array, bx: Array, by: Array, valid: Array, tau: Array, dt: Array) -> Lines:
+    """Half-planes of one agent against ``[K]`` static wall segments ``a-b`` (m) with time
+    horizon ``tau``. Where the agent's nearest point of a wall lies inside the segment, the
+    wall is a straight line as far as the agent can reach and its truncated velocity obstacle
+    is exactly a half-plane: velocities toward it faster than ``(d - radius) / tau`` (``d``: the
+    distance to it; ``/ dt`` once overlapping). Where the nearest point is an end of the
+    segment (a corner), the end is a static point obstacle (:func:`orca_lines`, share 1)."""
+    ex, ey = bx - ax, by - ay
+    t = jnp.clip(((px - ax) * ex + (py - ay) * ey) / jnp.maximum(ex * ex + ey * ey, EPS),
+                 0.0, 1.0)
+    qx, qy = ax + t * ex, ay + t * ey
+    zero = jnp.zeros_like(qx)
+    corner = orca_lines(px, py, vx, vy, radius, qx, qy, zero, zero, zero, jnp.ones_like(qx),
+                        valid, tau, dt)
+    nx, ny = qx - px, qy - py
+    d = jnp.sqrt(jnp.maximum(nx * nx + ny * ny, EPS * EPS))
+    nx, ny = nx / d, ny / d  # toward the wall
+    limit = (d - radius) / jnp.where(d > radius, tau, dt)  # largest speed toward it
+    interior = (t > 0.0) & (t < 1.0)
+    # Permitted: v . n <= limit, i.e. to the left of the line through n * limit along (-n_y, n_x).
+    return Lines(px=jnp.where(interior, nx * limit, corner.px),
+                 py=jnp.where(interior, ny * limit, corner.py),
+                 dx=jnp.where(interior, -ny, corner.dx), dy=jnp.where(interior, nx, corner.dy),
+                 valid=corner.valid)
+
+
+def join(*parts: Lines) -> Lines:
+    """The lines of several sets, in order."""
+    return jax.tree.map(lambda *xs: jnp.concatenate(xs), *parts)
+
+
 def _on_line(lines: Lines, i: Array, others: Array, max_speed: Array, target_x: Array,
              target_y: Array, direction: bool) -> tuple[Array, Array, Array]:
     """Best velocity on line ``i`` inside the speed disc and the lines flagged in ``others``
@@ -194,8 +226,10 @@ def solve(lines: Lines, pref_x: Array, pref_y: Array, max_speed: Array) -> tuple
 def orca_velocity(px: Array, py: Array, vx: Array, vy: Array, radius: Array, pref_x: Array,
                   pref_y: Array, max_speed: Array, ox: Array, oy: Array, ovx: Array,
                   ovy: Array, oradius: Array, share: Array, valid: Array, tau: Array,
-                  dt: Array) -> tuple[Array, Array]:
-    """One agent's ORCA velocity against ``[K]`` neighbours (:func:`orca_lines`, then
-    :func:`solve`)."""
+                  dt: Array, walls: Lines | None = None) -> tuple[Array, Array]:
+    """One agent's ORCA velocity against ``[K]`` neighbours (:func:`orca_lines`) and optional
+    wall lines (:func:`wall_lines`), by :func:`solve`."""
     lines = orca_lines(px, py, vx, vy, radius, ox, oy, ovx, ovy, oradius, share, valid, tau, dt)
+    if walls is not None:
+        lines = join(walls, lines)
     return solve(lines, pref_x, pref_y, max_speed)

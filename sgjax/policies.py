@@ -12,7 +12,10 @@ Built-in baselines (:data:`BASELINES`):
   [-1, 1] per continuous dimension);
 * ``stop_when_blocked``: GO, but STOP while a pedestrian, or another unfinished robot with a
   smaller index (a fixed priority, so two robots never wait for each other), is within
-  ``STOP_DISTANCE`` m (body to body) and within ``STOP_HALF_ANGLE`` of the robot's heading.
+  ``STOP_DISTANCE`` m (body to body) and within ``STOP_HALF_ANGLE`` of the robot's heading;
+* ``orca`` (continuous actions): ORCA velocities toward each robot's route, tracked under its
+  kinematics (:mod:`sgjax.controllers`); :func:`policy_make_kwargs` asks for
+  ``action_mode="continuous"``.
 
 Other policies come from *loaders* (:class:`PolicyLoader`): each recognises the specs it reads
 (a trainer checkpoint, say) and builds the policy for an environment. Loaders register with
@@ -36,6 +39,7 @@ import jax
 import jax.numpy as jnp
 from jax import Array
 
+from sgjax.controllers import orca_controller
 from sgjax.geometry import safe_norm
 from sgjax.types import GO, STOP
 
@@ -53,7 +57,9 @@ class RecurrentPolicy:
     init: Callable[[int], Any]
     step: Callable[..., tuple[Any, Array]]
 
-BASELINES = ("only_local", "random", "stop_when_blocked")
+BASELINES = ("only_local", "random", "stop_when_blocked", "orca")
+# Baselines that command velocities: the environment they act in has continuous actions.
+CONTINUOUS_BASELINES = ("orca",)
 STOP_DISTANCE = 1.0  # m, body to body
 STOP_HALF_ANGLE = math.pi / 3  # rad either side of the heading
 
@@ -118,7 +124,7 @@ def _require_go_stop(env: SocialNavEnv, name: str) -> None:
 
 
 _BUILDERS = {"only_local": only_local, "random": random_policy,
-             "stop_when_blocked": stop_when_blocked}
+             "stop_when_blocked": stop_when_blocked, "orca": orca_controller}
 
 
 LOADER_GROUP = "sgjax.policy_loaders"
@@ -239,8 +245,11 @@ def _function_policy(spec: str) -> Policy:
 
 
 def policy_make_kwargs(spec: Any) -> dict[str, Any]:
-    """The ``sgjax.make`` settings a policy spec needs ({} unless a loader reads it: a
-    checkpoint's settings from training)."""
+    """The ``sgjax.make`` settings a policy spec needs: continuous actions for the velocity
+    baselines (``orca``), a checkpoint's settings from training (through its loader), else
+    {}."""
+    if spec in CONTINUOUS_BASELINES:
+        return {"action_mode": "continuous"}
     if not isinstance(spec, str) or _FUNCTION_SPEC.match(spec):
         return {}
     loader = find_loader(spec)

@@ -19,12 +19,13 @@ ROOT = Path(__file__).resolve().parents[1]
 # Lowest first; a module not listed here fails the test (place every new module in a layer).
 LAYERS: dict[str, tuple[str, ...]] = {
     "kernels": ("sgjax.version", "sgjax.geometry", "sgjax.contacts", "sgjax.planner", "sgjax.zones",
-                "sgjax.maps", "sgjax.dynamics", "sgjax.humans"),
+                "sgjax.orca", "sgjax.maps", "sgjax.dynamics", "sgjax.humans"),
     "types": ("sgjax.types",),
     "terms": ("sgjax.terms", "sgjax.queries", "sgjax.observations", "sgjax.rewards",
               "sgjax.enders", "sgjax.presets"),
     "environment": ("sgjax.physics", "sgjax.env", "sgjax.options", "sgjax.registry", "sgjax"),
-    "evaluation": ("sgjax.policies", "sgjax.metrics", "sgjax.statistics", "sgjax.evaluate",
+    "evaluation": ("sgjax.policies", "sgjax.controllers", "sgjax.metrics", "sgjax.statistics",
+                   "sgjax.evaluate",
                    "sgjax.report", "sgjax.render"),
     "applications": ("sgjax.pettingzoo", "sgjax.sb3", "sgjax.jaxmarl", "sgjax.cli",
                      "sgjax.compilation_cache"),

@@ -12,11 +12,12 @@ Per pedestrian and sub-step of ``dt`` s:
   pedestrian does all the avoiding, for robots that do not run ORCA; parked robots are static,
   share 1; none at all when ``robot_share`` is 0, humans that do not see robots), with
   ``OrcaParams.time_horizon``;
-* walls: the nearest point of each of the ``HumanConfig.orca_walls`` nearest walls as a static
-  point obstacle (share 1) with ``OrcaParams.obstacle_time_horizon`` (RVO2 builds exact
-  polygon-obstacle lines; a wall's nearest point is the usual approximation, and the swept
-  wall clamp of :func:`sgjax.humans.crowd.move_humans` still keeps every pedestrian out of
-  every wall).
+* walls: the ``HumanConfig.orca_walls`` nearest segments with
+  ``OrcaParams.obstacle_time_horizon`` (:func:`sgjax.orca.wall_lines`: a straight wall beside
+  the pedestrian is the exact half-plane of its velocity obstacle, a wall's end a static point;
+  RVO2 builds its lines from polygon obstacles instead), and the swept wall clamp of
+  :func:`sgjax.humans.crowd.move_humans` keeps every pedestrian out of every wall whatever
+  ORCA asks.
 
 The velocity is returned as the force per unit mass that reaches it in one sub-step,
 ``(v_orca - v) / dt``, so pedestrians of every model share one integrator. Differentiable
@@ -33,7 +34,7 @@ from jax import Array
 
 from sgjax.geometry import point_segment_offset, safe_norm
 from sgjax.maps.arrays import MapArrays
-from sgjax.orca import orca_velocity
+from sgjax.orca import orca_velocity, wall_lines
 
 
 @struct.dataclass
@@ -83,33 +84,23 @@ def orca_forces(
         near = jnp.zeros((num, 0), jnp.int32)
         near_valid = jnp.zeros((num, 0), bool)
 
-    # Walls: the nearest point of each, the `walls` nearest of them.
+    # Walls: the `walls` nearest segments.
     ox, oy = point_segment_offset(h.x[:, None], h.y[:, None], m.wall_x1, m.wall_y1, m.wall_x2,
                                   m.wall_y2)  # [H, W]: wall point -> pedestrian
     wall_gap = jnp.where(m.wall_valid[None, :], ox * ox + oy * oy, jnp.inf)
     kw = min(walls, m.wall_x1.shape[0])
-    _, wall_near = jax.lax.top_k(-wall_gap, kw)
-    wall_px = h.x[:, None] - jnp.take_along_axis(ox, wall_near, axis=1)
-    wall_py = h.y[:, None] - jnp.take_along_axis(oy, wall_near, axis=1)
-    wall_valid = jnp.take_along_axis(m.wall_valid[None, :] & jnp.isfinite(wall_gap), wall_near,
-                                     axis=1)
+    _, wall_near = jax.lax.top_k(-wall_gap, kw)  # [H, kw]
+    wall_valid = jnp.take_along_axis(jnp.isfinite(wall_gap), wall_near, axis=1)
 
     def one(i: Array) -> tuple[Array, Array]:
-        idx = near[i]
-        # Bodies with time horizon tau; walls rescaled so that one horizon serves both: a
-        # static obstacle's line depends on the horizon only through p / tau and r / tau.
-        ox_ = jnp.concatenate([bx[idx], wall_px[i]])
-        oy_ = jnp.concatenate([by[idx], wall_py[i]])
-        ovx = jnp.concatenate([bvx[idx], jnp.zeros(kw)])
-        ovy = jnp.concatenate([bvy[idx], jnp.zeros(kw)])
-        orad = jnp.concatenate([bradius[idx], jnp.zeros(kw)])
-        osh = jnp.concatenate([share[idx], jnp.ones(kw)])
-        ovalid = jnp.concatenate([near_valid[i], wall_valid[i]])
-        horizon = jnp.concatenate([jnp.full(idx.shape, p.time_horizon),
-                                   jnp.full((kw,), p.obstacle_time_horizon)])
+        idx, w = near[i], wall_near[i]
+        lines = wall_lines(h.x[i], h.y[i], h.vx[i], h.vy[i], hp.radius, m.wall_x1[w],
+                           m.wall_y1[w], m.wall_x2[w], m.wall_y2[w], wall_valid[i],
+                           p.obstacle_time_horizon, dt)
         return orca_velocity(h.x[i], h.y[i], h.vx[i], h.vy[i], hp.radius, pref_x[i],
-                             pref_y[i], h.desired_speed[i], ox_, oy_, ovx, ovy, orad, osh,
-                             ovalid, horizon, dt)
+                             pref_y[i], h.desired_speed[i], bx[idx], by[idx], bvx[idx],
+                             bvy[idx], bradius[idx], share[idx], near_valid[i],
+                             p.time_horizon, dt, walls=lines)
 
     vx, vy = jax.vmap(one)(jnp.arange(num))
     vx, vy = jnp.where(h.active, vx, 0.0), jnp.where(h.active, vy, 0.0)
