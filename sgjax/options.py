@@ -105,7 +105,7 @@ class HumanOptions:
 
     num_humans: int = 0  # pedestrians in an episode (a param: change it without recompiling)
     max_humans: int | None = None  # pedestrian slots H (static); default: num_humans
-    human_model: str = "moussaid"  # "moussaid" or "helbing" (social forces), "orca"
+    human_model: str = "moussaid"  # "moussaid" or "helbing" (social forces), "orca", "hsfm"
     human_walls: str = "segments"  # Moussaid wall term: "segments" or "points" (PySocialForce)
     human_goals: str = "random"  # at its goal a pedestrian takes a "random" node or will "return"
     human_radius: float = 0.25  # m (SocialGym 0.2, CrowdNav 0.3, PySocialForce 0.35)

@@ -60,10 +60,11 @@ def advance(
     for _ in range(substeps):
         if human_config.max_humans:
             velocity = robots.replace(kin=kin).body_velocity
-            fx, fy = human_forces(human_config, params.humans, params.map, humans, x, y,
-                                  velocity[:, 0], velocity[:, 1], in_world, active, rp.radius,
-                                  dt_sub)
-            humans = move_humans(params.humans, params.map, humans, fx, fy, dt_sub)
+            fx, fy, heading, omega = human_forces(
+                human_config, params.humans, params.map, humans, x, y, velocity[:, 0],
+                velocity[:, 1], in_world, active, rp.radius, dt_sub)
+            humans = move_humans(params.humans, params.map, humans, fx, fy, dt_sub).replace(
+                heading=heading, omega=omega)
         new_kin, dx, dy = integrate(kin, commands.forward, commands.lateral, commands.turn, rp,
                                     dt_sub)
         dx, dy = jnp.where(active, dx, 0.0), jnp.where(active, dy, 0.0)

@@ -16,6 +16,8 @@ from sgjax.dynamics.limits import RobotPreset, resolve_robots, robot_params
 from sgjax.env import EnvConfig, SocialNavEnv
 from sgjax.humans.crowd import HumanConfig, HumanParams, spawn_humans
 from sgjax.humans.forces import SocialForceParams
+from sgjax.humans.hsfm import MAX_SUBSTEP as HSFM_MAX_SUBSTEP
+from sgjax.humans.hsfm import HsfmParams
 from sgjax.humans.orca_model import OrcaParams
 from sgjax.humans.slots import spawn_slots, wall_sample_points
 from sgjax.maps.arrays import MapArrays, compile_map, spawn_groups
@@ -75,7 +77,9 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
     )
     substeps = _substeps(physics.substeps, presets, physics.dt,
                          (HUMAN_TOP_SPEED, human_opts.human_radius) if human_config.max_humans
-                         else None)
+                         else None,
+                         HSFM_MAX_SUBSTEP if human_config.max_humans
+                         and human_config.force_model == "hsfm" else None)
 
     largest = max(p.radius for p in presets)
     if is_spec:  # re-validate against the robots that will drive it
@@ -141,6 +145,7 @@ def human_params(
         spawn_nodes=jnp.asarray(slot_nodes, jnp.int32),
         wall_points_x=jnp.asarray(points[:, 0], f32),
         wall_points_y=jnp.asarray(points[:, 1], f32),
+        hsfm=jax.tree.map(lambda v: jnp.asarray(v, f32), HsfmParams()),
         orca=OrcaParams(time_horizon=jnp.asarray(5.0, f32),
                         obstacle_time_horizon=jnp.asarray(5.0, f32),
                         robot_share=jnp.asarray(1.0 if see_robots else 0.0, f32)),
@@ -148,24 +153,30 @@ def human_params(
 
 
 def _substeps(
-    value: Any, presets: list[RobotPreset], dt: float, human: tuple[float, float] | None
+    value: Any, presets: list[RobotPreset], dt: float, human: tuple[float, float] | None,
+    longest: float | None = None,
 ) -> int:
     """Sub-steps such that two robots closing head-on at full speed never cross centres, nor a
-    robot and a pedestrian (``human = (top speed m/s, radius m)``) when there are any."""
+    robot and a pedestrian (``human = (top speed m/s, radius m)``) when there are any, and,
+    when ``longest`` (s) is given (the HSFM pedestrians' stiff contact terms), no sub-step is
+    longer than it."""
     fastest = max(max(p.max_speed, p.max_reverse_speed) for p in presets)
     smallest = min(p.radius for p in presets)
     needed = max(1, math.floor(fastest * dt / smallest) + 1)
     if human is not None:
         closing, reach = fastest + human[0], smallest + human[1]
         needed = max(needed, math.floor(closing * dt / reach) + 1)
+    if longest is not None:
+        needed = max(needed, math.ceil(dt / longest - 1e-9))
     if value is None:
         return needed
     substeps = int(value)
     if substeps < needed:
         raise ValueError(
             f"substeps={substeps} is too few for dt={dt} s: robots at {fastest} m/s with radius "
-            f"{smallest} m could pass through each other or a pedestrian; use substeps >= "
-            f"{needed}"
+            f"{smallest} m could pass through each other or a pedestrian"
+            + (f", or HSFM pedestrians' sub-steps exceed {longest} s" if longest else "")
+            + f"; use substeps >= {needed}"
         )
     return substeps
 

@@ -37,7 +37,8 @@ def _walkers(m, start_xy, goal_nodes, speed=1.3) -> HumanState:
     zeros = jnp.zeros(h, jnp.float32)
     return HumanState(x=pos[:, 0], y=pos[:, 1], vx=zeros, vy=zeros, target=nearest,
                       goal=jnp.asarray(goal_nodes, jnp.int32), origin=nearest,
-                      desired_speed=jnp.full(h, speed, jnp.float32), active=jnp.ones(h, bool))
+                      desired_speed=jnp.full(h, speed, jnp.float32), active=jnp.ones(h, bool),
+                      heading=zeros, omega=zeros)
 
 
 def _rollout(env, params, state, actions, steps, key=0):

@@ -85,13 +85,14 @@ def test_counter_flow_in_a_three_metre_corridor_clears():
     humans = HumanState(
         x=jnp.asarray(x, jnp.float32), y=jnp.asarray(y, jnp.float32),
         vx=jnp.zeros(n), vy=jnp.zeros(n), target=jnp.asarray(end), goal=jnp.asarray(end),
-        origin=jnp.asarray(end), desired_speed=jnp.full(n, 1.2), active=jnp.ones(n, bool))
+        origin=jnp.asarray(end), desired_speed=jnp.full(n, 1.2), active=jnp.ones(n, bool),
+        heading=jnp.where(jnp.asarray(rightward), 0.0, jnp.pi), omega=jnp.zeros(n))
     none = jnp.zeros(0)
     dt = 0.05
 
     def step(h, _):
-        fx, fy = human_forces(config, hp, m, h, none, none, none, none, jnp.zeros(0, bool),
-                              jnp.zeros(0, bool), none, dt)
+        fx, fy, _, _ = human_forces(config, hp, m, h, none, none, none, none,
+                                    jnp.zeros(0, bool), jnp.zeros(0, bool), none, dt)
         h = move_humans(hp, m, h, fx, fy, dt)
         gap = jnp.hypot(h.x[:, None] - h.x[None], h.y[:, None] - h.y[None]) + 9.0 * jnp.eye(n)
         wall = point_segment_distance(h.x[:, None], h.y[:, None], m.wall_x1, m.wall_y1,
@@ -155,8 +156,9 @@ def test_orca_pedestrians_see_robots_or_not():
     zero = jnp.zeros(1)
 
     def speed(hp):
-        fx, fy = human_forces(env.config.humans, hp, params.map, h, rx, ry, zero, zero,
-                              jnp.ones(1, bool), jnp.ones(1, bool), params.robots.radius, 0.1)
+        fx, fy, _, _ = human_forces(env.config.humans, hp, params.map, h, rx, ry, zero, zero,
+                                    jnp.ones(1, bool), jnp.ones(1, bool),
+                                    params.robots.radius, 0.1)
         return float(jnp.hypot(h.vx[0] + 0.1 * fx[0], h.vy[0] + 0.1 * fy[0]))
 
     gap = 1.0 - float(params.humans.radius + params.robots.radius[0])

@@ -17,7 +17,13 @@ from flax import struct
 from jax import Array
 
 from sgjax.contacts import clamp_to_walls
-from sgjax.geometry import point_segment_offset, safe_norm, swept_disc_segment_toi
+from sgjax.geometry import (
+    point_segment_offset,
+    polynomial_atan2,
+    safe_norm,
+    swept_disc_segment_toi,
+    wrap_angle,
+)
 from sgjax.humans.forces import (
     SocialForceParams,
     cap_speed,
@@ -28,11 +34,12 @@ from sgjax.humans.forces import (
     moussaid_interaction,
     unit,
 )
+from sgjax.humans.hsfm import HsfmParams, hsfm_update
 from sgjax.humans.orca_model import OrcaParams, orca_forces
 from sgjax.humans.slots import SPAWN_JITTER, SPAWN_MARGIN
 from sgjax.maps.arrays import MapArrays
 
-FORCE_MODELS = ("moussaid", "helbing", "orca")
+FORCE_MODELS = ("moussaid", "helbing", "orca", "hsfm")
 WALL_MODELS = ("segments", "points")
 GOAL_MODES = ("random", "return")
 
@@ -44,7 +51,8 @@ class HumanConfig:
     ``force_model``: ``"moussaid"`` (Moussaid 2009 interaction, exponential obstacle term) or
     ``"helbing"`` (Helbing-Molnar 1995 potentials with a field of view) or ``"orca"``
     (optimal reciprocal collision avoidance, :mod:`sgjax.humans.orca_model`, among the
-    ``orca_neighbors`` nearest bodies and the ``orca_walls`` nearest walls).
+    ``orca_neighbors`` nearest bodies and the ``orca_walls`` nearest walls) or ``"hsfm"`` (the
+    headed social force model, :mod:`sgjax.humans.hsfm`: a heading turned by a torque).
     ``wall_model`` (Moussaid only): ``"segments"`` sums the obstacle term over each wall's nearest
     point; ``"points"`` sums it over points sampled along the walls, as PySocialForce does.
     ``goal_mode``: ``"random"`` (a new random node at each goal) or ``"return"`` (walk back).
@@ -91,6 +99,7 @@ class HumanParams:
     wall_points_x: Array  # [P] m: sampled wall points (wall_model "points"; else empty)
     wall_points_y: Array
     orca: OrcaParams = OrcaParams()  # the "orca" model's constants
+    hsfm: HsfmParams = HsfmParams()  # the "hsfm" model's constants
 
 
 @struct.dataclass
@@ -106,6 +115,8 @@ class HumanState:
     origin: Array  # int32 node row: where the current walk began (goal_mode "return")
     desired_speed: Array  # m/s
     active: Array  # bool: takes part in this episode
+    heading: Array  # rad: the body's facing (HSFM turns it; other models face their motion)
+    omega: Array  # rad/s: turn rate
 
     @property
     def position(self) -> Array:
@@ -162,8 +173,9 @@ def spawn_humans(
     speed = jnp.clip(speed, hp.speed_min, hp.speed_max)
     active = (jnp.arange(num) < hp.num_humans) & (best >= 0.0)
     zeros = jnp.zeros(num, jnp.float32)
+    heading = polynomial_atan2(m.node_y[target] - y, m.node_x[target] - x)
     return HumanState(x=x, y=y, vx=zeros, vy=zeros, target=target, goal=goal, origin=target,
-                      desired_speed=speed, active=active)
+                      desired_speed=speed, active=active, heading=heading, omega=zeros)
 
 
 def advance_waypoints(
@@ -206,20 +218,41 @@ def _wall_offsets(h: HumanState, m: MapArrays) -> tuple[Array, Array]:
 def human_forces(
     config: HumanConfig, hp: HumanParams, m: MapArrays, humans: HumanState,
     robot_x: Array, robot_y: Array, robot_vx: Array, robot_vy: Array, robot_in_world: Array,
-    robot_moving: Array | None = None, robot_radius: Array | None = None,
-    dt: Array | None = None,
-) -> tuple[Array, Array]:
-    """Total force per unit mass ``(fx, fy)`` ``[H]`` (m/s^2) on every pedestrian: driving term,
-    interaction with the other pedestrians and the robots (``[R]`` arrays; robots count
-    ``robot_weight``), and walls. The ``"orca"`` model also needs which robots move
-    (``robot_moving``, ``[R]`` bool; parked robots are static), their radii (m) and the
-    sub-step ``dt`` (s): its force is the change to the ORCA velocity over ``dt``."""
+    robot_moving: Array, robot_radius: Array, dt: Array,
+) -> tuple[Array, Array, Array, Array]:
+    """Total force per unit mass ``(fx, fy)`` ``[H]`` (m/s^2) on every pedestrian over a
+    sub-step of ``dt`` s, and its heading (rad) and turn rate (rad/s) after it: the driving
+    term, the interaction with the other pedestrians and the robots (``[R]`` arrays: position,
+    velocity, in the world, moving (parked robots are static), radius (m); the force laws count
+    robots ``robot_weight``), and walls. ORCA's force is the change to its velocity over
+    ``dt``; HSFM turns its heading under a torque; the other models face the way they walk."""
     if config.force_model == "orca":
-        if robot_radius is None or dt is None:
-            raise ValueError("human_forces: the orca model needs robot_radius and dt")
-        moving = robot_in_world if robot_moving is None else robot_moving
-        return orca_forces(hp, m, humans, robot_x, robot_y, robot_vx, robot_vy, robot_in_world,
-                           moving, robot_radius, dt, config.orca_neighbors, config.orca_walls)
+        fx, fy = orca_forces(hp, m, humans, robot_x, robot_y, robot_vx, robot_vy,
+                             robot_in_world, robot_moving, robot_radius, dt,
+                             config.orca_neighbors, config.orca_walls)
+        return (fx, fy, *_facing(humans, fx, fy, dt))
+    if config.force_model == "hsfm":
+        return hsfm_update(hp, m, humans, robot_x, robot_y, robot_vx, robot_vy, robot_in_world,
+                           robot_radius, dt)
+    fx, fy = _social_forces(config, hp, m, humans, robot_x, robot_y, robot_vx, robot_vy,
+                            robot_in_world)
+    return (fx, fy, *_facing(humans, fx, fy, dt))
+
+
+def _facing(humans: HumanState, fx: Array, fy: Array, dt: Array) -> tuple[Array, Array]:
+    """Heading (rad) and turn rate (rad/s) of pedestrians that face the way they walk: the
+    direction of the new velocity ``v + dt F`` once faster than 5 cm/s, else unchanged."""
+    vx, vy = humans.vx + dt * fx, humans.vy + dt * fy
+    moving = humans.active & (vx * vx + vy * vy > 0.0025)
+    heading = jnp.where(moving, polynomial_atan2(vy, vx), humans.heading)
+    return heading, wrap_angle(heading - humans.heading) / dt
+
+
+def _social_forces(
+    config: HumanConfig, hp: HumanParams, m: MapArrays, humans: HumanState,
+    robot_x: Array, robot_y: Array, robot_vx: Array, robot_vy: Array, robot_in_world: Array,
+) -> tuple[Array, Array]:
+    """``(fx, fy)`` ``[H]`` (m/s^2) of the Moussaid or Helbing-Molnar laws."""
     p = hp.forces
     h = humans
     num = h.x.shape[0]
