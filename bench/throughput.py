@@ -15,6 +15,7 @@ timed function; for VMAS, the growth of the process's peak RSS (a coarse upper b
     python bench/throughput.py                      # the full table of the issue
     python bench/throughput.py --num-envs 64 1024 --robots 4 --peers none
     python bench/throughput.py --table pedestrians  # pedestrians {0,10,50,100} x envs {64,1024}
+    python bench/throughput.py --table pedestrians --human-models moussaid helbing orca hsfm
 
 Pedestrian table: pedestrian-steps/s of the whole sgjax step on the hallway (4 robots), beside
 PySocialForce (pip pysocialforce) stepping one scene of as many pedestrians in the same walls.
@@ -70,11 +71,12 @@ def _time_jax(rollout: Callable, state, steps: int, repeats: int) -> tuple[float
 
 
 def bench_sgjax(mode: str, robots: int, num_envs: int, steps: int, repeats: int, scenario: str,
-                humans: int = 0, terms: str = "default"):
+                humans: int = 0, terms: str = "default", human_model: str = "moussaid"):
     """``terms``: an observation preset; its reward preset too when one has that name."""
     rewards = terms if terms in REWARD_PRESETS else "default"
     env, params = sgjax.make(scenario, num_agents=robots, action_mode=mode, num_humans=humans,
-                             observation_preset=terms, reward_preset=rewards)
+                             observation_preset=terms, reward_preset=rewards,
+                             human_model=human_model)
     keys = jax.random.split(jax.random.key(0), num_envs)
     _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
     vstep = jax.vmap(env.step, in_axes=(0, 0, 0, None))
@@ -179,37 +181,77 @@ def bench_pysocialforce(humans: int, steps: int, repeats: int) -> float:
     return best
 
 
-def pedestrian_table(humans_list, envs_list, robots: int, budget: int, repeats: int) -> None:
+def bench_rvo2(humans: int, steps: int, repeats: int) -> float:
+    """RVO2's (pyrvo) seconds per step for one scene of ``humans`` ORCA agents crossing between
+    the hallway's two rooms (no walls: RVO2 would need them as polygons), CrowdNav's settings
+    (time horizons 5 s, 10 neighbours within 10 m, radius 0.25 m, 0.1 s step)."""
+    import numpy as np
+    import pyrvo
+
+    rng = np.random.default_rng(0)
+    left = humans // 2
+    x = np.concatenate([rng.uniform(-11, -4, left), rng.uniform(4, 11, humans - left)])
+    y = rng.uniform(-5, 5, humans)
+    sim = pyrvo.RVOSimulator()
+    sim.set_time_step(0.1)
+    sim.set_agent_defaults(10.0, 10, 5.0, 5.0, 0.25, 1.3)
+    for i in range(humans):
+        sim.add_agent((float(x[i]), float(y[i])))
+        sim.set_agent_pref_velocity(i, (float(-np.sign(x[i]) * 1.3), 0.0))
+    sim.do_step()
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            sim.do_step()
+        best = min(best, (time.perf_counter() - t0) / steps)
+    return best
+
+
+def pedestrian_table(humans_list, envs_list, robots: int, budget: int, repeats: int,
+                     models=("moussaid",)) -> None:
     """Pedestrian-steps/s of sgjax (whole environment step: robots, planner, contacts,
-    pedestrians, auto-reset) against PySocialForce's single scene, in the same run."""
+    pedestrians, auto-reset) for each pedestrian model, against PySocialForce's single scene
+    and RVO2's (ORCA), in the same run."""
     print(f"\npedestrians on the hallway ({robots} robots, GO/STOP, dt 0.1 s)")
     header = (f"{'simulator':<24}{'peds':>6}{'envs':>7}{'ped-steps/s':>14}{'env-steps/s':>13}"
               f"{'compile s':>11}{'peak MB':>9}")
     print(header)
     print("-" * len(header))
-    ours: dict[int, float] = {}
-    theirs: dict[int, float] = {}
+    ours: dict[tuple[str, int], float] = {}
+    theirs: dict[tuple[str, int], float] = {}
     for humans in humans_list:
-        for envs in envs_list:
-            steps = int(max(10, min(200, budget // max(1, envs * max(humans, robots)))))
-            compile_s, per_step, peak = bench_sgjax("go_stop", robots, envs, steps, repeats,
-                                                    "hallway", humans)
-            rate = envs * humans / per_step
-            ours[humans] = max(ours.get(humans, 0.0), rate)
-            print(f"{'sgjax':<24}{humans:>6}{envs:>7}{rate:>14,.0f}{envs / per_step:>13,.0f}"
-                  f"{compile_s:>11.2f}{peak / 2**20:>9.1f}", flush=True)
-        if humans:
+        for model in models:
+            for envs in envs_list:
+                steps = int(max(10, min(200, budget // max(1, envs * max(humans, robots)))))
+                compile_s, per_step, peak = bench_sgjax("go_stop", robots, envs, steps,
+                                                        repeats, "hallway", humans,
+                                                        human_model=model)
+                rate = envs * humans / per_step
+                ours[model, humans] = max(ours.get((model, humans), 0.0), rate)
+                print(f"{'sgjax ' + model:<24}{humans:>6}{envs:>7}{rate:>14,.0f}"
+                      f"{envs / per_step:>13,.0f}{compile_s:>11.2f}{peak / 2**20:>9.1f}",
+                      flush=True)
+            if not humans:
+                break  # no pedestrians: the model does not matter
+        if not humans:
+            continue
+        for peer, run in (("pysocialforce", bench_pysocialforce), ("rvo2", bench_rvo2)):
             try:
-                per_step = bench_pysocialforce(humans, 30, repeats)
+                per_step = run(humans, 30, repeats)
             except ImportError as err:
-                print(f"pysocialforce: skipped ({err})")
+                print(f"{peer}: skipped ({err})")
                 continue
-            theirs[humans] = humans / per_step
-            print(f"{'pysocialforce (1 scene)':<24}{humans:>6}{1:>7}{humans / per_step:>14,.0f}"
+            theirs[peer, humans] = humans / per_step
+            print(f"{peer + ' (1 scene)':<24}{humans:>6}{1:>7}{humans / per_step:>14,.0f}"
                   f"{1 / per_step:>13,.0f}{'':>11}{'':>9}", flush=True)
-    for humans in sorted(theirs):
-        print(f"  {humans:>4} pedestrians: sgjax {ours[humans] / theirs[humans]:,.0f}x "
-              "PySocialForce per pedestrian-step")
+    pairs = {"pysocialforce": ("moussaid", "helbing", "hsfm"), "rvo2": ("orca",)}
+    for (peer, humans), rate in sorted(theirs.items()):
+        for model in pairs[peer]:
+            if (model, humans) in ours:
+                ratio = ours[model, humans] / rate
+                print(f"  {humans:>4} pedestrians: sgjax {model} {ratio:,.0f}x {peer} per "
+                      "pedestrian-step")
 
 
 def _steps_for(num_envs: int, robots: int, budget: int) -> int:
@@ -232,6 +274,8 @@ def main() -> None:
                              "against PySocialForce, or both")
     parser.add_argument("--pedestrians", type=int, nargs="+", default=[0, 10, 50, 100])
     parser.add_argument("--pedestrian-envs", type=int, nargs="+", default=[64, 1024])
+    parser.add_argument("--human-models", nargs="+", default=["moussaid"],
+                        help="pedestrian models to time: moussaid helbing orca hsfm")
     parser.add_argument("--terms", nargs="+", default=["default"],
                         help="observation/reward presets to time (docs/terms.md), e.g. "
                              "default socialgym enforced_order")
@@ -240,7 +284,8 @@ def main() -> None:
     print(f"jax {jax.__version__} on {jax.devices()[0].platform} "
           f"({len(jax.devices())} device(s)); scenario {args.scenario}")
     if args.table in ("pedestrians", "all"):
-        pedestrian_table(args.pedestrians, args.pedestrian_envs, 4, args.budget, args.repeats)
+        pedestrian_table(args.pedestrians, args.pedestrian_envs, 4, args.budget, args.repeats,
+                         args.human_models)
     if args.table == "pedestrians":
         return
     header = (f"{'simulator':<36}{'robots':>7}{'envs':>8}{'agent-steps/s':>15}"
