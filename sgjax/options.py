@@ -6,7 +6,7 @@ each belongs to one group:
 * :class:`RobotOptions`: ``num_agents``, ``min_agents``, ``max_agents``, ``robots``,
   ``action_mode``, ``goal_tolerance``, ``arrived``, ``ended``;
 * :class:`HumanOptions`: ``num_humans``, ``max_humans``, ``human_model``, ``human_walls``,
-  ``human_goals``, ``human_radius``, ``humans_see_robots``;
+  ``human_goals``, ``human_radius``, ``humans_see_robots``, ``human_groups``;
 * :class:`TermOptions`: ``observations``, ``rewards``, ``enders``, ``terms``,
   ``observation_preset``, ``reward_preset`` (``docs/terms.md``);
 * :class:`PhysicsOptions`: ``dt``, ``substeps``, ``time_limit``, ``num_arcs``,
@@ -29,6 +29,7 @@ import numpy as np
 
 from sgjax.dynamics.limits import RobotPreset
 from sgjax.humans.crowd import FORCE_MODELS, GOAL_MODES, WALL_MODELS, HumanConfig
+from sgjax.humans.groups import leaders
 from sgjax.terms import suggest
 from sgjax.types import ACTION_MODES, WORLD_SEMANTICS
 
@@ -113,6 +114,9 @@ class HumanOptions:
     # CrowdNav's published results use): their force law or ORCA ignores robots; bodies still
     # do not pass through each other.
     humans_see_robots: bool = True
+    # Group sizes: the first pedestrians walk in groups of these sizes (spawned together, one
+    # goal, Moussaid 2010 group forces); the rest alone. A param: no recompilation.
+    human_groups: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.humans_see_robots, bool):
@@ -123,6 +127,11 @@ class HumanOptions:
         _choice("human_model", self.human_model, FORCE_MODELS)
         _choice("human_walls", self.human_walls, WALL_MODELS)
         _choice("human_goals", self.human_goals, GOAL_MODES)
+        if not isinstance(self.human_groups, list | tuple):
+            raise ValueError(f"human_groups must be a list of group sizes, got "
+                             f"{self.human_groups!r}")
+        object.__setattr__(self, "human_groups", tuple(self.human_groups))
+        leaders(self.human_groups, self.slots)  # sizes >= 1, all within max_humans
 
     @property
     def slots(self) -> int:

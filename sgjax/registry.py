@@ -16,6 +16,7 @@ from sgjax.dynamics.limits import RobotPreset, resolve_robots, robot_params
 from sgjax.env import EnvConfig, SocialNavEnv
 from sgjax.humans.crowd import HumanConfig, HumanParams, spawn_humans
 from sgjax.humans.forces import SocialForceParams
+from sgjax.humans.groups import GroupParams, leaders
 from sgjax.humans.hsfm import MAX_SUBSTEP as HSFM_MAX_SUBSTEP
 from sgjax.humans.hsfm import HsfmParams
 from sgjax.humans.orca_model import OrcaParams
@@ -105,7 +106,7 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
         planner=planner_params,
         reward=reward_params,
         humans=human_params(spec, human_config, human_opts.num_humans, human_opts.human_radius,
-                            human_opts.humans_see_robots),
+                            human_opts.humans_see_robots, human_opts.human_groups),
         num_agents=jnp.asarray(robot_opts.num_agents, jnp.int32),
         dt=jnp.asarray(physics.dt, jnp.float32),
         max_steps=jnp.asarray(physics.max_steps, jnp.int32),
@@ -118,12 +119,13 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
 
 def human_params(
     spec: MapSpec, config: HumanConfig, num_humans: int, radius: float,
-    see_robots: bool = True,
+    see_robots: bool = True, groups: tuple[int, ...] = (),
 ) -> HumanParams:
     """Default pedestrian params for a map: spawn slots for ``radius`` (m), desired speeds
     N(1.34, 0.26) m/s clipped to [0.5, 2.0], a 1.3x speed cap (``socialnav.md`` B1).
     ``see_robots`` False zeroes the robots' weight in the force laws and in ORCA
-    (``robot_weight``, ``orca.robot_share``): pedestrians that do not see robots."""
+    (``robot_weight``, ``orca.robot_share``): pedestrians that do not see robots. ``groups``:
+    sizes of the groups the first pedestrians walk in (``sgjax.humans.groups``)."""
     slots, slot_nodes = spawn_slots(spec, radius) if config.max_humans else (
         np.zeros((0, 2)), np.zeros((0, 2), np.int64))
     points = (wall_sample_points(spec.walls, WALL_RESOLUTION) if config.wall_model == "points"
@@ -146,6 +148,10 @@ def human_params(
         wall_points_x=jnp.asarray(points[:, 0], f32),
         wall_points_y=jnp.asarray(points[:, 1], f32),
         hsfm=jax.tree.map(lambda v: jnp.asarray(v, f32), HsfmParams()),
+        groups=jax.tree.map(lambda v: jnp.asarray(v), GroupParams(
+            leader=leaders(groups, config.max_humans), coherence=np.float32(3.0),
+            repulsion=np.float32(1.0), threshold=np.float32(0.55), gaze=np.float32(4.0),
+            fov=np.float32(np.pi / 2))) if groups else None,
         orca=OrcaParams(time_horizon=jnp.asarray(5.0, f32),
                         obstacle_time_horizon=jnp.asarray(5.0, f32),
                         robot_share=jnp.asarray(1.0 if see_robots else 0.0, f32)),

@@ -34,6 +34,7 @@ from sgjax.humans.forces import (
     moussaid_interaction,
     unit,
 )
+from sgjax.humans.groups import GroupParams, group_forces, spawn_beside_leaders
 from sgjax.humans.hsfm import HsfmParams, hsfm_update
 from sgjax.humans.orca_model import OrcaParams, orca_forces
 from sgjax.humans.slots import SPAWN_JITTER, SPAWN_MARGIN
@@ -100,6 +101,7 @@ class HumanParams:
     wall_points_y: Array
     orca: OrcaParams = OrcaParams()  # the "orca" model's constants
     hsfm: HsfmParams = HsfmParams()  # the "hsfm" model's constants
+    groups: GroupParams | None = None  # who walks with whom, and the group forces
 
 
 @struct.dataclass
@@ -156,11 +158,16 @@ def spawn_humans(
     blocked = jnp.any(robot_present[None, :] & (gap_sq < jnp.square(reach)), axis=1)
     priority = jnp.where(blocked, -1.0, jax.random.uniform(k_slot, hp.spawn_x.shape))
     best, slot = jax.lax.top_k(priority, num)
+    if hp.groups is not None:  # followers take the free slots nearest their leaders'
+        free = (priority >= 0.0).at[slot].set(False)
+        slot = spawn_beside_leaders(hp.groups.leader, slot, free, hp.spawn_x, hp.spawn_y)
     jitter = jax.random.uniform(k_jitter, (2, num), minval=-SPAWN_JITTER, maxval=SPAWN_JITTER)
     x, y = hp.spawn_x[slot] + jitter[0], hp.spawn_y[slot] + jitter[1]
     # Start toward whichever end of the slot's edge is on the shorter way to the goal.
     end_a, end_b = hp.spawn_nodes[slot, 0], hp.spawn_nodes[slot, 1]
     goal = _random_other_node(k_goal, end_a, num_nodes)
+    if hp.groups is not None:
+        goal = goal[hp.groups.leader]  # a group shares its leader's goal
 
     def via(node: Array) -> Array:
         length = m.path_length[node, goal]
@@ -171,6 +178,8 @@ def spawn_humans(
     goal = jnp.where(jnp.isfinite(jnp.minimum(via(end_a), via(end_b))), goal, target)
     speed = hp.speed_mean + hp.speed_std * jax.random.normal(k_speed, (num,))
     speed = jnp.clip(speed, hp.speed_min, hp.speed_max)
+    if hp.groups is not None:
+        speed = speed[hp.groups.leader]  # and walks at its pace
     active = (jnp.arange(num) < hp.num_humans) & (best >= 0.0)
     zeros = jnp.zeros(num, jnp.float32)
     heading = polynomial_atan2(m.node_y[target] - y, m.node_x[target] - x)
@@ -196,6 +205,8 @@ def advance_waypoints(
         fresh = _random_other_node(key, humans.target, m.node_x.shape[0])
     fresh = jnp.where(m.path_length[humans.target, fresh] >= 0.0, fresh, humans.origin)
     goal = jnp.where(at_goal, fresh, humans.goal)
+    if hp.groups is not None:
+        goal = goal[hp.groups.leader]  # followers keep their leader's goal
     origin = jnp.where(at_goal, humans.target, humans.origin)
     hop = m.next_hop[humans.target, goal]
     toward_x = m.node_x[hop] - humans.x
@@ -285,6 +296,9 @@ def _social_forces(
                                      weight, p)
         away_x, away_y = _wall_offsets(h, m)
         wx, wy = helbing_wall_force(away_x, away_y, m.wall_valid, p)
+    if hp.groups is not None:
+        gx, gy = group_forces(hp.groups, h.x, h.y, h.vx, h.vy, tx, ty, h.active)
+        wx, wy = wx + gx, wy + gy
     return fx + sx + wx, fy + sy + wy
 
 

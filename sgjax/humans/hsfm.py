@@ -38,6 +38,7 @@ from flax import struct
 from jax import Array
 
 from sgjax.geometry import point_segment_offset, polynomial_atan2, safe_norm, wrap_angle
+from sgjax.humans.groups import group_forces
 from sgjax.maps.arrays import MapArrays
 
 MAX_SUBSTEP = 0.02  # s: the longest stable sub-step for the contact terms
@@ -109,6 +110,9 @@ def hsfm_update(
     wx, wy = _pair_force(ox, oy, radius[:, None], -h.vx[:, None], -h.vy[:, None], p)
     valid = m.wall_valid.astype(jnp.float32)[None, :]
     fex, fey = fex + jnp.sum(valid * wx, axis=1), fey + jnp.sum(valid * wy, axis=1)
+    if hp.groups is not None:  # Moussaid 2010 group forces, per unit mass
+        gx, gy = group_forces(hp.groups, h.x, h.y, h.vx, h.vy, tx, ty, h.active)
+        fex, fey = fex + p.mass * gx, fey + p.mass * gy
 
     # Headed dynamics.
     c, s = jnp.cos(h.heading), jnp.sin(h.heading)
