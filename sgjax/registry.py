@@ -22,6 +22,7 @@ from sgjax.humans.hsfm import HsfmParams
 from sgjax.humans.orca_model import OrcaParams
 from sgjax.humans.slots import spawn_slots, wall_sample_points
 from sgjax.maps.arrays import MapArrays, compile_map, spawn_groups
+from sgjax.maps.crowd import CROWD_SCENARIOS
 from sgjax.maps.io import load, shipped_map_names
 from sgjax.maps.sampling import sample_starts_goals
 from sgjax.maps.schema import MapSpec, parse_map
@@ -42,8 +43,9 @@ PLANNER_SLACK = 0.2  # m: how much obstacle_margin may grow after make() with wa
 
 
 def registered() -> list[str]:
-    """Scenario ids accepted by :func:`make` (the shipped map names)."""
-    return shipped_map_names()
+    """Scenario ids accepted by :func:`make`: the shipped map names, then the generated crowd
+    scenarios (``sgjax.maps.crowd``)."""
+    return shipped_map_names() + list(CROWD_SCENARIOS)
 
 
 def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
@@ -59,7 +61,14 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
     ``observation_preset``, ``reward_preset`` (``docs/terms.md``); for physics ``dt``,
     ``substeps``, ``time_limit``, ``num_arcs``, ``contact_passes``.
     """
-    opts = (options or MakeOptions()).replace(where=f"make({scenario!r})", **keywords)
+    label = scenario if isinstance(scenario, str | Path) else getattr(scenario, "name", "map")
+    if isinstance(scenario, str) and scenario in CROWD_SCENARIOS:
+        scenario = CROWD_SCENARIOS[scenario]()
+    crowd = isinstance(scenario, MapSpec) and scenario.source.startswith("sgjax.maps.crowd.")
+    if crowd and "human_goals" not in keywords and (
+            options is None or options.humans.human_goals == "random"):
+        keywords["human_goals"] = "routes"  # pedestrians walk the scenario's routes
+    opts = (options or MakeOptions()).replace(where=f"make({str(label)!r})", **keywords)
     robot_opts, human_opts, term_opts, physics = opts.robots, opts.humans, opts.terms, opts.physics
     is_spec = isinstance(scenario, MapSpec)
     is_path = not is_spec and (str(scenario).endswith(".json") or Path(str(scenario)).exists())
@@ -131,6 +140,9 @@ def human_params(
     points = (wall_sample_points(spec.walls, WALL_RESOLUTION) if config.wall_model == "points"
               else np.zeros((0, 2)))
     f32 = jnp.float32
+    groups_of_routes = spec.pedestrian_groups or tuple(spawn_groups(spec))
+    routes = np.asarray([(a, b) for starts, goals in groups_of_routes for a in starts
+                         for b in goals if a != b] or [(0, 0)], np.int64)
     return HumanParams(
         num_humans=jnp.asarray(num_humans, jnp.int32),
         radius=jnp.asarray(radius, f32),
@@ -148,6 +160,8 @@ def human_params(
         wall_points_x=jnp.asarray(points[:, 0], f32),
         wall_points_y=jnp.asarray(points[:, 1], f32),
         hsfm=jax.tree.map(lambda v: jnp.asarray(v, f32), HsfmParams()),
+        route_start=jnp.asarray(routes[:, 0], jnp.int32),
+        route_goal=jnp.asarray(routes[:, 1], jnp.int32),
         groups=jax.tree.map(lambda v: jnp.asarray(v), GroupParams(
             leader=leaders(groups, config.max_humans), coherence=np.float32(3.0),
             repulsion=np.float32(1.0), threshold=np.float32(0.55), gaze=np.float32(4.0),

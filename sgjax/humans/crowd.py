@@ -42,7 +42,7 @@ from sgjax.maps.arrays import MapArrays
 
 FORCE_MODELS = ("moussaid", "helbing", "orca", "hsfm")
 WALL_MODELS = ("segments", "points")
-GOAL_MODES = ("random", "return")
+GOAL_MODES = ("random", "return", "routes")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -56,7 +56,9 @@ class HumanConfig:
     headed social force model, :mod:`sgjax.humans.hsfm`: a heading turned by a torque).
     ``wall_model`` (Moussaid only): ``"segments"`` sums the obstacle term over each wall's nearest
     point; ``"points"`` sums it over points sampled along the walls, as PySocialForce does.
-    ``goal_mode``: ``"random"`` (a new random node at each goal) or ``"return"`` (walk back).
+    ``goal_mode``: ``"random"`` (a new random node at each goal), ``"return"`` (walk back), or
+    ``"routes"`` (start at a route's start, walk to its goal and back: the map's
+    ``pedestrian_groups``, else its robot groups; the crowd scenarios use it).
     """
 
     max_humans: int = 0
@@ -102,6 +104,8 @@ class HumanParams:
     orca: OrcaParams = OrcaParams()  # the "orca" model's constants
     hsfm: HsfmParams = HsfmParams()  # the "hsfm" model's constants
     groups: GroupParams | None = None  # who walks with whom, and the group forces
+    route_start: Array | None = None  # [P] int32 node rows: pedestrian routes ("routes" mode)
+    route_goal: Array | None = None  # [P] int32
 
 
 @struct.dataclass
@@ -158,6 +162,12 @@ def spawn_humans(
     blocked = jnp.any(robot_present[None, :] & (gap_sq < jnp.square(reach)), axis=1)
     priority = jnp.where(blocked, -1.0, jax.random.uniform(k_slot, hp.spawn_x.shape))
     best, slot = jax.lax.top_k(priority, num)
+    if config.goal_mode == "routes" and num:  # each on the free slot nearest its route's start
+        k_slot, k_route = jax.random.split(k_slot)
+        route = jax.random.randint(k_route, (num,), 0, hp.route_start.shape[0])
+        start, route_goal = hp.route_start[route], hp.route_goal[route]
+        slot = _nearest_free_slots(m.node_x[start], m.node_y[start], slot, priority >= 0.0,
+                                   hp.spawn_x, hp.spawn_y)
     if hp.groups is not None:  # followers take the free slots nearest their leaders'
         free = (priority >= 0.0).at[slot].set(False)
         slot = spawn_beside_leaders(hp.groups.leader, slot, free, hp.spawn_x, hp.spawn_y)
@@ -166,6 +176,8 @@ def spawn_humans(
     # Start toward whichever end of the slot's edge is on the shorter way to the goal.
     end_a, end_b = hp.spawn_nodes[slot, 0], hp.spawn_nodes[slot, 1]
     goal = _random_other_node(k_goal, end_a, num_nodes)
+    if config.goal_mode == "routes" and num:
+        goal = route_goal
     if hp.groups is not None:
         goal = goal[hp.groups.leader]  # a group shares its leader's goal
 
@@ -176,6 +188,11 @@ def spawn_humans(
 
     target = jnp.where(via(end_a) <= via(end_b), end_a, end_b)
     goal = jnp.where(jnp.isfinite(jnp.minimum(via(end_a), via(end_b))), goal, target)
+    origin = target
+    if config.goal_mode == "routes" and num:  # straight on from the route's start
+        origin = start if hp.groups is None else start[hp.groups.leader]
+        hop = m.next_hop[origin, goal]
+        target = jnp.where(hop >= 0, hop, goal)
     speed = hp.speed_mean + hp.speed_std * jax.random.normal(k_speed, (num,))
     speed = jnp.clip(speed, hp.speed_min, hp.speed_max)
     if hp.groups is not None:
@@ -183,8 +200,22 @@ def spawn_humans(
     active = (jnp.arange(num) < hp.num_humans) & (best >= 0.0)
     zeros = jnp.zeros(num, jnp.float32)
     heading = polynomial_atan2(m.node_y[target] - y, m.node_x[target] - x)
-    return HumanState(x=x, y=y, vx=zeros, vy=zeros, target=target, goal=goal, origin=target,
+    return HumanState(x=x, y=y, vx=zeros, vy=zeros, target=target, goal=goal, origin=origin,
                       desired_speed=speed, active=active, heading=heading, omega=zeros)
+
+
+def _nearest_free_slots(anchor_x: Array, anchor_y: Array, slot: Array, free: Array,
+                        spawn_x: Array, spawn_y: Array) -> Array:
+    """``[H]`` distinct slots: pedestrian ``i`` (in index order) takes the free slot nearest
+    ``(anchor_x[i], anchor_y[i])`` (m); ``free`` ``[S]``: slots no robot blocks."""
+    def place(i: Array, carry: tuple[Array, Array]) -> tuple[Array, Array]:
+        out, used = carry
+        gap = jnp.square(spawn_x - anchor_x[i]) + jnp.square(spawn_y - anchor_y[i])
+        pick = jnp.argmin(jnp.where(free & ~used, gap, jnp.inf))
+        return out.at[i].set(pick), used.at[pick].set(True)
+
+    used = jnp.zeros(spawn_x.shape, bool)
+    return jax.lax.fori_loop(0, slot.shape[0], place, (slot, used))[0]
 
 
 def advance_waypoints(
@@ -199,7 +230,7 @@ def advance_waypoints(
     distance = safe_norm(tx - humans.x, ty - humans.y)
     near = humans.active & (distance < hp.waypoint_radius)
     at_goal = near & (humans.target == humans.goal)
-    if config.goal_mode == "return":
+    if config.goal_mode in ("return", "routes"):
         fresh = humans.origin
     else:
         fresh = _random_other_node(key, humans.target, m.node_x.shape[0])

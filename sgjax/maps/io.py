@@ -6,6 +6,7 @@ import json
 from importlib import resources
 from pathlib import Path
 
+from sgjax.maps.crowd import CROWD_SCENARIOS
 from sgjax.maps.schema import DEFAULT_CLEARANCE, MapError, MapSpec, parse_map
 
 _PACKAGE = "sgjax.shipped_maps"
@@ -25,7 +26,8 @@ def save(spec: MapSpec, path: str | Path) -> Path:
 
 
 def load(name_or_path: str | Path, clearance: float = DEFAULT_CLEARANCE) -> MapSpec:
-    """Load and validate a map: a shipped name (``"doorway"``) or a path to a JSON file.
+    """Load and validate a map: a shipped name (``"doorway"``), a generated crowd scenario
+    (``"circle_crossing"``, :mod:`sgjax.maps.crowd`) or a path to a JSON file.
 
     ``clearance`` (m) is the largest robot radius the map must accommodate.
     Raises :class:`MapError` naming the file, the JSON path and the problem.
@@ -36,6 +38,10 @@ def load(name_or_path: str | Path, clearance: float = DEFAULT_CLEARANCE) -> MapS
         if not path.exists():
             raise FileNotFoundError(f"map file not found: {path}")
         source, text = str(path), path.read_text()
+    elif text_path in CROWD_SCENARIOS:  # generated, at its default settings
+        spec = CROWD_SCENARIOS[text_path]()
+        return spec if clearance == DEFAULT_CLEARANCE else parse_map(
+            spec.to_json(), source=spec.source, clearance=clearance)
     else:
         names = shipped_map_names()
         if text_path not in names:

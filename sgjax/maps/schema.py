@@ -35,7 +35,7 @@ import numpy as np
 from sgjax.geometry import segments_intersect
 
 TOP_LEVEL_REQUIRED = ("name", "description", "bounds", "walls", "nodes", "edges")
-TOP_LEVEL_OPTIONAL = ("groups", "routes", "zones")
+TOP_LEVEL_OPTIONAL = ("groups", "routes", "zones", "pedestrian_groups")
 DEFAULT_CLEARANCE = 0.25  # m: default robot radius every node must keep from every wall
 
 
@@ -68,6 +68,9 @@ class MapSpec:
     routes: tuple[tuple[int, ...], ...]  # explicit routes as row indices
     zones: tuple[Zone, ...]
     source: str = "<memory>"
+    # (starts, goals) as row indices for pedestrians walking routes (human_goals="routes"); the
+    # robots' groups when empty
+    pedestrian_groups: tuple[tuple[tuple[int, ...], tuple[int, ...]], ...] = ()
 
     @property
     def num_nodes(self) -> int:
@@ -96,6 +99,10 @@ class MapSpec:
             data["routes"] = [[ids[n] for n in route] for route in self.routes]
         if self.zones:
             data["zones"] = [{"name": z.name, "rect": list(z.rect)} for z in self.zones]
+        if self.pedestrian_groups:
+            data["pedestrian_groups"] = [
+                {"starts": [ids[n] for n in starts], "goals": [ids[n] for n in goals]}
+                for starts, goals in self.pedestrian_groups]
         return data
 
 
@@ -170,6 +177,8 @@ def parse_map(data: Any, source: str = "<memory>", clearance: float = DEFAULT_CL
     groups = _parse_groups(source, obj.get("groups", []), index)
     routes = _parse_routes(source, obj.get("routes", []), index)
     zones = _parse_zones(source, obj.get("zones", []))
+    pedestrian_groups = _parse_groups(source, obj.get("pedestrian_groups", []), index,
+                                      "pedestrian_groups")
     spec = MapSpec(
         name=name,
         description=description,
@@ -182,6 +191,7 @@ def parse_map(data: Any, source: str = "<memory>", clearance: float = DEFAULT_CL
         routes=routes,
         zones=zones,
         source=source,
+        pedestrian_groups=pedestrian_groups,
     )
     _check_connected_pairs(spec)
     return spec
@@ -275,10 +285,11 @@ def _check_edges_clear_walls(
                                f"edge {ids[a]}-{ids[b]} crosses wall $.walls[{w}]")
 
 
-def _parse_groups(source: str, raw: Any, index: dict[int, int]) -> tuple:
+def _parse_groups(source: str, raw: Any, index: dict[int, int], field: str = "groups"
+                  ) -> tuple:
     groups = []
-    for i, group in enumerate(_expect_list(source, "$.groups", raw)):
-        path = f"$.groups[{i}]"
+    for i, group in enumerate(_expect_list(source, f"$.{field}", raw)):
+        path = f"$.{field}[{i}]"
         _expect_keys(source, path, group, ("starts", "goals"))
         sides = []
         for key in ("starts", "goals"):
