@@ -95,6 +95,11 @@ def test_reproduce_writes_the_papers_two_tables(tmp_path):
     assert "| 2A | 3A | Avg. |" in success_table
     results = json.loads((tmp_path / "results.json").read_text())["results"]
     assert len(results["open"]["cadrl"]["2"]["team_success"]) == 2  # one value per seed
+    from train.reproduce import tables_from_results
+
+    again = tables_from_results(tmp_path / "results.json", tmp_path / "again", table_robots=2)
+    assert again["success_table.md"] == success_table  # the tables come from results.json
+    assert (tmp_path / "again" / "paper_comparison.md").is_file()
 
 
 @pytest.mark.slow

@@ -30,7 +30,8 @@ Two profiles (``--profile``):
 Outputs in ``--out``: ``metrics_table.md`` (the paper's Table 3: length, collisions, stop time,
 max delta-V and team success per scenario and baseline, at ``--table-robots``),
 ``success_table.md`` (its Table 4: team success % by robot count, with the average),
-``results.json`` (every seed's value of every metric, per configuration).
+``paper_comparison.md`` (ours beside the paper's Table 4), ``results.json`` (every seed's
+value of every metric, per configuration; ``--from-results`` writes the tables again from it).
 """
 
 from __future__ import annotations
@@ -176,6 +177,28 @@ def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: in
     return out
 
 
+# The paper's Table 4 (team success %, 25 trials, one seed): scenario -> baseline -> the
+# counts 3, 4, 5, 7, 10 and the average as printed.
+PAPER_TABLE_4: dict[str, dict[str, tuple[int, ...]]] = {
+    "open": {"cadrl": (32, 28, 8, 0, 0, 7), "cadrl_lstm": (60, 44, 52, 36, 4, 39),
+             "enforced_order": (24, 12, 12, 0, 0, 10), "any_order": (16, 12, 8, 8, 0, 9),
+             "only_local": (56, 32, 36, 16, 0, 28)},
+    "doorway": {"cadrl": (28, 32, 16, 8, 0, 17), "cadrl_lstm": (8, 0, 4, 12, 16, 8),
+                "enforced_order": (64, 44, 28, 8, 4, 30), "any_order": (72, 84, 64, 24, 4, 50),
+                "only_local": (48, 4, 0, 0, 0, 10)},
+    "hallway": {"cadrl": (24, 24, 12, 4, 0, 13), "cadrl_lstm": (68, 40, 12, 0, 0, 24),
+                "enforced_order": (40, 48, 28, 16, 0, 26), "any_order": (44, 28, 16, 0, 0, 18),
+                "only_local": (4, 0, 0, 0, 0, 1)},
+    "intersection": {"cadrl": (60, 20, 20, 4, 4, 22), "cadrl_lstm": (24, 28, 12, 20, 8, 18),
+                     "enforced_order": (80, 56, 44, 28, 0, 42),
+                     "any_order": (52, 28, 24, 4, 4, 22), "only_local": (32, 16, 0, 0, 0, 10)},
+    "roundabout": {"cadrl": (24, 20, 8, 0, 0, 10), "cadrl_lstm": (40, 8, 0, 8, 0, 11),
+                   "enforced_order": (0, 0, 0, 0, 0, 0), "any_order": (16, 20, 12, 0, 4, 10),
+                   "only_local": (4, 0, 0, 0, 0, 1)},
+}
+PAPER_COUNTS = (3, 4, 5, 7, 10)
+
+
 def _cell(values: list[float], percent: bool = False) -> str:
     """Mean over seeds ± the half width of its Student-t interval."""
     return format_summary(summarize(np.asarray(values), binary=False), percent)
@@ -205,8 +228,39 @@ def format_tables(results: dict, counts: Sequence[int], table_robots: int, seeds
     success = ["# SocialGym 2.0 Table 4 (team success %), reproduced with sgjax", "", note, "",
                *markdown_table(["Scenario", "Baseline", *(f"{n}A" for n in counts), "Avg."],
                                success_rows)]
+    compare_rows = []
+    for scenario, by_baseline in results.items():
+        for baseline, by_count in by_baseline.items():
+            paper = PAPER_TABLE_4.get(scenario, {}).get(baseline)
+            if paper is None or tuple(counts) != PAPER_COUNTS:
+                continue
+            ours = [f"{100 * np.nanmean(by_count[n]['team_success']):.0f}" for n in counts]
+            mean = np.mean([np.nanmean(by_count[n]["team_success"]) for n in counts])
+            compare_rows.append([scenario, baseline, *(f"{o} / {t}" for o, t in
+                                                       zip(ours, paper, strict=False)),
+                                 f"{100 * mean:.0f} / {paper[-1]}"])
+    compare = ["# Team success (%), sgjax / the paper's Table 4", "",
+               f"sgjax: the mean over {seeds} seeds (each seed: its evaluation episodes); the "
+               "paper: one run of 25 trials, as printed.", "",
+               *markdown_table(["Scenario", "Baseline", *(f"{n}A" for n in counts), "Avg."],
+                               compare_rows)]
     return {"metrics_table.md": "\n".join(rows) + "\n",
-            "success_table.md": "\n".join(success) + "\n"}
+            "success_table.md": "\n".join(success) + "\n",
+            "paper_comparison.md": "\n".join(compare) + "\n"}
+
+
+def tables_from_results(path: Path, out: Path, table_robots: int = 4) -> dict[str, str]:
+    """Write the tables again from a ``results.json`` (no training): ``out`` gets the same
+    markdown files as a run. Returns them by name."""
+    document = json.loads(Path(path).read_text())
+    counts = [int(n) for n in document["counts"]]
+    results = {s: {b: {int(n): m for n, m in c.items()} for b, c in r.items()}
+               for s, r in document["results"].items()}
+    tables = format_tables(results, counts, table_robots, int(document["seeds"]))
+    out.mkdir(parents=True, exist_ok=True)
+    for name, text in tables.items():
+        (out / name).write_text(text)
+    return tables
 
 
 def gather_seeds(by_count: dict[int, dict[str, list[float]]], seeds: int,
@@ -324,9 +378,17 @@ def main(argv: list[str] | None = None) -> None:
                         help="sgjax's settings, or each baseline as SocialGym 2.0 ran it "
                              "(see the module doc)")
     parser.add_argument("--out", default="runs/reproduce")
+    parser.add_argument("--from-results", default=None, metavar="RESULTS_JSON",
+                        help="write the tables again from a run's results.json into --out "
+                             "(no training)")
     add_cache_arguments(parser)
     add_arguments(parser)
     args = parser.parse_args(argv)
+    if args.from_results:
+        for text in tables_from_results(Path(args.from_results), Path(args.out),
+                                        args.table_robots).values():
+            print(text)
+        return
     try:
         cache_from_arguments(args)
         processes = initialize(args.coordinator, args.num_processes, args.process_id)
