@@ -29,9 +29,15 @@ import jax.numpy as jnp
 from jax import Array
 
 from sgjax.dynamics.limits import ACKERMANN, OMNIDIRECTIONAL
-from sgjax.geometry import point_segment_offset, safe_norm, wrap_angle
+from sgjax.geometry import point_segment_distance, point_segment_offset, safe_norm, wrap_angle
+from sgjax.humans.forces import (
+    cap_speed,
+    desired_force,
+    exponential_wall_force,
+    moussaid_interaction,
+)
 from sgjax.orca import orca_velocity, wall_lines
-from sgjax.planner import carrot_point
+from sgjax.planner import carrot_point, point_along_route
 
 if TYPE_CHECKING:
     from sgjax.env import SocialNavEnv
@@ -155,3 +161,186 @@ def track_velocity(vx: Array, vy: Array, heading: Array, v_forward: Array, rp,
         a_lateral = jnp.clip(lateral / jnp.maximum(rp.max_speed, 1e-9), -1.0, 1.0)
         return jnp.stack([a_forward, a_lateral, a_turn], axis=-1)
     return jnp.stack([a_forward, a_turn], axis=-1)
+
+
+@dataclasses.dataclass(frozen=True)
+class DwaSettings:
+    """Constants of the ``dwa`` controller (Fox, Burgard and Thrun 1997, "The dynamic window
+    approach to collision avoidance")."""
+
+    speeds: int = 7  # forward speeds sampled across the window
+    turns: int = 11  # turn rates sampled across the window
+    window: float = 0.25  # s: the window is what the accelerations reach in this time
+    horizon: float = 1.5  # s: each sample is rolled out as a circular arc this long
+    points: int = 8  # points checked along each arc
+    heading_weight: float = 0.8  # on the alignment of the arc's end with the carrot
+    clearance_weight: float = 0.2  # on the arc's smallest clearance, capped at clearance_cap
+    speed_weight: float = 0.1  # on the forward speed, as a share of the top speed
+    clearance_cap: float = 1.0  # m
+    margin: float = 0.05  # m added to the robot's radius
+    pass_angle: float = 0.6  # rad: how far right of the way on a blocked robot aims
+
+
+def dwa_controller(env: SocialNavEnv, settings: DwaSettings | None = None):
+    """The ``dwa`` baseline policy for ``env`` (continuous actions). For each robot: sample
+    forward speeds and turn rates reachable within ``window`` s under its acceleration limits,
+    roll each out as an arc for ``horizon`` s against the walls, the other robots and the
+    pedestrians (where their present velocities take them), keep the admissible ones (it can
+    stop, at its
+    deceleration limit, before the nearest obstacle on the arc), and take the best weighted
+    sum of heading (alignment of the arc's end with the carrot, 1 = straight at it), clearance
+    and speed (ties go to the most clockwise turn: robots keep right). When nothing is
+    admissible, brake. Ackermann robots steer for the chosen yaw
+    rate; omnidirectional robots drive like differential-drive ones."""
+    _require_continuous(env, "dwa")
+    s = settings or DwaSettings()
+    action_dim = env.config.action_dim
+
+    def policy(obs: Array, key: Array, state: EnvState, params: EnvParams) -> Array:
+        r, h, m, rp = state.robots, state.humans, params.map, params.robots
+        num = r.x.shape[0]
+        v0, w0 = r.kin.v_forward, r.kin.omega
+        frac_v = jnp.linspace(-1.0, 1.0, s.speeds)
+        frac_w = jnp.linspace(-1.0, 1.0, s.turns)
+        v = jnp.clip(v0[:, None] + frac_v[None, :] * rp.max_accel[:, None] * s.window, 0.0,
+                     rp.max_speed[:, None])  # [R, V]
+        w = jnp.clip(w0[:, None] + frac_w[None, :] * rp.max_alpha[:, None] * s.window,
+                     -rp.max_omega[:, None], rp.max_omega[:, None])  # [R, W]
+        vv, ww = v[:, :, None], w[:, None, :]  # [R, V, W]
+        t = jnp.linspace(s.horizon / s.points, s.horizon, s.points)  # [T]
+        theta = r.heading[:, None, None, None] + ww[..., None] * t  # [R, V, W, T]
+        straight = jnp.abs(ww[..., None]) < 1e-3
+        safe_w = jnp.where(straight, 1.0, ww[..., None])
+        dx = jnp.where(straight, vv[..., None] * t * jnp.cos(r.heading)[:, None, None, None],
+                       vv[..., None] / safe_w * (jnp.sin(theta)
+                                                 - jnp.sin(r.heading)[:, None, None, None]))
+        dy = jnp.where(straight, vv[..., None] * t * jnp.sin(r.heading)[:, None, None, None],
+                       -vv[..., None] / safe_w * (jnp.cos(theta)
+                                                  - jnp.cos(r.heading)[:, None, None, None]))
+        px = r.x[:, None, None, None] + dx  # [R, V, W, T]
+        py = r.y[:, None, None, None] + dy
+        radius = (rp.radius + s.margin)[:, None, None, None]
+        # Clearance to walls (nearest point of each) and to bodies, along the arc.
+        wall = point_segment_distance(px[..., None], py[..., None], m.wall_x1, m.wall_y1,
+                                      m.wall_x2, m.wall_y2)
+        wall = jnp.min(jnp.where(m.wall_valid, wall, jnp.inf), axis=-1) - radius
+        # Bodies where they will be at each point's time, at their present velocities.
+        velocity = r.body_velocity
+        bx = jnp.concatenate([r.x, h.x])[None, :] + t[:, None] * jnp.concatenate(
+            [velocity[:, 0], h.vx])[None, :]  # [T, B]
+        by = jnp.concatenate([r.y, h.y])[None, :] + t[:, None] * jnp.concatenate(
+            [velocity[:, 1], h.vy])[None, :]
+        bradius = jnp.concatenate([rp.radius, jnp.broadcast_to(params.humans.radius,
+                                                               h.x.shape)])
+        present = jnp.concatenate([r.in_world, h.active])
+        other = present[None, :] & ~jnp.eye(num, bx.shape[1], dtype=bool)  # [R, B]
+        gap = (safe_norm(px[..., None] - bx, py[..., None] - by) - bradius) - radius[..., None]
+        gap = jnp.min(jnp.where(other[:, None, None, None, :], gap, jnp.inf), axis=-1)
+        clearance = jnp.min(jnp.minimum(wall, gap), axis=-1)  # [R, V, W]
+        stop_distance = vv * vv / (2.0 * rp.max_decel[:, None, None])
+        admissible = clearance > stop_distance
+        # Heading: alignment of the arc's end direction with the way on, a point of the route
+        # beyond the arc's reach.
+        ahead = state.progress + s.horizon * rp.max_speed + 1.0
+        gx, gy = point_along_route(state.route, ahead)
+        # Keep right: with a body in the way (within clearance_cap of the path straight ahead,
+        # in front), aim pass_angle clockwise of the way on; a symmetric head-on meeting
+        # otherwise ends nose to nose (DWA treats bodies as obstacles, not as agents).
+        hx, hy = jnp.cos(r.heading), jnp.sin(r.heading)
+        rel_x, rel_y = bx[0][None, :] - r.x[:, None], by[0][None, :] - r.y[:, None]
+        along = rel_x * hx[:, None] + rel_y * hy[:, None]
+        across = jnp.abs(-rel_x * hy[:, None] + rel_y * hx[:, None])
+        in_way = other & (along > 0.0) & (across < (rp.radius + s.margin)[:, None] + bradius
+                                         + s.clearance_cap * 0.5) & (
+            along < s.horizon * rp.max_speed[:, None] + s.clearance_cap)
+        blocked = jnp.any(in_way, axis=1)
+        wx_, wy_ = gx - r.x, gy - r.y
+        turn_by = jnp.where(blocked, -s.pass_angle, 0.0)
+        c, si = jnp.cos(turn_by), jnp.sin(turn_by)
+        gx, gy = r.x + c * wx_ - si * wy_, r.y + si * wx_ + c * wy_
+        # (the direction from where the robot is: an arc that runs past the point still
+        # points the right way)
+        ex, ey = (gx - r.x)[:, None, None], (gy - r.y)[:, None, None]
+        end = theta[..., -1]
+        align = (jnp.cos(end) * ex + jnp.sin(end) * ey) / jnp.maximum(safe_norm(ex, ey), 1e-9)
+        score = (s.heading_weight * (align + 1.0) / 2.0
+                 + s.clearance_weight * jnp.minimum(clearance, s.clearance_cap) / s.clearance_cap
+                 + s.speed_weight * vv / rp.max_speed[:, None, None])
+        score = jnp.where(admissible, score, -jnp.inf).reshape(num, -1)
+        best = jnp.argmax(score, axis=1)
+        any_ok = jnp.isfinite(jnp.max(score, axis=1))
+        flat_v = jnp.broadcast_to(vv, (num, s.speeds, s.turns)).reshape(num, -1)
+        flat_w = jnp.broadcast_to(ww, (num, s.speeds, s.turns)).reshape(num, -1)
+        v_best = jnp.where(any_ok, jnp.take_along_axis(flat_v, best[:, None], 1)[:, 0], 0.0)
+        w_best = jnp.where(any_ok, jnp.take_along_axis(flat_w, best[:, None], 1)[:, 0], 0.0)
+        return _commands_to_actions(v_best, w_best, r.kin.v_forward, rp, action_dim)
+
+    return policy
+
+
+def _commands_to_actions(forward: Array, yaw_rate: Array, v_forward: Array, rp,
+                         action_dim: int) -> Array:
+    """Normalised actions for a forward speed (m/s) and yaw rate (rad/s); Ackermann robots
+    steer for the yaw rate at their speed."""
+    ackermann = rp.model == ACKERMANN
+    drive = jnp.maximum(jnp.maximum(jnp.abs(v_forward), forward), 0.1)
+    turn = jnp.where(ackermann, jnp.arctan(rp.wheelbase * yaw_rate / drive), yaw_rate)
+    turn_limit = jnp.where(ackermann, rp.max_steering, rp.max_omega)
+    a_forward = jnp.clip(forward / jnp.maximum(rp.max_speed, 1e-9), -1.0, 1.0)
+    a_turn = jnp.clip(turn / jnp.maximum(turn_limit, 1e-9), -1.0, 1.0)
+    if action_dim == 3:
+        return jnp.stack([a_forward, jnp.zeros_like(a_forward), a_turn], axis=-1)
+    return jnp.stack([a_forward, a_turn], axis=-1)
+
+
+@dataclasses.dataclass(frozen=True)
+class SocialForceSettings:
+    """Constants of the ``social_force`` controller: the pedestrians' Moussaid 2009 law
+    (``SocialForceParams`` defaults) applied to the robots, with a robot's relaxation time."""
+
+    tau: float = 0.5  # s: relaxation toward the preferred velocity
+    body_weight: float = 2.0  # how strongly a robot repels another robot or is repelled by it
+    keep_right: float = 0.1  # rad the way on is turned clockwise
+
+
+def social_force_controller(env: SocialNavEnv, settings: SocialForceSettings | None = None):
+    """The ``social_force`` baseline policy for ``env`` (continuous actions): each robot is
+    driven like a pedestrian, by the driving term toward its carrot at its top speed, the
+    Moussaid 2009 interaction with the other robots (weight ``body_weight``) and the
+    pedestrians, and the exponential wall term (``params.humans.forces`` constants); the
+    velocity after one step, capped at its top speed, is tracked under its kinematics
+    (:func:`track_velocity`)."""
+    _require_continuous(env, "social_force")
+    s = settings or SocialForceSettings()
+    action_dim = env.config.action_dim
+
+    def policy(obs: Array, key: Array, state: EnvState, params: EnvParams) -> Array:
+        r, h, m, rp = state.robots, state.humans, params.map, params.robots
+        num = r.x.shape[0]
+        forces = params.humans.forces.replace(tau=s.tau)
+        cx, cy = carrot_point(params.planner, state.route, state.progress)
+        velocity = r.body_velocity
+        vx, vy = velocity[:, 0], velocity[:, 1]
+        speed = jnp.minimum(rp.max_speed, state.goal_distance / params.dt)
+        # Keep right: the way on turned keep_right clockwise (exactly opposed robots otherwise
+        # brake nose to nose: the law's turning term vanishes when they are aligned).
+        c, si = jnp.cos(s.keep_right), jnp.sin(s.keep_right)
+        ax, ay = cx - r.x, cy - r.y
+        tx, ty = r.x + c * ax + si * ay, r.y - si * ax + c * ay
+        fx, fy = desired_force(r.x, r.y, vx, vy, tx, ty, speed, s.tau)
+        bx = jnp.concatenate([r.x, h.x])
+        by = jnp.concatenate([r.y, h.y])
+        bvx = jnp.concatenate([vx, h.vx])
+        bvy = jnp.concatenate([vy, h.vy])
+        present = jnp.concatenate([r.in_world.astype(jnp.float32) * s.body_weight,
+                                   h.active.astype(jnp.float32)])
+        weight = present[None, :] * (1.0 - jnp.eye(num, bx.shape[0]))
+        sx, sy = moussaid_interaction(r.x, r.y, vx, vy, bx, by, bvx, bvy, weight, forces)
+        away_x, away_y = point_segment_offset(r.x[:, None], r.y[:, None], m.wall_x1,
+                                              m.wall_y1, m.wall_x2, m.wall_y2)
+        wx, wy = exponential_wall_force(away_x, away_y, m.wall_valid, rp.radius, forces)
+        nx, ny = cap_speed(vx + params.dt * (fx + sx + wx), vy + params.dt * (fy + sy + wy),
+                           rp.max_speed)
+        return track_velocity(nx, ny, r.heading, r.kin.v_forward, rp, 2.0, action_dim)
+
+    return policy

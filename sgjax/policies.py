@@ -13,8 +13,9 @@ Built-in baselines (:data:`BASELINES`):
 * ``stop_when_blocked``: GO, but STOP while a pedestrian, or another unfinished robot with a
   smaller index (a fixed priority, so two robots never wait for each other), is within
   ``STOP_DISTANCE`` m (body to body) and within ``STOP_HALF_ANGLE`` of the robot's heading;
-* ``orca`` (continuous actions): ORCA velocities toward each robot's route, tracked under its
-  kinematics (:mod:`sgjax.controllers`); :func:`policy_make_kwargs` asks for
+* ``orca``, ``dwa``, ``social_force`` (continuous actions; :mod:`sgjax.controllers`): ORCA
+  velocities, the dynamic window approach, and the pedestrians' social forces, each toward the
+  robot's route under its kinematic limits; :func:`policy_make_kwargs` asks for
   ``action_mode="continuous"``.
 
 Other policies come from *loaders* (:class:`PolicyLoader`): each recognises the specs it reads
@@ -39,7 +40,7 @@ import jax
 import jax.numpy as jnp
 from jax import Array
 
-from sgjax.controllers import orca_controller
+from sgjax.controllers import dwa_controller, orca_controller, social_force_controller
 from sgjax.geometry import safe_norm
 from sgjax.types import GO, STOP
 
@@ -57,9 +58,9 @@ class RecurrentPolicy:
     init: Callable[[int], Any]
     step: Callable[..., tuple[Any, Array]]
 
-BASELINES = ("only_local", "random", "stop_when_blocked", "orca")
+BASELINES = ("only_local", "random", "stop_when_blocked", "orca", "dwa", "social_force")
 # Baselines that command velocities: the environment they act in has continuous actions.
-CONTINUOUS_BASELINES = ("orca",)
+CONTINUOUS_BASELINES = ("orca", "dwa", "social_force")
 STOP_DISTANCE = 1.0  # m, body to body
 STOP_HALF_ANGLE = math.pi / 3  # rad either side of the heading
 
@@ -124,7 +125,8 @@ def _require_go_stop(env: SocialNavEnv, name: str) -> None:
 
 
 _BUILDERS = {"only_local": only_local, "random": random_policy,
-             "stop_when_blocked": stop_when_blocked, "orca": orca_controller}
+             "stop_when_blocked": stop_when_blocked, "orca": orca_controller,
+             "dwa": dwa_controller, "social_force": social_force_controller}
 
 
 LOADER_GROUP = "sgjax.policy_loaders"
