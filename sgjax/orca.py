@@ -36,6 +36,7 @@ from flax import struct
 from jax import Array
 
 EPS = 1e-6  # parallel-line and zero-length tolerance
+TINY = 1e-12  # floor under square roots (their gradient at 0 is infinite)
 
 
 @struct.dataclass
@@ -78,7 +79,7 @@ def orca_lines(px: Array, py: Array, vx: Array, vy: Array, radius: Array,
     cut_dx, cut_dy = uy_w, -ux_w
     cut_ux, cut_uy = (r * inv - w_len) * ux_w, (r * inv - w_len) * uy_w
     # Projection on a leg (apart only).
-    leg = jnp.sqrt(jnp.maximum(dist_sq - r_sq, 0.0))
+    leg = jnp.sqrt(jnp.maximum(dist_sq - r_sq, TINY))  # TINY, not 0: a finite gradient
     safe_dist_sq = jnp.maximum(dist_sq, EPS)
     left = _det(rx, ry, wx, wy) > 0.0
     leg_dx = jnp.where(left, rx * leg - ry * r, -(rx * leg + ry * r)) / safe_dist_sq
@@ -134,7 +135,7 @@ def _on_line(lines: Lines, i: Array, others: Array, max_speed: Array, target_x: 
     px, py, dx, dy = lines.px[i], lines.py[i], lines.dx[i], lines.dy[i]
     dot = px * dx + py * dy
     disc = dot * dot + max_speed * max_speed - (px * px + py * py)
-    root = jnp.sqrt(jnp.maximum(disc, 0.0))
+    root = jnp.sqrt(jnp.maximum(disc, TINY))
     t_left, t_right = -dot - root, -dot + root
     denominator = _det(dx, dy, lines.dx, lines.dy)
     numerator = _det(lines.dx, lines.dy, px - lines.px, py - lines.py)

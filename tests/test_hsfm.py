@@ -141,3 +141,28 @@ def test_long_hsfm_rollouts_stay_finite_and_out_of_walls(scenario):
     assert bool(jnp.all(finite))
     assert float(jnp.min(clearance)) >= -1e-4
     assert float(jnp.mean(speed)) > 0.1
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("model", "field", "value"), [
+    ("hsfm", "k_lambda", 0.3), ("orca", "time_horizon", 5.0)])
+def test_model_constants_are_differentiable(model, field, value):
+    """``jax.grad`` of where the crowd ends up with respect to a model constant is finite (and
+    non-zero): constants can be fitted. (ORCA's is piecewise: the active constraints switch.)"""
+    env, params = sgjax.make("open", num_agents=1, num_humans=6, human_model=model)
+    _, state = env.reset(jax.random.key(2), params)
+    section = "hsfm" if model == "hsfm" else "orca"
+
+    def spread(constant):
+        humans = params.humans.replace(**{section: getattr(params.humans, section).replace(
+            **{field: constant})})
+        p = params.replace(humans=humans)
+
+        def body(st, k):
+            return env.step_env(jax.random.key(k), st, jnp.zeros(1, jnp.int32), p)[1], None
+
+        st = jax.lax.scan(body, state, jnp.arange(8))[0]
+        return jnp.sum(jnp.square(st.humans.x)) + jnp.sum(jnp.square(st.humans.y))
+
+    g = jax.jit(jax.grad(spread))(jnp.asarray(value))
+    assert bool(jnp.isfinite(g)) and float(jnp.abs(g)) > 0.0, g
