@@ -250,7 +250,8 @@ def pedestrian_table(humans_list, envs_list, robots: int, budget: int, repeats: 
         for model in pairs[peer]:
             if (model, humans) in ours:
                 ratio = ours[model, humans] / rate
-                print(f"  {humans:>4} pedestrians: sgjax {model} {ratio:,.0f}x {peer} per "
+                shown = f"{ratio:,.0f}" if ratio >= 10 else f"{ratio:.2f}"
+                print(f"  {humans:>4} pedestrians: sgjax {model} {shown}x {peer} per "
                       "pedestrian-step")
 
 
