@@ -47,6 +47,7 @@ def run_controller(scenario, starts, goals, seconds, robots="socialgym", name="o
     return when, float(np.min(gaps)), np.asarray(state.collisions.robot), float(np.max(over))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("robots", "starts", "goals"), [
     ("socialgym", [12, 36], [36, 12]),  # differential drive, head-on through the middle
     ("socialgym", [0, 12, 24, 36], [24, 36, 0, 12]),  # four ends swapped through one point
@@ -61,6 +62,7 @@ def test_orca_robots_pass_each_other_in_the_open(robots, starts, goals):
     assert over <= 1e-5
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["dwa", "social_force"])
 def test_dwa_and_social_force_robots_pass_head_on_in_the_open(name):
     """Two differential-drive robots head-on through the open map's centre: both arrive within
@@ -71,6 +73,7 @@ def test_dwa_and_social_force_robots_pass_head_on_in_the_open(name):
     assert over <= 1e-5
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["orca", "dwa", "social_force"])
 def test_a_robot_facing_a_wall_stops_short_of_it(name):
     """A robot in the hallway's west room, 1.2 m from the wall x = -3 (which runs from y = 0.5

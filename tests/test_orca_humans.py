@@ -167,6 +167,7 @@ def test_orca_pedestrians_see_robots_or_not():
     assert speed(unseen) == pytest.approx(float(h.desired_speed[0]), rel=1e-5)
 
 
+@pytest.mark.slow
 def test_orca_constants_are_params_a_vmap_sweeps_them():
     """Time horizons are params: a vmap over them runs one compiled step per value without
     retracing, and they change the outcome."""
