@@ -68,7 +68,7 @@ def test_a_tiny_run_learns_to_reach_the_goal():
     ({"network": {"kind": "transformer"}}, "kind must be one of"),
     ({"env": {"num_arcz": 5}}, "env: unknown key 'num_arcz' \\(did you mean 'num_arcs'\\?\\)"),
     ({"env": {"num_agents": 5}}, "unknown key 'num_agents'.*valid keys are: scenarios"),
-    ({"env": {"human_model": "orca"}}, "env: human_model must be one of"),
+    ({"env": {"human_model": "orka"}}, "env: human_model must be one of"),
     ({"env": {"dt": -1}}, "env: dt must be a positive number"),
 ])
 def test_the_config_validator_rejects_bad_keys(data, message):
