@@ -6,12 +6,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from test_humans import _wide_corridor  # the 3 m wide, 20 m corridor
 
 import sgjax
 from sgjax.geometry import point_segment_distance
 from sgjax.humans import HumanState
 from sgjax.humans.crowd import HumanConfig, human_forces, move_humans
-from sgjax.maps import parse_map
 from sgjax.maps.arrays import compile_map
 from sgjax.orca import orca_velocity
 from sgjax.registry import human_params
@@ -55,23 +55,11 @@ def test_circle_crossing_of_twenty_resolves_without_overlap():
     assert arrived[0] * dt < 45.0  # measured 34.6 s
 
 
-def _corridor():
-    """A 3 m wide, 20 m long corridor; nodes on its centre line every 3 m."""
-    nodes = [{"id": i, "position": [float(x), 0.0]} for i, x in enumerate(range(-9, 10, 3))]
-    return parse_map({
-        "name": "corridor", "description": "3 m wide test corridor",
-        "bounds": [-10, -2, 10, 2],
-        "walls": [[-10, -1.5, 10, -1.5], [-10, 1.5, 10, 1.5]],
-        "nodes": nodes, "edges": [[i, i + 1] for i in range(len(nodes) - 1)],
-        "groups": [{"starts": [0], "goals": [len(nodes) - 1]}],
-    }, source="corridor")
-
-
 def test_counter_flow_in_a_three_metre_corridor_clears():
     """Two groups of six walk at each other down a 3 m corridor (ORCA among themselves, walls
     as obstacles): everybody gets past everybody (5 m beyond the middle) within 30 s, nobody
     enters a wall or overlaps another by more than the tolerance."""
-    spec = _corridor()
+    spec = _wide_corridor()
     m = compile_map(spec)
     n = 12
     config = HumanConfig(max_humans=n, force_model="orca")
