@@ -189,9 +189,10 @@ def dwa_controller(env: SocialNavEnv, settings: DwaSettings | None = None):
     stop, at its
     deceleration limit, before the nearest obstacle on the arc), and take the best weighted
     sum of heading (alignment of the arc's end heading with the way on, a route point beyond
-    the arc's reach seen from the robot; 1 = straight at it), clearance and speed (ties go to the most clockwise turn: robots keep right). When nothing is
-    admissible, brake. Ackermann robots steer for the chosen yaw
-    rate; omnidirectional robots drive like differential-drive ones."""
+    the arc's reach seen from the robot; 1 = straight at it), clearance and speed (ties go
+    to the most clockwise turn: robots keep right). When nothing is admissible, brake.
+    Ackermann robots steer for the chosen yaw rate; omnidirectional robots drive like
+    differential-drive ones."""
     _require_continuous(env, "dwa")
     s = settings or DwaSettings()
     action_dim = env.config.action_dim
