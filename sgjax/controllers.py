@@ -36,7 +36,7 @@ from sgjax.humans.forces import (
     exponential_wall_force,
     moussaid_interaction,
 )
-from sgjax.orca import orca_velocity, wall_lines
+from sgjax.orca import nearest_bodies, nearest_walls, orca_velocity, wall_lines
 from sgjax.planner import carrot_point, point_along_route
 
 if TYPE_CHECKING:
@@ -100,20 +100,8 @@ def orca_controller(env: SocialNavEnv, settings: OrcaControllerSettings | None =
                                  jnp.full(h.x.shape, s.pedestrian_share)])
         present = jnp.concatenate([r.in_world, h.active])
         pair = present[None, :] & ~jnp.eye(num, bx.shape[0], dtype=bool)
-        gap_sq = jnp.square(bx[None, :] - r.x[:, None]) + jnp.square(by[None, :] - r.y[:, None])
-        k = min(s.neighbors, bx.shape[0] - 1)
-        if k > 0:
-            _, near = jax.lax.top_k(jnp.where(pair, -gap_sq, -jnp.inf), k)
-            near_valid = jnp.take_along_axis(pair, near, axis=1)
-        else:
-            near = jnp.zeros((num, 0), jnp.int32)
-            near_valid = jnp.zeros((num, 0), bool)
-        ox, oy = point_segment_offset(r.x[:, None], r.y[:, None], m.wall_x1, m.wall_y1,
-                                      m.wall_x2, m.wall_y2)
-        wall_gap = jnp.where(m.wall_valid[None, :], ox * ox + oy * oy, jnp.inf)
-        kw = min(s.walls, m.wall_x1.shape[0])
-        _, wall_near = jax.lax.top_k(-wall_gap, kw)
-        wall_valid = jnp.take_along_axis(jnp.isfinite(wall_gap), wall_near, axis=1)
+        near, near_valid = nearest_bodies(r.x, r.y, bx, by, pair, s.neighbors)
+        wall_near, wall_valid = nearest_walls(r.x, r.y, m, s.walls)
 
         def one(i: Array) -> tuple[Array, Array]:
             idx, w = near[i], wall_near[i]

@@ -35,6 +35,8 @@ import jax.numpy as jnp
 from flax import struct
 from jax import Array
 
+from sgjax.geometry import point_segment_offset
+
 EPS = 1e-6  # parallel-line and zero-length tolerance
 TINY = 1e-12  # floor under square roots (their gradient at 0 is infinite)
 
@@ -120,6 +122,29 @@ def wall_lines(px: Array, py: Array, vx: Array, vy: Array, radius: Array, ax: Ar
                  py=jnp.where(interior, ny * limit, corner.py),
                  dx=jnp.where(interior, -ny, corner.dx), dy=jnp.where(interior, nx, corner.dy),
                  valid=corner.valid)
+
+
+def nearest_bodies(x: Array, y: Array, bx: Array, by: Array, pair: Array, k: int
+                   ) -> tuple[Array, Array]:
+    """For agents at ``x, y`` ``[N]``, the rows of the ``k`` (static) nearest of the bodies
+    ``bx, by`` ``[B]`` that ``pair [N, B]`` allows: ``(index [N, k'], valid [N, k'])`` with
+    ``k' = min(k, B - 1)`` (0 when there is no other body)."""
+    k = max(0, min(k, bx.shape[0] - 1))
+    if not k:
+        return jnp.zeros((x.shape[0], 0), jnp.int32), jnp.zeros((x.shape[0], 0), bool)
+    gap_sq = jnp.square(bx[None, :] - x[:, None]) + jnp.square(by[None, :] - y[:, None])
+    _, near = jax.lax.top_k(jnp.where(pair, -gap_sq, -jnp.inf), k)
+    return near, jnp.take_along_axis(pair, near, axis=1)
+
+
+def nearest_walls(x: Array, y: Array, m, k: int) -> tuple[Array, Array]:
+    """For agents at ``x, y`` ``[N]``, the rows of the ``k`` (static) nearest valid walls of
+    map arrays ``m``: ``(index [N, k'], valid [N, k'])``, ``k' = min(k, W)``."""
+    ox, oy = point_segment_offset(x[:, None], y[:, None], m.wall_x1, m.wall_y1, m.wall_x2,
+                                  m.wall_y2)
+    gap = jnp.where(m.wall_valid[None, :], ox * ox + oy * oy, jnp.inf)
+    _, near = jax.lax.top_k(-gap, min(k, m.wall_x1.shape[0]))
+    return near, jnp.take_along_axis(jnp.isfinite(gap), near, axis=1)
 
 
 def join(*parts: Lines) -> Lines:

@@ -32,9 +32,9 @@ import jax.numpy as jnp
 from flax import struct
 from jax import Array
 
-from sgjax.geometry import point_segment_offset, safe_norm
+from sgjax.geometry import safe_norm
 from sgjax.maps.arrays import MapArrays
-from sgjax.orca import orca_velocity, wall_lines
+from sgjax.orca import nearest_bodies, nearest_walls, orca_velocity, wall_lines
 
 
 @struct.dataclass
@@ -75,22 +75,8 @@ def orca_forces(
     share = jnp.concatenate([jnp.full(h.x.shape, 0.5), robot_share])
     present = jnp.concatenate([h.active, robot_in_world & (p.robot_share > 0.0)])
     pair = present[None, :] & ~jnp.eye(num, bx.shape[0], dtype=bool)
-    gap_sq = jnp.square(bx[None, :] - h.x[:, None]) + jnp.square(by[None, :] - h.y[:, None])
-    k = min(neighbors, bx.shape[0] - 1) if bx.shape[0] > 1 else 0
-    if k:
-        _, near = jax.lax.top_k(jnp.where(pair, -gap_sq, -jnp.inf), k)  # [H, k]
-        near_valid = jnp.take_along_axis(pair, near, axis=1)
-    else:
-        near = jnp.zeros((num, 0), jnp.int32)
-        near_valid = jnp.zeros((num, 0), bool)
-
-    # Walls: the `walls` nearest segments.
-    ox, oy = point_segment_offset(h.x[:, None], h.y[:, None], m.wall_x1, m.wall_y1, m.wall_x2,
-                                  m.wall_y2)  # [H, W]: wall point -> pedestrian
-    wall_gap = jnp.where(m.wall_valid[None, :], ox * ox + oy * oy, jnp.inf)
-    kw = min(walls, m.wall_x1.shape[0])
-    _, wall_near = jax.lax.top_k(-wall_gap, kw)  # [H, kw]
-    wall_valid = jnp.take_along_axis(jnp.isfinite(wall_gap), wall_near, axis=1)
+    near, near_valid = nearest_bodies(h.x, h.y, bx, by, pair, neighbors)
+    wall_near, wall_valid = nearest_walls(h.x, h.y, m, walls)  # the `walls` nearest segments
 
     def one(i: Array) -> tuple[Array, Array]:
         idx, w = near[i], wall_near[i]
