@@ -8,7 +8,7 @@ import pytest
 
 import sgjax
 from sgjax.maps import parse_map
-from sgjax.maps.crowd import CROWD_SCENARIOS, circle_crossing, perpendicular_traffic
+from sgjax.maps.crowd import CROWD_SCENARIOS, circle_crossing, perpendicular_traffic, resize
 
 
 def test_crowd_scenarios_are_registered_and_reset_on_their_routes():
@@ -77,3 +77,52 @@ def test_circle_crossing_runs_under_every_model(model):
     assert float(np.min(np.hypot(np.asarray(x0), np.asarray(y0)))) > 2.5  # on the circle
     across = np.max(np.asarray(away), axis=0) > 6.0
     assert across.mean() >= 0.75, np.max(np.asarray(away), axis=0)
+
+
+def test_resize_sweeps_the_circle_radius_as_a_traced_param():
+    """``crowd.resize`` scales the routes by a traced factor: one compiled reset serves every
+    radius, robots and pedestrians start on the scaled circle, and the episode plays out."""
+    env, params = sgjax.make(circle_crossing(radius=6.0), num_agents=3, num_humans=8)
+    traces = []
+
+    @jax.jit
+    def reset_at(scale, key):
+        traces.append(1)
+        p = params.replace(map=resize(params.map, scale))
+        return env.reset(key, p)[1], p
+
+    for scale in (0.5, 1.0 / 3.0):
+        state, p = reset_at(jnp.float32(scale), jax.random.key(2))
+        radius = 6.0 * scale
+        start = np.hypot(np.asarray(state.route.x[:, 0]), np.asarray(state.route.y[:, 0]))
+        np.testing.assert_allclose(start, radius, atol=1e-4)
+        np.testing.assert_allclose(np.asarray(state.route.goal_x), -np.asarray(state.route.x[:, 0]),
+                                   atol=1e-4)
+        origin = np.asarray(state.humans.origin)
+        np.testing.assert_allclose(np.hypot(np.asarray(p.map.node_x)[origin],
+                                            np.asarray(p.map.node_y)[origin]), radius, atol=1e-4)
+        near = np.hypot(np.asarray(state.humans.x) - np.asarray(p.map.node_x)[origin],
+                        np.asarray(state.humans.y) - np.asarray(p.map.node_y)[origin])
+        assert near.max() < 1.0, near
+    assert len(traces) == 1  # the radius is a param: no retrace
+
+    # A vmap over radii runs the episodes; robots on the 2 m circle arrive sooner than on 6 m
+    # (steps until each robot first arrives; an episode resets once all have finished).
+    scales = jnp.asarray([1.0 / 3.0, 1.0])
+
+    def episode(scale):
+        p = params.replace(map=resize(params.map, scale))
+        s = env.reset(jax.random.key(4), p)[1]
+
+        def body(s, k):
+            s = env.step(k, s, jnp.zeros(3, jnp.int32), p)[1]
+            return s, s.robots.succeeded
+
+        return jax.lax.scan(body, s, jax.random.split(jax.random.key(5), 160))[1]
+
+    arrived = np.asarray(jax.jit(jax.vmap(episode))(scales))  # [2, T, R]
+    first = np.where(arrived.any(axis=1), np.argmax(arrived, axis=1), 10**6)  # first arrival
+    assert (first[0] < 160).all(), first  # every robot crosses the 2 m circle in 16 s
+    assert (first[0] < first[1]).all(), first
+    with pytest.raises(ValueError, match=r"scale must be in \(0, 1\]"):
+        resize(params.map, 1.5)

@@ -18,8 +18,12 @@ robots (``groups``) and for the pedestrians (``pedestrian_groups``, walked back 
   perpendicular traffic).
 
 The sampled episode (which route each robot and pedestrian takes, the pedestrians' desired
-speeds and count) is drawn inside ``reset``; the geometry is the map's (pass settings to the
-generator, e.g. ``make(circle_crossing(radius=6))``). Counts and speeds are params.
+speeds and count) is drawn inside ``reset``. Counts and speeds are params (``num_agents``,
+``params.humans.num_humans``, ``params.humans.speed_*``, ``params.robots``); so is the size:
+:func:`resize` scales the routes (circle radius, square side, band length and width) by a
+traced factor in ``(0, 1]`` of the size given to the generator, which sets the arena walls
+(``make(circle_crossing(radius=8))`` then ``resize(params.map, r / 8)`` sweeps radii ``r`` up to
+8 m in one compiled function).
 """
 
 from __future__ import annotations
@@ -27,6 +31,11 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
+import jax
+import jax.numpy as jnp
+from jax import Array
+
+from sgjax.maps.arrays import MapArrays
 from sgjax.maps.schema import MapSpec, parse_map
 
 MARGIN = 2.0  # m: from the outermost route node to the arena wall
@@ -119,6 +128,33 @@ def perpendicular_traffic(length: float = 12.0, width: float = 4.0, lanes: int =
     return _arena("perpendicular_traffic", "perpendicular traffic: robots cross west-east, "
                   "pedestrians south-north across their way", west + east + south + north,
                   robots, people)
+
+
+def resize(m: MapArrays, scale: float | Array) -> MapArrays:
+    """A crowd scenario's map with its routes scaled by ``scale`` about the arena's centre.
+
+    ``m`` is a crowd scenario's ``params.map`` (centred on the origin; its walls stay where the
+    generator put them, so the generator's size is the largest and ``scale`` is in ``(0, 1]``);
+    ``scale`` is a scalar, possibly traced: ``jax.vmap`` over it is a sweep over circle radii,
+    square sides or traffic bands in one compiled function. Scaled: node positions (m), the
+    shortest-path lengths (m, every route here is a straight line, so the next hops do not
+    change) and the node gaps (m). Robot starts, goals and routes and the pedestrians' routes
+    follow the nodes; pedestrians still start on the free spawn slot nearest their route's
+    start (the slots cover the arena). A concrete ``scale`` outside ``(0, 1]`` is a
+    ``ValueError``; a traced one is not checked.
+    """
+    if not isinstance(scale, jax.core.Tracer):
+        value = float(scale)
+        if not 0.0 < value <= 1.0:
+            raise ValueError(f"crowd.resize: scale must be in (0, 1] (the generator's size is "
+                             f"the largest; the arena walls stay), got {value}")
+    scale = jnp.asarray(scale, jnp.float32)
+    return m.replace(
+        node_x=m.node_x * scale,
+        node_y=m.node_y * scale,
+        path_length=jnp.where(m.path_length >= 0.0, m.path_length * scale, m.path_length),
+        node_gap=m.node_gap * scale,
+    )
 
 
 CROWD_SCENARIOS: dict[str, Callable[[], MapSpec]] = {
