@@ -21,6 +21,7 @@ from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluate import DEFAULT_EPISODES, DEFAULT_NUM_AGENTS, evaluate, run_episodes
 from sgjax.maps.io import load as load_map
 from sgjax.policies import BASELINES
+from sgjax.protocols import PROTOCOLS, load_protocol
 from sgjax.registry import make, registered
 from sgjax.types import ACTION_MODES
 from sgjax.version import __version__
@@ -51,12 +52,41 @@ def _policy_help() -> str:
             "jittable function (obs [R, D], key) -> actions")
 
 
+PROTOCOL_FIXED = {"scenario": "scenarios", "num_agents": "num_agents", "episodes": "episodes",
+                  "seed": "seed", "counterfactual": "counterfactual", "time_limit": "time_limit"}
+EVALUATE_DEFAULTS = {"scenario": list(MINI_GAMES), "num_agents": list(DEFAULT_NUM_AGENTS),
+                     "episodes": DEFAULT_EPISODES, "seed": 0, "counterfactual": False}
+
+
+def _apply_protocol(args: argparse.Namespace) -> None:
+    """Fill in what ``--protocol`` fixes (an error if the command line sets it too), else the
+    defaults."""
+    if args.protocol is None:
+        for name, value in EVALUATE_DEFAULTS.items():
+            if getattr(args, name) is None:
+                setattr(args, name, value)
+        return
+    protocol = load_protocol(args.protocol)
+    clash = [f"--{name.replace('_', '-')}" for name in PROTOCOL_FIXED
+             if getattr(args, name) not in (None, False)]
+    if clash:
+        raise ValueError(f"--protocol {protocol.name} fixes {', '.join(clash)}; leave "
+                         f"{'it' if len(clash) == 1 else 'them'} out (or write a protocol file)")
+    for name, field in PROTOCOL_FIXED.items():
+        value = getattr(protocol, field)
+        setattr(args, name, list(value) if isinstance(value, tuple) else value)
+
+
 def run_evaluate(args: argparse.Namespace) -> None:
+    _apply_protocol(args)
     print(f"sgjax {__version__}, jax {jax.__version__} on {jax.devices()[0].platform}: "
           f"{len(args.scenario)} scenario(s) x {len(args.policy)} policy(ies) x robot counts "
-          f"{args.num_agents} x {args.episodes} episodes")
+          f"{args.num_agents} x {args.episodes} episodes, seed {args.seed}"
+          + (f", protocol {args.protocol}" if args.protocol else "")
+          + (", counterfactual lanes on" if args.counterfactual else ""))
     evaluate(args.scenario, args.policy, num_agents=args.num_agents, episodes=args.episodes,
-             seed=args.seed, out=args.out, make_kwargs=_make_kwargs(args))
+             seed=args.seed, out=args.out, make_kwargs=_make_kwargs(args),
+             counterfactual=args.counterfactual)
     print(f"table: {Path(args.out) / 'table.md'}")
 
 
@@ -150,14 +180,23 @@ def build_parser() -> argparse.ArgumentParser:
     ev = commands.add_parser("evaluate", help="metrics of policies x scenarios x robot counts",
                              description="Evaluate policies; writes metrics.json, metrics.csv, "
                                          "table.md and PNG charts")
-    ev.add_argument("--scenario", nargs="+", default=list(MINI_GAMES),
+    ev.add_argument("--scenario", nargs="+", default=None,
                     help=f"scenario ids or map files (default: the five mini-games); "
                          f"shipped: {', '.join(registered())}")
     ev.add_argument("--policy", nargs="+", default=["only_local"], help=_policy_help())
-    ev.add_argument("--num-agents", nargs="+", type=int, default=list(DEFAULT_NUM_AGENTS))
-    ev.add_argument("--episodes", type=int, default=DEFAULT_EPISODES,
-                    help="episodes per configuration")
-    ev.add_argument("--seed", type=int, default=0)
+    ev.add_argument("--num-agents", nargs="+", type=int, default=None,
+                    help=f"robot counts (default: {' '.join(map(str, DEFAULT_NUM_AGENTS))})")
+    ev.add_argument("--episodes", type=int, default=None,
+                    help=f"episodes per configuration (default {DEFAULT_EPISODES})")
+    ev.add_argument("--seed", type=int, default=None, help="evaluation seed (default 0)")
+    ev.add_argument("--counterfactual", action="store_true",
+                    help="also play each episode with each robot alone and without each robot "
+                         "(1 + 2R times the work) for path deviation, Hausdorff distance, "
+                         "makespan ratio and invasiveness")
+    ev.add_argument("--protocol", default=None,
+                    help=f"a built-in protocol ({', '.join(PROTOCOLS)}) or a protocol YAML "
+                         "file fixing scenarios, robot counts, episodes, seed, time limit and "
+                         "counterfactual lanes (sgjax.protocols)")
     ev.add_argument("--out", default="runs/eval", help="output folder")
     _add_environment_options(ev)
     ev.set_defaults(run=run_evaluate)

@@ -219,7 +219,8 @@ class SocialNavEnv:
         self.check_params(params)
         return self._reset_compiled(key, params)
 
-    def _reset(self, key: Array, params: EnvParams) -> tuple[Array, EnvState]:
+    def _reset(self, key: Array, params: EnvParams, keep: Array | None = None
+               ) -> tuple[Array, EnvState]:
         key_robots, key_humans = jax.random.split(key)
         fewest = jnp.where(params.min_agents > 0,
                            jnp.minimum(params.min_agents, params.num_agents), params.num_agents)
@@ -227,7 +228,23 @@ class SocialNavEnv:
         wanted = jnp.arange(self.max_agents) < count
         start, goal, placed = sample_starts_goals(key_robots, params.map, params.robots.radius,
                                                   wanted)
-        return self._reset_to(start, goal, placed, params, key_humans)
+        if keep is None:
+            return self._reset_to(start, goal, placed, params, key_humans)
+        return self._reset_to(start, goal, placed & jnp.asarray(keep, bool), params, key_humans,
+                              spawn_present=placed)
+
+    def reset_subset(self, key: Array, params: EnvParams, keep: Array) -> tuple[Array, EnvState]:
+        """The episode ``reset(key, params)`` starts, with only the robots in ``keep [R]`` (bool)
+        taking part: the others are removed before the first step, and the pedestrians stand
+        where they stand in the full episode (their spawn slots avoid every sampled robot).
+        With ``keep`` all True this is ``reset``. The counterfactual metrics play the same
+        episode with a robot alone or without it this way (``sgjax.counterfactual``)."""
+        self.check_params(params)
+        return self._reset_subset_compiled(key, params, keep)
+
+    def _reset_subset(self, key: Array, params: EnvParams, keep: Array
+                      ) -> tuple[Array, EnvState]:
+        return self._reset(key, params, keep)
 
     def reset_to(
         self, start: Array, goal: Array, present: Array, params: EnvParams,
@@ -246,6 +263,7 @@ class SocialNavEnv:
 
     def _reset_to(
         self, start: Array, goal: Array, present: Array, params: EnvParams, key: Array,
+        spawn_present: Array | None = None,
     ) -> tuple[Array, EnvState]:
         num_robots = self.max_agents
         # Split only what is used: reset runs inside every auto-reset step.
@@ -266,8 +284,10 @@ class SocialNavEnv:
         )
         no = jnp.zeros(num_robots, bool)
         none = jnp.zeros(num_robots, jnp.int32)
+        # Pedestrians avoid the start of every robot in spawn_present (default: the present).
+        blockers = robots.present if spawn_present is None else jnp.asarray(spawn_present, bool)
         humans = spawn_humans(key_humans, self.config.humans, params.humans, params.map, x, y,
-                              params.robots.radius, robots.present)
+                              params.robots.radius, blockers)
         zones = start_zones(key_zones, route.x, route.y, x, y, params.robots.radius,
                             robots.present, self.config.tracked_zones(params.map.zone_rect))
         distance = route.goal_distance(x, y)
@@ -470,5 +490,6 @@ class SocialNavEnv:
     # they are inlined; under ``jax.disable_jit()`` they run op by op.
     _reset_compiled = jax.jit(_reset, static_argnums=0)
     _reset_to_compiled = jax.jit(_reset_to, static_argnums=0)
+    _reset_subset_compiled = jax.jit(_reset_subset, static_argnums=0)
     _step_compiled = jax.jit(_step, static_argnums=0)
     _step_env_compiled = jax.jit(_step_env, static_argnums=0)

@@ -28,6 +28,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from sgjax import counterfactual as cf
 from sgjax import metrics
 from sgjax.env import EnvParams, SocialNavEnv
 from sgjax.policies import Policy, RecurrentPolicy, load_policy, policy_make_kwargs
@@ -75,6 +76,7 @@ class Episodes:
 def episode_runner(
     env: SocialNavEnv, params: EnvParams, policy: Policy | RecurrentPolicy, num_episodes: int,
     constants: metrics.MetricConstants = metrics.DEFAULT_CONSTANTS, record: bool = False,
+    counterfactual: bool = False,
 ) -> Callable[[jax.Array], tuple]:
     """A jitted ``run(key, params) -> (values, robot, states)`` playing ``num_episodes``
     episodes of ``env`` under ``policy`` for the time limit (``states`` is None unless
@@ -84,18 +86,25 @@ def episode_runner(
     ``env.max_agents`` (and every pedestrian count, radius or weight the params hold): make the
     environment once at the largest count and pass each count's params. The ``params`` given
     here fix the number of steps scanned (their ``max_steps``); ``run`` needs params whose
-    ``max_steps`` is at most that (:func:`check_steps`), as an episode is cut off there."""
+    ``max_steps`` is at most that (:func:`check_steps`), as an episode is cut off there.
+
+    ``counterfactual`` also plays every episode with each robot alone and without each robot
+    (:mod:`sgjax.counterfactual`: ``1 + 2R`` times the work) and fills in the counterfactual
+    metrics (NaN otherwise). The episodes themselves are the same either way."""
     env = with_zone_books(env)
     num_steps = int(params.max_steps)
+    num_robots = env.max_agents
     reset = jax.vmap(env.reset, in_axes=(0, None))
+    reset_lanes = jax.vmap(env.reset_subset, in_axes=(0, None, 0))
     step = jax.vmap(env.step_env, in_axes=(0, 0, 0, None))
     if isinstance(policy, RecurrentPolicy):
         act = jax.vmap(policy.step, in_axes=(0, 0, 0, 0, None))
-        first_memory = jax.vmap(lambda _: policy.init(env.max_agents))(jnp.arange(num_episodes))
+        first_memory = lambda n: jax.vmap(lambda _: policy.init(num_robots))(  # noqa: E731
+            jnp.arange(n))
     else:
         plain = jax.vmap(policy, in_axes=(0, 0, 0, None))
         act = lambda memory, *args: (memory, plain(*args))  # noqa: E731
-        first_memory = jnp.zeros(num_episodes)
+        first_memory = jnp.zeros
     done_of = jax.vmap(metrics.episode_done)
     update = jax.vmap(lambda m, s0, s1, info, done, params: metrics.update(
         m, s0, s1, info, done, params, env.config, constants),
@@ -103,36 +112,99 @@ def episode_runner(
     finalize = jax.vmap(lambda m, s, params: metrics.finalize(m, s, params, constants),
                         in_axes=(0, 0, None))
 
-    def one_step(carry, key, params):
-        obs, state, tally, memory = carry
-        k_act, k_step = jax.random.split(key)
-        memory, actions = act(memory, obs, jax.random.split(k_act, num_episodes), state, params)
-        next_obs, next_state, _, term, trunc, info = step(
-            jax.random.split(k_step, num_episodes), state, actions, params)
-        tally_next = update(tally, state, next_state, info, done_of(next_state, term, trunc),
-                            params)
+    def play(params: EnvParams, obs: jax.Array, state: Any, lanes: int, keys: jax.Array,
+             hook: Callable | None = None, extra: Any = None, emit: Callable | None = None
+             ) -> tuple:
+        """Play ``num_episodes x lanes`` episodes (episode-major) for ``num_steps``; the lanes
+        of an episode share its per-step keys. ``hook(extra, prev, state, running)`` folds each
+        step into ``extra``; ``emit(state)`` is returned for every step."""
+        count = num_episodes * lanes
+        tally = jax.vmap(lambda _: metrics.start(num_robots, constants,
+                                                 state.zones.phase.shape[-1]))(jnp.arange(count))
 
-        def keep(new, old):  # ended episodes stay as they ended
-            running = tally.running.reshape((-1,) + (1,) * (new.ndim - 1))
-            return jnp.where(running, new, old)
+        def per_lane(keys: jax.Array) -> jax.Array:
+            return keys if lanes == 1 else keys[jnp.arange(count) // lanes]
 
-        carry = (keep(next_obs, obs), jax.tree.map(keep, next_state, state), tally_next, memory)
-        return carry, (carry[1] if record else None)
+        def one_step(carry, key):
+            obs, state, tally, memory, extra = carry
+            k_act, k_step = jax.random.split(key)
+            memory, actions = act(memory, obs, per_lane(jax.random.split(k_act, num_episodes)),
+                                  state, params)
+            next_obs, next_state, _, term, trunc, info = step(
+                per_lane(jax.random.split(k_step, num_episodes)), state, actions, params)
+            tally_next = update(tally, state, next_state, info, done_of(next_state, term, trunc),
+                                params)
+
+            def keep(new, old):  # ended episodes stay as they ended
+                running = tally.running.reshape((-1,) + (1,) * (new.ndim - 1))
+                return jnp.where(running, new, old)
+
+            kept = jax.tree.map(keep, next_state, state)
+            if hook is not None:
+                extra = hook(extra, state, kept, tally.running)
+            carry = (keep(next_obs, obs), kept, tally_next, memory, extra)
+            return carry, (None if emit is None else emit(kept))
+
+        (_, final, tally, _, extra), out = jax.lax.scan(
+            one_step, (obs, state, tally, first_memory(count), extra), keys)
+        return final, tally, extra, out
+
+    def by_episode(tree: Any, lanes: int) -> Any:  # [E * L, ...] -> [E, L, ...]
+        return jax.tree.map(lambda v: v.reshape((num_episodes, lanes) + v.shape[1:]), tree)
+
+    def run_counterfactual(reset_keys: jax.Array, step_keys: jax.Array, params: EnvParams
+                           ) -> tuple:
+        # The robots alone: lane i of each episode keeps robot i; keep its positions.
+        lanes = num_robots
+        masks = jnp.tile(cf.alone_masks(num_robots), (num_episodes, 1))
+        obs, state = reset_lanes(jnp.repeat(reset_keys, lanes, axis=0), params, masks)
+        own = jnp.arange(num_robots)
+
+        def own_xy(s: Any) -> jax.Array:  # [E, R, 2]: robot i in lane i
+            r = by_episode(s.robots, lanes)
+            return jnp.stack([r.x[:, own, own], r.y[:, own, own]], axis=-1)
+
+        _, alone, _, path = play(params, obs, state, lanes, step_keys, emit=own_xy)
+        path = jnp.concatenate([own_xy(state)[None], path])  # [T + 1, E, R, 2]
+        arrived = by_episode(alone.arrived_at, lanes)[:, own, own]
+        solo = cf.SoloPaths(x=jnp.moveaxis(path[..., 0], 0, -1),
+                            y=jnp.moveaxis(path[..., 1], 0, -1), arrived_at=arrived)
+
+        # The episode (lane 0) and the episode without each robot (lane 1 + i).
+        lanes = 1 + num_robots
+        masks = jnp.tile(cf.main_masks(num_robots), (num_episodes, 1))
+        obs, state = reset_lanes(jnp.repeat(reset_keys, lanes, axis=0), params, masks)
+
+        def compare(c: cf.Tally, prev: Any, now: Any, running: jax.Array) -> cf.Tally:
+            return cf.update(c, solo, by_episode(prev, lanes), by_episode(now, lanes),
+                             running.reshape(num_episodes, lanes))
+
+        first = by_episode(state.robots, lanes)
+        c0 = cf.start(first.x[:, 0], first.y[:, 0], solo)
+        final, tally, c, out = play(
+            params, obs, state, lanes, step_keys, hook=compare, extra=c0,
+            emit=(lambda s: jax.tree.map(lambda v: v[::lanes], s)) if record else None)
+        final, tally = jax.tree.map(lambda v: v[::lanes], (final, tally))
+        robot, episode = finalize(tally, final, params)
+        extra_robot, extra_episode = cf.finalize(c, solo, final, episode["makespan"], params)
+        return {**robot, **extra_robot}, {**episode, **extra_episode}, final, out, state
 
     @jax.jit
     def run(key: jax.Array, params: EnvParams) -> tuple:
         k_reset, k_steps = jax.random.split(key)
-        obs, state = reset(jax.random.split(k_reset, num_episodes), params)
-        tally = jax.vmap(lambda _: metrics.start(env.max_agents, constants))(
-            jnp.arange(num_episodes))
-        (_, final, tally, _), states = jax.lax.scan(
-            lambda carry, k: one_step(carry, k, params), (obs, state, tally, first_memory),
-            jax.random.split(k_steps, num_steps))
-        robot, episode = finalize(tally, final, params)
+        reset_keys = jax.random.split(k_reset, num_episodes)
+        step_keys = jax.random.split(k_steps, num_steps)
+        if counterfactual:
+            robot, episode, _, states, first = run_counterfactual(reset_keys, step_keys, params)
+            first = jax.tree.map(lambda v: v[::1 + num_robots], first)
+        else:
+            obs, first = reset(reset_keys, params)
+            final, tally, _, states = play(params, obs, first, 1, step_keys,
+                                           emit=(lambda s: s) if record else None)
+            robot, episode = finalize(tally, final, params)
         values = jax.vmap(metrics.per_episode)(robot, episode)
         if record:
-            states = jax.tree.map(lambda first, rest: jnp.concatenate([first[None], rest]),
-                                  state, states)
+            states = jax.tree.map(lambda a, rest: jnp.concatenate([a[None], rest]), first, states)
         return values, robot, states
 
     return run
@@ -198,6 +270,7 @@ def evaluate(
     constants: metrics.MetricConstants = metrics.DEFAULT_CONSTANTS,
     log: Callable[[str], None] | None = print,
     policy_names: Sequence[str] | None = None,
+    counterfactual: bool = False,
 ) -> list[ConfigResult]:
     """Evaluate every policy on every scenario and robot count; with ``out``, write
     ``metrics.json``, ``metrics.csv``, ``table.md`` and PNG charts there (:mod:`sgjax.report`).
@@ -210,7 +283,9 @@ def evaluate(
 
     Each (scenario, policy) compiles once: the environment is made with ``max_agents`` = the
     largest count (unless ``make_kwargs`` sets it) and every robot count is a params value of
-    the same compiled run."""
+    the same compiled run. ``counterfactual`` adds the lanes of :mod:`sgjax.counterfactual`
+    (each robot alone, the episode without each robot: ``1 + 2 max_agents`` times the work) and
+    their metrics; the episodes and every other metric are the same either way."""
     if not scenarios or not policies or not num_agents:
         raise ValueError("evaluate: scenarios, policies and num_agents must not be empty")
     if episodes < 1:
@@ -225,7 +300,8 @@ def evaluate(
             env, by_count = params_by_count(
                 scenario, num_agents, **policy_make_kwargs(policy), **(make_kwargs or {}))
             params = by_count[num_agents[0]]
-            run = episode_runner(env, params, load_policy(policy, env), episodes, constants)
+            run = episode_runner(env, params, load_policy(policy, env), episodes, constants,
+                                 counterfactual=counterfactual)
             compiled = run.lower(key, params).compile()
             compile_seconds = time.perf_counter() - t0
             for n in num_agents:
@@ -235,7 +311,8 @@ def evaluate(
                     scenario=str(scenario), policy=name, num_agents=n, episodes=episodes,
                     seed=seed, dt=float(params.dt), max_steps=int(params.max_steps),
                     metrics=summarize_episodes(batch), seconds=time.perf_counter() - t0,
-                    compile_seconds=batch.compile_seconds, run_seconds=batch.run_seconds)
+                    compile_seconds=batch.compile_seconds, run_seconds=batch.run_seconds,
+                    counterfactual=counterfactual)
                 results.append(result)
                 if log is not None:
                     log(_progress_line(result))

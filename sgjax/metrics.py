@@ -77,6 +77,32 @@ def _m(name: str, unit: str, level: str, reduce: str, definition: str, source: s
     return MetricInfo(name, unit, level, reduce, binary, definition, source)
 
 
+# Metrics that compare an episode with the same episode played again with a robot alone or
+# without it (sgjax.counterfactual; NaN unless the evaluation runs those lanes).
+COUNTERFACTUAL_METRICS: tuple[MetricInfo, ...] = (
+    _m("makespan_ratio", "ratio", "episode", "mean",
+       "makespan / the slowest robot's arrival time when it plays the same episode alone "
+       "(team successes whose robots all arrive alone; NaN otherwise)", "SMGLib"),
+    _m("path_deviation_mean", "m", "robot", "mean",
+       "mean over the robot's active steps of the distance from its position to its own path "
+       "in the same episode alone (polyline of its positions there)",
+       "SMGLib path deviation, with the exact solo path for the straight line"),
+    _m("path_deviation_max", "m", "robot", "mean", "max of the same", "SMGLib"),
+    _m("hausdorff", "m", "robot", "mean",
+       "Hausdorff distance between the robot's path and its own path alone (both polylines, "
+       "start to where it stopped)", "SMGLib Hausdorff distance"),
+    _m("invasiveness_robots", "m", "robot", "mean",
+       "mean over steps (while this episode or the one without the robot runs) and over the "
+       "other robots of the distance between where they are with and without this robot",
+       "SMGLib's reverted invasiveness, made exact by a counterfactual lane"),
+    _m("invasiveness_humans", "m", "robot", "mean",
+       "the same over the pedestrians (NaN without any)", "sgjax"),
+    _m("invasiveness_speed", "m/s", "robot", "mean",
+       "the same for speeds: mean over steps and over the other robots and pedestrians of "
+       "|speed with - speed without this robot|", "sgjax"),
+)
+COUNTERFACTUAL_NAMES = tuple(m.name for m in COUNTERFACTUAL_METRICS)
+
 METRICS: tuple[MetricInfo, ...] = (
     _m("success", "fraction", "robot", "mean",
        "robot reached its goal (centre within goal_tolerance) before the episode ended; the "
@@ -172,6 +198,17 @@ METRICS: tuple[MetricInfo, ...] = (
     _m("stuck_end", "fraction", "episode", "mean",
        "the episode was truncated before the time limit (stuck ender)", "SocialGym 2.0",
        binary=True),
+    _m("makespan", "s", "episode", "mean",
+       "dt x steps until the last robot arrived, team successes only (NaN otherwise); the "
+       "same number as aggregated_time, under the multi-agent planning name",
+       "SMGLib (Chandra et al.); Stern et al. 2019"),
+    _m("flow_rate", "1/(m s)", "episode", "mean",
+       "robots through a conflict zone per metre of its free width per second: exits / "
+       "(zone_width x (last exit - first entry) x dt), averaged over the map's zones with an "
+       "exit after an earlier entry (NaN otherwise); zone_width is the gap between the "
+       "obstacles inside the zone (1 m door, 1 m corridor, 4 m roads; maps.arrays.zone_widths)",
+       "SMGLib flow rate, per metre and second"),
+    *COUNTERFACTUAL_METRICS,
 )
 METRIC_NAMES = tuple(m.name for m in METRICS)
 METRICS_BY_NAME = {m.name: m for m in METRICS}
@@ -211,11 +248,17 @@ class MetricState:
     deadlock: Array  # bool scalar
     bad_entries: Array  # int32
     bad_exits: Array  # int32
+    zone_exits: Array  # [Z] int32: robots that left each conflict zone
+    zone_first_entry: Array  # [Z] int32: step of the first entry (-1: none)
+    zone_last_exit: Array  # [Z] int32: step of the last exit (-1: none)
 
 
-def start(num_robots: int, constants: MetricConstants = DEFAULT_CONSTANTS) -> MetricState:
-    """Empty accumulators for a fresh episode of ``num_robots`` robot slots."""
+def start(num_robots: int, constants: MetricConstants = DEFAULT_CONSTANTS, num_zones: int = 0
+          ) -> MetricState:
+    """Empty accumulators for a fresh episode of ``num_robots`` robot slots and ``num_zones``
+    tracked conflict zones (``state.zones.phase.shape[1]``; 0 without zone books)."""
     r, k = num_robots, len(constants.space_radii)
+    none = jnp.full(num_zones, -1, jnp.int32)
     zf, zi = jnp.zeros(r, jnp.float32), jnp.zeros(r, jnp.int32)
     inf = jnp.full(r, jnp.inf, jnp.float32)
     return MetricState(
@@ -227,7 +270,8 @@ def start(num_robots: int, constants: MetricConstants = DEFAULT_CONSTANTS) -> Me
         min_gap_robot=inf, min_gap_human=inf, near_robot=jnp.zeros((k, r), jnp.int32),
         near_human=jnp.zeros((k, r), jnp.int32), min_ttc=jnp.full(r, constants.ttc_cap),
         ttc_low=zi, stall_run=jnp.zeros((), jnp.int32), deadlock=jnp.zeros((), bool),
-        bad_entries=zi, bad_exits=zi,
+        bad_entries=zi, bad_exits=zi, zone_exits=jnp.zeros(num_zones, jnp.int32),
+        zone_first_entry=none, zone_last_exit=none,
     )
 
 
@@ -319,6 +363,8 @@ def update(
     deadlock_steps = jnp.maximum(jnp.ceil(constants.deadlock_time / dt - 1e-6), 1)
 
     bad_entries, bad_exits = _order_violations(prev, state, params, config)
+    entries, exits = _zone_traffic(prev, state)
+    now = state.time
 
     arrived = info["arrived"] & running
     all_arrived = jnp.all(~robots1.present | robots1.succeeded) & jnp.any(robots1.present)
@@ -364,7 +410,21 @@ def update(
         deadlock=m.deadlock | (running & (stall_run >= deadlock_steps)),
         bad_entries=add(m.bad_entries, bad_entries, running),
         bad_exits=add(m.bad_exits, bad_exits, running),
+        zone_exits=m.zone_exits + jnp.where(running, exits, 0),
+        zone_first_entry=jnp.where(running & (entries > 0) & (m.zone_first_entry < 0), now,
+                                   m.zone_first_entry),
+        zone_last_exit=jnp.where(running & (exits > 0), now, m.zone_last_exit),
     )
+
+
+def _zone_traffic(prev: EnvState, state: EnvState) -> tuple[Array, Array]:
+    """Robots that entered and that left each tracked conflict zone this step, ``[Z]`` int32
+    (a robot that crossed a zone within one step counts as both)."""
+    before, after = prev.zones.phase, state.zones.phase
+    entered = (before == zn.BEFORE) & (after != zn.BEFORE)
+    exited = (before != zn.LEFT) & (after == zn.LEFT)
+    return (jnp.sum(entered, axis=0).astype(jnp.int32),
+            jnp.sum(exited, axis=0).astype(jnp.int32))
 
 
 def _order_violations(prev: EnvState, state: EnvState, params: EnvParams, config: EnvConfig
@@ -444,7 +504,16 @@ def finalize(
         robot[f"{space}_space_robot"] = known(m.near_robot[k] / steps, saw_robot)
     robot = {name: jnp.where(present, value.astype(jnp.float32), nan)
              for name, value in robot.items()}
+    for info in COUNTERFACTUAL_METRICS:  # filled in by sgjax.counterfactual when it runs
+        if info.level == "robot":
+            robot[info.name] = jnp.full(present.shape, nan)
     team = team_success(present, robots.succeeded)
+    span = (m.zone_last_exit - m.zone_first_entry).astype(jnp.float32) * dt
+    flowing = (m.zone_exits > 0) & (m.zone_first_entry >= 0) & (span > 0.0)
+    widths = params.map.zone_width[:m.zone_exits.shape[0]]
+    flow = m.zone_exits / (jnp.maximum(widths, 1e-6) * jnp.where(flowing, span, 1.0))
+    flow_rate = known(jnp.sum(jnp.where(flowing, flow, 0.0)) / jnp.maximum(jnp.sum(flowing), 1),
+                      jnp.any(flowing))
     episode = {
         "team_success": team,
         "collision_episode": jnp.any(present & (total > 0)),
@@ -452,6 +521,9 @@ def finalize(
         "aggregated_time": known(m.all_done_at * dt, team),
         "deadlock": m.deadlock,
         "stuck_end": (m.length < params.max_steps) & ~jnp.all(~present | robots.finished),
+        "makespan": known(m.all_done_at * dt, team),
+        "flow_rate": flow_rate,
+        "makespan_ratio": nan,
     }
     return robot, {name: jnp.asarray(v, jnp.float32) for name, v in episode.items()}
 

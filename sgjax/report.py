@@ -25,6 +25,12 @@ from sgjax.version import __version__
 HEADLINE = (("episode_length", "Avg. length (steps)"), ("collisions", "Coll. rate"),
             ("stop_time", "Stop time (s)"), ("velocity_change_max", "Max dV (m/s)"),
             ("team_success", "Team success"), ("success", "Robot success"))
+# The multi-robot mini-game metrics (SMGLib's, made exact), the counterfactual ones when run.
+MINI_GAME = (("makespan", "Makespan (s)"), ("flow_rate", "Flow (1/(m s))"))
+MINI_GAME_COUNTERFACTUAL = (
+    ("makespan_ratio", "Makespan ratio"), ("path_deviation_mean", "Path dev. (m)"),
+    ("hausdorff", "Hausdorff (m)"), ("invasiveness_robots", "Invasive, robots (m)"),
+    ("invasiveness_humans", "Invasive, people (m)"), ("invasiveness_speed", "Invasive (m/s)"))
 CHARTED = ("team_success", "success", "collisions", "episode_length", "stop_time",
            "velocity_change_max", "min_distance_robot", "spl", "deadlock")
 
@@ -112,6 +118,16 @@ def summary_tables(results: Sequence[ConfigResult]) -> str:
                                          if n in by_count else "" for n in counts), average])
     lines += ["", "## Team success (%) by robot count", ""]
     lines += markdown_table(["Scenario", "Policy", *(f"{n}A" for n in counts), "Avg."], rows)
+    columns = MINI_GAME + (MINI_GAME_COUNTERFACTUAL if any(r.counterfactual for r in results)
+                           else ())
+    lines += ["", "## Multi-robot mini-game metrics", ""]
+    if not any(r.counterfactual for r in results):
+        lines += ["(Path deviation, Hausdorff distance, makespan ratio and invasiveness need "
+                  "the counterfactual lanes: `sgjax evaluate --counterfactual`.)", ""]
+    lines += markdown_table(
+        ["Scenario", "Policy", "Robots", *(title for _, title in columns)],
+        [[r.scenario, r.policy, r.num_agents, *(format_summary(r.metrics[name])
+                                                 for name, _ in columns)] for r in results])
     return "\n".join(lines)
 
 

@@ -98,6 +98,7 @@ class ConfigResult:
     seconds: float  # wall time, compile included
     compile_seconds: float | None = None  # compiling the batched run
     run_seconds: float | None = None  # running it, once compiled
+    counterfactual: bool = False  # the counterfactual lanes ran (their metrics are filled in)
 
     def as_dict(self) -> dict[str, Any]:
         out = {k: v for k, v in dataclasses.asdict(self).items() if k != "metrics"}

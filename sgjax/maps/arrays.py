@@ -6,7 +6,10 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 from jax import Array
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 
+from sgjax.geometry import segments_intersect
 from sgjax.maps.routing import all_pairs_shortest_paths, path_nodes
 from sgjax.maps.schema import MapSpec, point_segment_distances
 
@@ -24,7 +27,8 @@ class MapArrays:
     ``max_route_nodes`` (static) bounds the node count of any shortest start-goal path.
     ``cell_walls`` lists, for each cell of a ``grid_shape`` grid of ``cell_size`` m squares from
     ``grid_origin``, the walls within ``reach`` m of the cell (what the planner checks).
-    ``zone_rect [Z, 4]`` holds the map's conflict zones in file order.
+    ``zone_rect [Z, 4]`` holds the map's conflict zones in file order, ``zone_width [Z]`` the
+    free width of each (:func:`zone_widths`).
     """
 
     wall_x1: Array
@@ -42,6 +46,7 @@ class MapArrays:
     cell_walls: Array  # [C, Kw] int32: walls within reach of each grid cell (padded, masked)
     grid_origin: Array  # [2] m: lower-left corner of the wall grid
     zone_rect: Array  # [Z, 4] conflict zones (xmin, ymin, xmax, ymax) in m; Z may be 0
+    zone_width: Array  # [Z] m: free width of the passage each zone guards (zone_widths)
     max_route_nodes: int = struct.field(pytree_node=False, default=2)
     grid_shape: tuple[int, int] = struct.field(pytree_node=False, default=(1, 1))
     cell_size: float = struct.field(pytree_node=False, default=1.0)
@@ -114,6 +119,60 @@ def wall_grid(
     return cell_walls, lo, (nx, ny)
 
 
+ZONE_WALL_MARGIN = 0.01  # m: walls this close outside a zone's rectangle still bound it
+
+
+def _clip_to_rect(wall: np.ndarray, rect: np.ndarray) -> np.ndarray | None:
+    """The part of segment ``(x1, y1, x2, y2)`` inside ``rect`` (Liang-Barsky), or None."""
+    x1, y1, x2, y2 = wall
+    dx, dy = x2 - x1, y2 - y1
+    lo, hi = 0.0, 1.0
+    for p, q in ((-dx, x1 - rect[0]), (dx, rect[2] - x1), (-dy, y1 - rect[1]), (dy, rect[3] - y1)):
+        if abs(p) < 1e-12:
+            if q < 0.0:
+                return None
+            continue
+        t = q / p
+        if p < 0.0:
+            lo = max(lo, t)
+        else:
+            hi = min(hi, t)
+    if lo > hi:
+        return None
+    return np.asarray([x1 + lo * dx, y1 + lo * dy, x1 + hi * dx, y1 + hi * dy])
+
+
+def _segment_gap(a: np.ndarray, b: np.ndarray) -> float:
+    """Distance (m) between segments ``a`` and ``b`` ``(x1, y1, x2, y2)``; 0 when they meet."""
+    if segments_intersect(tuple(a[:2]), tuple(a[2:]), tuple(b[:2]), tuple(b[2:])):
+        return 0.0
+    return float(min(point_segment_distances(np.stack([a[:2], a[2:]]), b[None]).min(),
+                     point_segment_distances(np.stack([b[:2], b[2:]]), a[None]).min()))
+
+
+def zone_widths(spec: MapSpec) -> np.ndarray:
+    """``[Z]`` free width (m) of the passage each conflict zone guards: the smallest distance
+    between two separate obstacles inside the zone's rectangle (grown by ``ZONE_WALL_MARGIN``),
+    an obstacle being the wall pieces there that meet one another (a jamb, a corner, the
+    roundabout's island); the rectangle's shorter side when fewer than two obstacles are there
+    (open space). The doorway's door gives 1 m, the hallway's corridor 1 m, the intersection's
+    roads 4 m, the roundabout's ring 2.1 m."""
+    widths = []
+    for zone in spec.zones:
+        rect = np.asarray(zone.rect, float) + ZONE_WALL_MARGIN * np.asarray([-1, -1, 1, 1])
+        pieces = [c for w in spec.walls if (c := _clip_to_rect(np.asarray(w, float), rect))
+                  is not None and np.hypot(c[2] - c[0], c[3] - c[1]) > 1e-6]
+        gap = np.asarray([[_segment_gap(a, b) for b in pieces] for a in pieces]).reshape(
+            len(pieces), len(pieces))
+        # Pieces that touch belong to one obstacle (scipy's connected components).
+        _, obstacle = connected_components(csr_matrix(gap < 1e-6), directed=False)
+        apart = obstacle[:, None] != obstacle[None, :]
+        best = gap[apart].min() if apart.any() else np.inf
+        side = min(zone.rect[2] - zone.rect[0], zone.rect[3] - zone.rect[1])
+        widths.append(best if np.isfinite(best) else side)
+    return np.asarray(widths, float)
+
+
 def compile_map(spec: MapSpec, reach: float = 2.5, cell_size: float = 1.0) -> MapArrays:
     """Compile a :class:`MapSpec` into :class:`MapArrays` (float32 / int32).
 
@@ -158,6 +217,7 @@ def compile_map(spec: MapSpec, reach: float = 2.5, cell_size: float = 1.0) -> Ma
         cell_walls=jnp.asarray(cell_walls, jnp.int32),
         grid_origin=jnp.asarray(origin, f32),
         zone_rect=jnp.asarray(np.reshape([z.rect for z in spec.zones], (-1, 4)), f32),
+        zone_width=jnp.asarray(zone_widths(spec), f32),
         max_route_nodes=longest,
         grid_shape=grid_shape,
         cell_size=float(cell_size),
