@@ -1,9 +1,12 @@
-"""Throughput of the evaluation runner, with and without the metric accumulators.
+"""Throughput of the evaluation runner: with the counterfactual lanes, with the metrics, and
+without the metric accumulators.
 
 ``sgjax.evaluate`` plays a batch of episodes as ``jit(scan(vmap(step_env)))`` for the time limit,
-freezing ended episodes and updating ``sgjax.metrics`` every step. This prints agent-steps/s,
-compile time and peak memory (XLA's memory analysis) for the full runner and for the same loop
-with no metrics (a no-op policy cost is the same in both), so the price of the metrics shows.
+freezing ended episodes and updating ``sgjax.metrics`` every step. This prints agent-steps/s
+(of the evaluated episodes themselves), compile time and peak memory (XLA's memory analysis)
+for the runner with the counterfactual lanes on (each robot alone and the episode without each
+robot: ``1 + 2R`` lanes per episode, ``sgjax.counterfactual``), the plain runner, and the same
+loop with no metrics, so the price of each shows.
 
     python bench/evaluation.py --episodes 256 1024 --robots 4 10
 """
@@ -89,7 +92,9 @@ def main() -> None:
         steps = int(params.max_steps)
         for episodes in args.episodes:
             with_metrics = episode_runner(env, params, only_local(env), episodes)
-            runs = {"with metrics": lambda key, run=with_metrics, p=params: run(key, p),
+            lanes = episode_runner(env, params, only_local(env), episodes, counterfactual=True)
+            runs = {"counterfactual": lambda key, run=lanes, p=params: run(key, p),
+                    "with metrics": lambda key, run=with_metrics, p=params: run(key, p),
                     "no metrics": without_metrics(env, params, only_local(env), episodes)}
             for name, run in runs.items():
                 compile_s, best, peak = measure(run, args.repeats)

@@ -236,13 +236,15 @@ def check_steps(params: EnvParams, num_steps: int, where: str) -> None:
 def run_episodes(
     env: SocialNavEnv, params: EnvParams, policy: Policy | RecurrentPolicy | str, key: jax.Array,
     num_episodes: int, constants: metrics.MetricConstants = metrics.DEFAULT_CONSTANTS,
-    record: bool = False,
+    record: bool = False, counterfactual: bool = False,
 ) -> Episodes:
-    """Play ``num_episodes`` episodes at once and return their metrics on the host."""
+    """Play ``num_episodes`` episodes at once and return their metrics on the host
+    (``counterfactual``: with the counterfactual lanes and metrics, :func:`episode_runner`)."""
     if num_episodes < 1:
         raise ValueError(f"num_episodes must be at least 1, got {num_episodes}")
     env.check_params(params)
-    run = episode_runner(env, params, load_policy(policy, env), num_episodes, constants, record)
+    run = episode_runner(env, params, load_policy(policy, env), num_episodes, constants, record,
+                         counterfactual)
     t0 = time.perf_counter()
     compiled = run.lower(key, params).compile()
     return _play(compiled, key, params, time.perf_counter() - t0)

@@ -24,9 +24,9 @@ LAYERS: dict[str, tuple[str, ...]] = {
     "terms": ("sgjax.terms", "sgjax.queries", "sgjax.observations", "sgjax.rewards",
               "sgjax.enders", "sgjax.presets"),
     "environment": ("sgjax.physics", "sgjax.env", "sgjax.options", "sgjax.registry", "sgjax"),
-    "evaluation": ("sgjax.policies", "sgjax.controllers", "sgjax.metrics", "sgjax.statistics",
-                   "sgjax.evaluate",
-                   "sgjax.report", "sgjax.render"),
+    "evaluation": ("sgjax.policies", "sgjax.controllers", "sgjax.metrics",
+                   "sgjax.counterfactual", "sgjax.statistics", "sgjax.evaluate",
+                   "sgjax.protocols", "sgjax.report", "sgjax.render"),
     "applications": ("sgjax.pettingzoo", "sgjax.sb3", "sgjax.jaxmarl", "sgjax.cli",
                      "sgjax.compilation_cache"),
 }

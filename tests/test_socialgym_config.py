@@ -98,6 +98,29 @@ def test_reproduce_socialgym_profile_is_listing_1_per_run_type(baseline):
     assert config.network.kind == ("gru" if baseline == "cadrl_lstm" else "mlp")
     zones = "zone_order" in str(config.env.make_kwargs()["rewards"])
     assert zones == (baseline in ("any_order", "enforced_order"))
-    assert only_local_settings("socialgym", None) == {"dt": 0.025, "time_limit": 80.0}
+    settings = only_local_settings("socialgym", None)
+    assert settings["dt"] == 0.025 and settings["time_limit"] == 80.0
     with pytest.raises(ValueError, match="not one"):
         socialgym_baseline_config(baseline, "office", 1, 1000, 0, [3], 1)
+
+
+@pytest.mark.parametrize("profile", ["sgjax", "socialgym"])
+def test_only_local_ends_its_episodes_as_the_trained_baselines_do(profile):
+    """Only Local runs in the trained baselines' world with their enders (the stuck ender
+    included), so its success compares with theirs."""
+    import sgjax
+    from train.reproduce import (
+        BASELINES,
+        baseline_config,
+        only_local_settings,
+        socialgym_baseline_config,
+    )
+
+    mine, _ = sgjax.make("doorway", **only_local_settings(profile, None))
+    assert any(type(t).__name__ == "Stuck" for t in mine.config.enders.terms)
+    for name in (b for b, run in BASELINES.items() if run is not None):
+        config = (baseline_config(name, "doorway", 1, 1, 1, 0, 75.0) if profile == "sgjax"
+                  else socialgym_baseline_config(name, "doorway", 1, 1, 0, [3], 1))
+        theirs, _ = sgjax.make("doorway", **config.env.make_kwargs())
+        assert mine.config.enders == theirs.config.enders, name
+        assert mine.config.arrived == theirs.config.arrived

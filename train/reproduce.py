@@ -50,6 +50,7 @@ import numpy as np
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluate import episode_runner, params_by_count
 from sgjax.policies import load_policy
+from sgjax.presets import REWARD_PRESETS
 from sgjax.report import format_summary, markdown_table
 from sgjax.statistics import summarize
 from train.actor import ActorWeights, lane_evaluator
@@ -129,13 +130,22 @@ def socialgym_baseline_config(name: str, scenario: str, seeds: int, total_steps:
 
 
 def only_local_settings(profile: str, time_limit: float | None) -> dict[str, Any]:
-    """``sgjax.make`` settings of the untrained Only Local baseline under ``profile``."""
+    """``sgjax.make`` settings of the untrained Only Local baseline under ``profile``: the
+    trained baselines' world (step, time limit, robots, arrived robots) and their enders, so the
+    stuck ender cuts Only Local's episodes short exactly as it cuts theirs (their observations
+    and rewards do not move a policy that always says GO)."""
     if profile == "sgjax":
-        return {"time_limit": 75.0 if time_limit is None else time_limit}
-    config = socialgym_baseline_config("cadrl", "open", 1, 1, 0, [3], 1, time_limit)
-    kwargs = config.env.make_kwargs()
-    return {key: value for key, value in kwargs.items()
-            if key in ("dt", "time_limit", "robots", "arrived")}
+        limit = 75.0 if time_limit is None else time_limit
+        kwargs = {**baseline_config("cadrl", "open", 1, 1, 1, 0, limit).env.make_kwargs(),
+                  "time_limit": limit}
+    else:
+        kwargs = socialgym_baseline_config("cadrl", "open", 1, 1, 0, [3], 1,
+                                           time_limit).env.make_kwargs()
+    settings = {key: value for key, value in kwargs.items()
+                if key in ("dt", "time_limit", "robots", "arrived", "enders")}
+    if "enders" not in settings and isinstance(kwargs.get("rewards"), str):
+        settings["enders"] = REWARD_PRESETS[kwargs["rewards"]]["enders"]  # the preset's
+    return settings
 
 
 def train_baseline(config: Any) -> tuple[Trainer, Any, float, float]:
