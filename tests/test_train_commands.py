@@ -87,11 +87,13 @@ def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
 def test_reproduce_writes_the_papers_two_tables(tmp_path):
     from train.reproduce import reproduce
 
-    reproduce(["open"], ["cadrl", "only_local"], seeds=2, total_steps=8 * 8 * 2, num_envs=8,
-              counts=[2, 3], episodes=2, table_robots=2, out=tmp_path, time_limit=10.0)
+    reproduce(["open"], ["cadrl", "only_local", "dwa"], seeds=2, total_steps=8 * 8 * 2,
+              num_envs=8, counts=[2, 3], episodes=2, table_robots=2, out=tmp_path,
+              time_limit=10.0)
     metrics_table = (tmp_path / "metrics_table.md").read_text()
     success_table = (tmp_path / "success_table.md").read_text()
     assert "| open | cadrl |" in metrics_table and "| open | only_local |" in metrics_table
+    assert "| open | dwa |" in metrics_table  # a classical controller as an extra row
     assert "| 2A | 3A | Avg. |" in success_table
     results = json.loads((tmp_path / "results.json").read_text())["results"]
     assert len(results["open"]["cadrl"]["2"]["team_success"]) == 2  # one value per seed

@@ -7,7 +7,9 @@ over seeds.
 Baselines (the paper's section V): ``cadrl`` (the CADRL reward preset, MLP), ``cadrl_lstm``
 (the same with the LSTM-over-others encoder, the paper's CADRL(L)), ``any_order`` and
 ``enforced_order`` (its conflict-zone rewards with the zone observations), and ``only_local``
-(always GO, not trained). Training follows the paper's setting where sgjax can: PPO, GO/STOP
+(always GO, not trained); ``--baselines`` may add the classical controllers ``orca``, ``dwa``
+and ``social_force`` (``sgjax.controllers``, continuous actions, not trained) as extra rows
+in the same world. Training follows the paper's setting where sgjax can: PPO, GO/STOP
 over the local planner, observation and reward normalisation, 3 robots, then 3 or 4 drawn per
 episode from a tenth of the steps on (the paper's "trained with up to 4 agents"; a policy that
 met only 4 robots for most of its training forgets 3: open/cadrl scored 0.00 at 3 robots and
@@ -49,7 +51,7 @@ import numpy as np
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluate import episode_runner, params_by_count
-from sgjax.policies import load_policy
+from sgjax.policies import load_policy, policy_make_kwargs
 from sgjax.presets import REWARD_PRESETS
 from sgjax.report import format_summary, markdown_table
 from sgjax.statistics import summarize
@@ -66,7 +68,12 @@ BASELINES = {
     "any_order": {"env": {"preset": "any_order"}, "network": {}},
     "enforced_order": {"env": {"preset": "enforced_order"}, "network": {}},
     "only_local": None,
+    # Classical baselines (sgjax.controllers), not trained: extra rows, not in the paper.
+    "orca": None,
+    "dwa": None,
+    "social_force": None,
 }
+PAPER_BASELINES = ("cadrl", "cadrl_lstm", "any_order", "enforced_order", "only_local")
 TABLE_METRICS = (("episode_length", "Avg. length (steps)"), ("collisions", "Coll. rate"),
                  ("stop_time", "Stop time (s)"), ("velocity_change_max", "Max dV (m/s)"),
                  ("team_success", "Team success"))
@@ -162,17 +169,20 @@ def train_baseline(config: Any) -> tuple[Trainer, Any, float, float]:
 
 
 def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: int,
-                   trainer: Trainer | None, runner: Any, make_kwargs: dict[str, Any]
-                   ) -> dict[int, dict[str, list[float]]]:
-    """``{robots: {metric: [per-seed mean over episodes]}}`` (one seed for Only Local). One
-    compilation serves every count: the environment has ``max(counts)`` slots and each count is
-    a params value; the seeds are ``vmap`` lanes of it."""
+                   trainer: Trainer | None, runner: Any, make_kwargs: dict[str, Any],
+                   policy: str = "only_local") -> dict[int, dict[str, list[float]]]:
+    """``{robots: {metric: [per-seed mean over episodes]}}`` (one seed for an untrained
+    ``policy``, used when ``trainer`` is None). One compilation serves every count: the
+    environment has ``max(counts)`` slots and each count is a params value; the seeds are
+    ``vmap`` lanes of it."""
     out: dict[int, dict[str, list[float]]] = {}
     key = jax.random.PRNGKey(seed + 1000)
+    if trainer is None:
+        make_kwargs = {**make_kwargs, **policy_make_kwargs(policy)}
     env, by_count = params_by_count(scenario, counts, **make_kwargs)
     first = by_count[counts[0]]
     if trainer is None:
-        run = episode_runner(env, first, load_policy("only_local", env), episodes)
+        run = episode_runner(env, first, load_policy(policy, env), episodes)
     else:
         evaluator = lane_evaluator(trainer.config.network, trainer.actor, env, first, episodes,
                                    trainer.config.evaluation.deterministic)
@@ -218,8 +228,8 @@ def format_tables(results: dict, counts: Sequence[int], table_robots: int, seeds
                   ) -> dict[str, str]:
     """The two tables as markdown, by file name (``metrics_table.md``, ``success_table.md``)."""
     note = (f"Means over seeds (each seed: the mean over its evaluation episodes) ± the half "
-            f"width of the 95% Student-t interval over {seeds} seeds (none for only_local, "
-            "which is not trained).")
+            f"width of the 95% Student-t interval over {seeds} seeds (none for the untrained "
+            "baselines: only_local and the classical controllers).")
     metric_rows, success_rows = [], []
     for scenario, by_baseline in results.items():
         for baseline, by_count in by_baseline.items():
@@ -315,7 +325,7 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
             if BASELINES[name] is None:
                 t0 = time.perf_counter()
                 by_count = evaluate_seeds(scenario, counts, episodes, seed, None, None,
-                                          only_local_settings(profile, time_limit))
+                                          only_local_settings(profile, time_limit), name)
                 seconds["evaluate"] += time.perf_counter() - t0
                 print(f"{scenario:>12} {name:>15}: not trained", flush=True)
             else:
@@ -370,7 +380,8 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m train.reproduce",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--scenarios", nargs="+", default=list(MINI_GAMES))
-    parser.add_argument("--baselines", nargs="+", default=list(BASELINES))
+    parser.add_argument("--baselines", nargs="+", default=list(PAPER_BASELINES),
+                        help=f"of {', '.join(BASELINES)} (default: the paper's five)")
     parser.add_argument("--seeds", type=int, default=3)
     parser.add_argument("--total-steps", type=int, default=None,
                         help="environment steps per seed (default: 2,000,000 for the sgjax "
