@@ -14,6 +14,7 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from flax import struct
 from jax import Array
 
@@ -78,8 +79,17 @@ def head_log_std(params: Any, discrete: bool) -> Array | None:
 def actor_features(network: NetworkConfig, layout: ActorLayout, obs_stats: RunningStats,
                    obs: Array) -> Array:
     """``obs [..., R, D]`` -> the actor's input ``[..., R, D (+ slots)]``: normalised, and with a
-    one-hot robot id under ``network.agent_id``."""
+    one-hot robot id under ``network.agent_id``.
+
+    The others' 0/1 ``mask`` feature passes unnormalised: the others encoders read which body
+    slots are filled from it (``> 0.5``). Normalised, a flag that is almost always 1 became 0 or
+    less (a constant one exactly 0), so the encoders saw no bodies and never learned (until
+    2026-11-24)."""
     x = obs_stats.normalize(obs) if layout.normalize else obs
+    others = layout.others
+    if layout.normalize and others is not None and others.mask_column is not None:
+        flags = others.start + others.mask_column + others.width * np.arange(others.k)
+        x = x.at[..., flags].set(obs[..., flags])
     if network.agent_id:
         ids = jnp.eye(x.shape[-2], layout.slots)
         x = jnp.concatenate([x, jnp.broadcast_to(ids, x.shape[:-1] + (layout.slots,))], axis=-1)

@@ -173,6 +173,9 @@ class NetworkConfig:
     recurrent_size: int = 128
     others_encoder: str = "none"  # none, attention or lstm
     encoder_size: int = 64
+    # One others encoder feeding both the actor and the (decentralised) critic, as SB3 shares
+    # its features extractor; False: each tower has its own.
+    shared_encoder: bool = False
     agent_id: bool = False  # append a one-hot robot id to the observation
 
     def __post_init__(self) -> None:

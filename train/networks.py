@@ -12,6 +12,8 @@ and ``starts [T, B]`` (the step begins an episode, so recurrent state is reset).
    state-independent log standard deviation; the critic's head is one value.
 
 The actor and the critic are separate towers; under MAPPO the critic reads the global state.
+With ``shared_encoder`` (decentralised critic only) one others encoder feeds both towers, as
+SB3 shares its features extractor: half the encoder's work per sample.
 """
 
 from __future__ import annotations
@@ -151,9 +153,22 @@ class ActorCritic(nn.Module):
     layout: OthersLayout | None
     centralised: bool = False
 
+    @property
+    def shares_encoder(self) -> bool:
+        """One others encoder feeds both towers (``config.shared_encoder``, decentralised)."""
+        c = self.config
+        return (c.shared_encoder and self.layout is not None and c.others_encoder != "none"
+                and not self.centralised)
+
     def setup(self) -> None:
-        self.actor = Tower(self.config, self.layout)
-        self.critic = Tower(self.config, None if self.centralised else self.layout)
+        if self.shares_encoder:
+            c = self.config
+            self.encoder = OthersEncoder(self.layout, c.others_encoder, c.encoder_size)
+            self.actor = Tower(c, None)
+            self.critic = Tower(c, None)
+        else:
+            self.actor = Tower(self.config, self.layout)
+            self.critic = Tower(self.config, None if self.centralised else self.layout)
         self.actor_head = _dense(self.action_dim, 0.01)
         self.critic_head = _dense(1, 1.0)
         if not self.discrete:
@@ -162,11 +177,18 @@ class ActorCritic(nn.Module):
 
     def __call__(self, carry: tuple[Array, Array], actor_in: Array, critic_in: Array,
                  starts: Array) -> tuple[tuple[Array, Array], Array, Array]:
-        actor_carry, out = self.act(carry[0], actor_in, starts)
+        if self.shares_encoder:  # the critic reads the actor's input: encode it once
+            actor_in = critic_in = self.encoder(actor_in)
+        actor_carry, out = self._act(carry[0], actor_in, starts)
         critic_carry, critic = self.critic(carry[1], critic_in, starts)
         return (actor_carry, critic_carry), out, self.critic_head(critic)[..., 0]
 
     def act(self, carry: Array, actor_in: Array, starts: Array) -> tuple[Array, Array]:
+        if self.shares_encoder:
+            actor_in = self.encoder(actor_in)
+        return self._act(carry, actor_in, starts)
+
+    def _act(self, carry: Array, actor_in: Array, starts: Array) -> tuple[Array, Array]:
         carry, actor = self.actor(carry, actor_in, starts)
         out = self.actor_head(actor)
         return carry, (out if self.discrete else nn.tanh(out))

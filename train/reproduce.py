@@ -64,7 +64,8 @@ MINI_GAMES = ("open", "doorway", "hallway", "intersection", "roundabout")
 BASELINES = {
     "cadrl": {"env": {"preset": "cadrl"}, "network": {}},
     "cadrl_lstm": {"env": {"preset": "cadrl"},
-                   "network": {"others_encoder": "lstm", "encoder_size": 64}},
+                   "network": {"others_encoder": "lstm", "encoder_size": 64,
+                               "shared_encoder": True}},
     "any_order": {"env": {"preset": "any_order"}, "network": {}},
     "enforced_order": {"env": {"preset": "enforced_order"}, "network": {}},
     "only_local": None,

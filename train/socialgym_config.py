@@ -275,7 +275,8 @@ def convert(data: Mapping[str, Any], source: str = "config") -> tuple[dict[str, 
     row("policy_algo_sb3_contrib", "network.kind gru (a GRU where sb3_contrib had an LSTM)"
         if recurrent else "network.kind mlp")
     row("policy_name", "network: hidden [64, 64] tanh (SB3's MlpPolicy) over an LSTM encoder "
-        "of the others (64 units, config_run's LSTMAgentObs)")
+        "of the others (64 units, config_run's LSTMAgentObs), one encoder for the actor and "
+        "the critic (SB3's features extractor, shared by default)")
     row("policy_algo_kwargs", f"PPO {json.dumps(ppo)} -> algorithm num_envs {NUM_ENVS} x "
         f"num_steps {num_steps} (= n_steps {n_steps} environment steps per update), "
         f"num_minibatches {minibatches} (batch_size {ppo['batch_size']} asks for {wanted} "
@@ -285,7 +286,7 @@ def convert(data: Mapping[str, Any], source: str = "config") -> tuple[dict[str, 
         "rewards, clip 10")
     network: dict[str, Any] = {"kind": "gru" if recurrent else "mlp", "hidden": [64, 64],
                                "activation": "tanh", "others_encoder": "lstm",
-                               "encoder_size": 64}
+                               "encoder_size": 64, "shared_encoder": True}
     if recurrent:
         network["recurrent_size"] = 256
 
