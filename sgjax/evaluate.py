@@ -52,6 +52,7 @@ __all__ = [
 ]
 
 DEFAULT_NUM_AGENTS = (3, 4, 5, 7, 10)
+STEP_CHUNK = 32  # steps per chunk of the runner's early-stopping loop
 DEFAULT_EPISODES = 25
 
 
@@ -113,11 +114,16 @@ def episode_runner(
                         in_axes=(0, 0, None))
 
     def play(params: EnvParams, obs: jax.Array, state: Any, lanes: int, keys: jax.Array,
-             hook: Callable | None = None, extra: Any = None, emit: Callable | None = None
-             ) -> tuple:
+             hook: Callable | None = None, extra: Any = None, emit: Callable | None = None,
+             every_step: bool = False) -> tuple:
         """Play ``num_episodes x lanes`` episodes (episode-major) for ``num_steps``; the lanes
         of an episode share its per-step keys. ``hook(extra, prev, state, running)`` folds each
-        step into ``extra``; ``emit(state)`` is returned for every step."""
+        step into ``extra``; ``emit(state)`` is returned for every step ``[num_steps, ...]``.
+
+        Unless ``every_step``, the steps run in chunks of ``STEP_CHUNK`` inside a
+        ``while_loop`` that stops once every episode has ended: an ended episode is frozen and
+        changes nothing, so the results are the same as running the whole time limit (tested),
+        and a batch whose episodes all end early costs only the steps it took."""
         count = num_episodes * lanes
         tally = jax.vmap(lambda _: metrics.start(num_robots, constants,
                                                  state.zones.phase.shape[-1]))(jnp.arange(count))
@@ -145,8 +151,38 @@ def episode_runner(
             carry = (keep(next_obs, obs), kept, tally_next, memory, extra)
             return carry, (None if emit is None else emit(kept))
 
-        (_, final, tally, _, extra), out = jax.lax.scan(
-            one_step, (obs, state, tally, first_memory(count), extra), keys)
+        start = (obs, state, tally, first_memory(count), extra)
+        if every_step:
+            (_, final, tally, _, extra), out = jax.lax.scan(one_step, start, keys)
+            return final, tally, extra, out
+        chunk = min(STEP_CHUNK, num_steps)
+        chunks = -(-num_steps // chunk)
+        # Steps past the time limit (padding the last chunk) find every episode ended.
+        padded = keys[jnp.minimum(jnp.arange(chunks * chunk), num_steps - 1)]
+        padded = padded.reshape((chunks, chunk) + padded.shape[1:])
+        rows = (None if emit is None else jax.tree.map(
+            lambda v: jnp.zeros((chunks * chunk,) + v.shape, v.dtype), emit(state)))
+
+        def unfinished(loop: tuple) -> jax.Array:
+            i, carry, _ = loop
+            return (i < chunks) & jnp.any(carry[2].running)
+
+        def run_chunk(loop: tuple) -> tuple:
+            i, carry, rows = loop
+            carry, out = jax.lax.scan(one_step, carry, padded[i])
+            if emit is not None:
+                rows = jax.tree.map(lambda r, o: jax.lax.dynamic_update_slice_in_dim(
+                    r, o, i * chunk, axis=0), rows, out)
+            return i + 1, carry, rows
+
+        done, (_, final, tally, _, extra), rows = jax.lax.while_loop(
+            unfinished, run_chunk, (jnp.zeros((), jnp.int32), start, rows))
+        out = None
+        if emit is not None:  # the rows never played hold the frozen final state's
+            played = jnp.arange(chunks * chunk) < done * chunk
+            out = jax.tree.map(
+                lambda r, last: jnp.where(played.reshape((-1,) + (1,) * last.ndim), r,
+                                          last[None])[:num_steps], rows, emit(final))
         return final, tally, extra, out
 
     def by_episode(tree: Any, lanes: int) -> Any:  # [E * L, ...] -> [E, L, ...]
@@ -183,7 +219,8 @@ def episode_runner(
         c0 = cf.start(first.x[:, 0], first.y[:, 0], solo)
         final, tally, c, out = play(
             params, obs, state, lanes, step_keys, hook=compare, extra=c0,
-            emit=(lambda s: jax.tree.map(lambda v: v[::lanes], s)) if record else None)
+            emit=(lambda s: jax.tree.map(lambda v: v[::lanes], s)) if record else None,
+            every_step=record)
         final, tally = jax.tree.map(lambda v: v[::lanes], (final, tally))
         robot, episode = finalize(tally, final, params)
         extra_robot, extra_episode = cf.finalize(c, solo, final, episode["makespan"], params)
@@ -200,7 +237,8 @@ def episode_runner(
         else:
             obs, first = reset(reset_keys, params)
             final, tally, _, states = play(params, obs, first, 1, step_keys,
-                                           emit=(lambda s: s) if record else None)
+                                           emit=(lambda s: s) if record else None,
+                                           every_step=record)
             robot, episode = finalize(tally, final, params)
         values = jax.vmap(metrics.per_episode)(robot, episode)
         if record:

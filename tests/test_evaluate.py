@@ -82,6 +82,21 @@ def test_runner_agrees_with_a_manual_loop():
             state.robots.succeeded, float).tolist()
 
 
+def test_stopping_once_every_episode_ended_changes_no_result():
+    """The runner plays chunks of steps until every episode has ended (``record`` plays every
+    step of the time limit): both give the same value of every metric, for episodes that end
+    early and late, with a time limit that is no multiple of the chunk."""
+    for scenario, policy in (("doorway", "only_local"), ("doorway", "random"),
+                             ("doorway", "stop_when_blocked"), ("open", "only_local")):
+        env, params = sgjax.make(scenario, num_agents=3, time_limit=33.3)
+        assert int(params.max_steps) % sgjax.evaluate.STEP_CHUNK
+        early = run_episodes(env, params, policy, jax.random.key(4), 3)
+        full = run_episodes(env, params, policy, jax.random.key(4), 3, record=True)
+        for name, value in early.values.items():
+            np.testing.assert_array_equal(value, full.values[name], err_msg=f"{policy} {name}")
+    assert early.values["episode_length"].max() < 200  # open: all ended long before the limit
+
+
 def test_every_robot_count_is_evaluated_by_one_compilation():
     """Robot counts are params: evaluating three counts traces (so compiles) the run once."""
     traces = []
