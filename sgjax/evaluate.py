@@ -8,7 +8,8 @@ Python::
 
 Command line: ``sgjax evaluate --scenario doorway --policy only_local --num-agents 3 4
 --episodes 25 --out runs/eval`` (see :mod:`sgjax.cli`). Each configuration runs its episodes as
-one ``jit(scan(vmap(step_env)))`` for the time limit; an episode's state is frozen once it ends,
+one ``jit(scan(vmap(step_env)))`` for the time limit (stopping early once every episode has
+ended); an episode's state is frozen once it ends,
 and :mod:`sgjax.metrics` accumulates inside the scan. Results are summarised per metric over
 episodes by :mod:`sgjax.statistics` (mean, a 95% confidence interval: Wilson for yes/no episode
 metrics, Student t for the rest, and the number of episodes with a value) and written by
@@ -77,7 +78,7 @@ class Episodes:
 def episode_runner(
     env: SocialNavEnv, params: EnvParams, policy: Policy | RecurrentPolicy, num_episodes: int,
     constants: metrics.MetricConstants = metrics.DEFAULT_CONSTANTS, record: bool = False,
-    counterfactual: bool = False,
+    counterfactual: bool = False, stop_early: bool = True,
 ) -> Callable[[jax.Array], tuple]:
     """A jitted ``run(key, params) -> (values, robot, states)`` playing ``num_episodes``
     episodes of ``env`` under ``policy`` for the time limit (``states`` is None unless
@@ -91,7 +92,11 @@ def episode_runner(
 
     ``counterfactual`` also plays every episode with each robot alone and without each robot
     (:mod:`sgjax.counterfactual`: ``1 + 2R`` times the work) and fills in the counterfactual
-    metrics (NaN otherwise). The episodes themselves are the same either way."""
+    metrics (NaN otherwise). The episodes themselves are the same either way.
+
+    ``stop_early`` (unless ``record``) stops stepping once every episode has ended; False steps
+    through the whole time limit (same results; for benchmarks of the step)."""
+    every_step = record or not stop_early
     env = with_zone_books(env)
     num_steps = int(params.max_steps)
     num_robots = env.max_agents
@@ -200,7 +205,8 @@ def episode_runner(
             r = by_episode(s.robots, lanes)
             return jnp.stack([r.x[:, own, own], r.y[:, own, own]], axis=-1)
 
-        _, alone, _, path = play(params, obs, state, lanes, step_keys, emit=own_xy)
+        _, alone, _, path = play(params, obs, state, lanes, step_keys, emit=own_xy,
+                                 every_step=every_step)
         path = jnp.concatenate([own_xy(state)[None], path])  # [T + 1, E, R, 2]
         arrived = by_episode(alone.arrived_at, lanes)[:, own, own]
         solo = cf.SoloPaths(x=jnp.moveaxis(path[..., 0], 0, -1),
@@ -220,7 +226,7 @@ def episode_runner(
         final, tally, c, out = play(
             params, obs, state, lanes, step_keys, hook=compare, extra=c0,
             emit=(lambda s: jax.tree.map(lambda v: v[::lanes], s)) if record else None,
-            every_step=record)
+            every_step=every_step)
         final, tally = jax.tree.map(lambda v: v[::lanes], (final, tally))
         robot, episode = finalize(tally, final, params)
         extra_robot, extra_episode = cf.finalize(c, solo, final, episode["makespan"], params)
@@ -238,7 +244,7 @@ def episode_runner(
             obs, first = reset(reset_keys, params)
             final, tally, _, states = play(params, obs, first, 1, step_keys,
                                            emit=(lambda s: s) if record else None,
-                                           every_step=record)
+                                           every_step=every_step)
             robot, episode = finalize(tally, final, params)
         values = jax.vmap(metrics.per_episode)(robot, episode)
         if record:
@@ -298,6 +304,13 @@ def _play(compiled: Callable, key: jax.Array, params: EnvParams, compile_seconds
                     compile_seconds=compile_seconds, run_seconds=time.perf_counter() - t0)
 
 
+def steps_played(episodes: Episodes, params: EnvParams) -> int:
+    """Steps a batch ran: its longest episode, rounded up to the runner's chunk of steps (at
+    most the time limit)."""
+    longest = int(np.nanmax(episodes.values["episode_length"]))
+    return min(int(params.max_steps), -(-longest // STEP_CHUNK) * STEP_CHUNK)
+
+
 def summarize_episodes(episodes: Episodes) -> dict[str, Summary]:
     """Every metric of a batch summarised over its episodes (:mod:`sgjax.statistics`)."""
     return summarize_metrics(episodes.values)
@@ -352,7 +365,7 @@ def evaluate(
                     seed=seed, dt=float(params.dt), max_steps=int(params.max_steps),
                     metrics=summarize_episodes(batch), seconds=time.perf_counter() - t0,
                     compile_seconds=batch.compile_seconds, run_seconds=batch.run_seconds,
-                    counterfactual=counterfactual)
+                    counterfactual=counterfactual, steps_played=steps_played(batch, params))
                 results.append(result)
                 if log is not None:
                     log(_progress_line(result))

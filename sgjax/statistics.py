@@ -99,6 +99,7 @@ class ConfigResult:
     compile_seconds: float | None = None  # compiling the batched run
     run_seconds: float | None = None  # running it, once compiled
     counterfactual: bool = False  # the counterfactual lanes ran (their metrics are filled in)
+    steps_played: int | None = None  # steps the batch ran before every episode had ended
 
     def as_dict(self) -> dict[str, Any]:
         out = {k: v for k, v in dataclasses.asdict(self).items() if k != "metrics"}
@@ -107,8 +108,10 @@ class ConfigResult:
 
     @property
     def agent_steps_per_second(self) -> float | None:
-        """Robot-steps simulated per second once compiled (every episode runs the whole time
-        limit, frozen after its end), when timed."""
+        """Robot-steps simulated per second once compiled, when timed: every episode of the
+        batch steps (frozen after its end) until the last one has ended, ``steps_played``
+        (the time limit when not given); counterfactual lanes are not counted."""
         if not self.run_seconds:
             return None
-        return self.episodes * self.max_steps * self.num_agents / self.run_seconds
+        steps = self.max_steps if self.steps_played is None else self.steps_played
+        return self.episodes * steps * self.num_agents / self.run_seconds
