@@ -98,10 +98,10 @@ def main() -> None:
             lanes = episode_runner(env, params, only_local(env), episodes, counterfactual=True,
                                    **whole)
             early = episode_runner(env, params, only_local(env), episodes)
-            runs = {"counterfactual": lambda key, run=lanes, p=params: run(key, p),
-                    "with metrics": lambda key, run=with_metrics, p=params: run(key, p),
+            runs = {"counterfactual": jax.jit(lambda key, run=lanes, p=params: run(key, p)),
+                    "with metrics": jax.jit(lambda key, run=with_metrics, p=params: run(key, p)),
                     "no metrics": without_metrics(env, params, only_local(env), episodes),
-                    "early stop": lambda key, run=early, p=params: run(key, p)}
+                    "early stop": jax.jit(lambda key, run=early, p=params: run(key, p))}
             for name, run in runs.items():
                 compile_s, best, peak = measure(run, args.repeats)
                 rate = steps * episodes * robots / best
