@@ -256,10 +256,11 @@ def dwa_controller(env: SocialNavEnv, settings: DwaSettings | None = None):
         # points the right way)
         ex, ey = (gx - r.x)[:, None, None], (gy - r.y)[:, None, None]
         end = theta[..., -1]
-        align = (jnp.cos(end) * ex + jnp.sin(end) * ey) / jnp.maximum(safe_norm(ex, ey), 1e-9)
+        to_way = safe_norm(ex, ey)  # m from the robot to the way on
+        align = (jnp.cos(end) * ex + jnp.sin(end) * ey) / jnp.maximum(to_way, 1e-9)
         reach = s.horizon * rp.max_speed[:, None, None]
-        gained = safe_norm(ex, ey) - safe_norm(gx[:, None, None] - px[..., -1],
-                                               gy[:, None, None] - py[..., -1])
+        gained = to_way - safe_norm(gx[:, None, None] - px[..., -1],
+                                    gy[:, None, None] - py[..., -1])
         score = (s.heading_weight * (align + 1.0) / 2.0
                  + s.clearance_weight * jnp.minimum(clearance, s.clearance_cap) / s.clearance_cap
                  + s.speed_weight * vv / rp.max_speed[:, None, None]

@@ -113,13 +113,13 @@ def update(c: Tally, solo: SoloPaths, prev: EnvState, state: EnvState, running: 
     robot_dspeed = jnp.abs(robot_speed[:, 1:] - robot_speed[:, 0:1])
     human_dspeed = jnp.abs(human_speed[:, 1:] - human_speed[:, 0:1])
 
-    def mean_over(values: Array, mask: Array) -> tuple[Array, Array]:
-        count = jnp.sum(mask, axis=-1)
-        return jnp.sum(jnp.where(mask, values, 0.0), axis=-1) / jnp.maximum(count, 1), count
+    def mean_over(values: Array, mask: Array) -> Array:
+        return (jnp.sum(jnp.where(mask, values, 0.0), axis=-1)
+                / jnp.maximum(jnp.sum(mask, axis=-1), 1))
 
     human_mask = jnp.broadcast_to(human_on[:, None, :], human_gap.shape)
-    robots_mean, _ = mean_over(robot_gap, other_robot)
-    humans_mean, _ = mean_over(human_gap, human_mask)
+    robots_mean = mean_over(robot_gap, other_robot)
+    humans_mean = mean_over(human_gap, human_mask)
     speed_total = (jnp.sum(jnp.where(other_robot, robot_dspeed, 0.0), axis=-1)
                    + jnp.sum(jnp.where(human_mask, human_dspeed, 0.0), axis=-1))
     speed_mean = speed_total / jnp.maximum(jnp.sum(other_robot, -1) + jnp.sum(human_mask, -1), 1)

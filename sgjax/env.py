@@ -228,10 +228,8 @@ class SocialNavEnv:
         wanted = jnp.arange(self.max_agents) < count
         start, goal, placed = sample_starts_goals(key_robots, params.map, params.robots.radius,
                                                   wanted)
-        if keep is None:
-            return self._reset_to(start, goal, placed, params, key_humans)
-        return self._reset_to(start, goal, placed & jnp.asarray(keep, bool), params, key_humans,
-                              spawn_present=placed)
+        present = placed if keep is None else placed & jnp.asarray(keep, bool)
+        return self._reset_to(start, goal, present, params, key_humans, spawn_present=placed)
 
     def reset_subset(self, key: Array, params: EnvParams, keep: Array) -> tuple[Array, EnvState]:
         """The episode ``reset(key, params)`` starts, with only the robots in ``keep [R]`` (bool)
@@ -241,10 +239,6 @@ class SocialNavEnv:
         episode with a robot alone or without it this way (``sgjax.counterfactual``)."""
         self.check_params(params)
         return self._reset_subset_compiled(key, params, keep)
-
-    def _reset_subset(self, key: Array, params: EnvParams, keep: Array
-                      ) -> tuple[Array, EnvState]:
-        return self._reset(key, params, keep)
 
     def reset_to(
         self, start: Array, goal: Array, present: Array, params: EnvParams,
@@ -490,6 +484,6 @@ class SocialNavEnv:
     # they are inlined; under ``jax.disable_jit()`` they run op by op.
     _reset_compiled = jax.jit(_reset, static_argnums=0)
     _reset_to_compiled = jax.jit(_reset_to, static_argnums=0)
-    _reset_subset_compiled = jax.jit(_reset_subset, static_argnums=0)
+    _reset_subset_compiled = jax.jit(_reset, static_argnums=0)
     _step_compiled = jax.jit(_step, static_argnums=0)
     _step_env_compiled = jax.jit(_step_env, static_argnums=0)

@@ -119,8 +119,8 @@ def episode_runner(
                         in_axes=(0, 0, None))
 
     def play(params: EnvParams, obs: jax.Array, state: Any, lanes: int, keys: jax.Array,
-             hook: Callable | None = None, extra: Any = None, emit: Callable | None = None,
-             every_step: bool = False) -> tuple:
+             hook: Callable | None = None, extra: Any = None, emit: Callable | None = None
+             ) -> tuple:
         """Play ``num_episodes x lanes`` episodes (episode-major) for ``num_steps``; the lanes
         of an episode share its per-step keys. ``hook(extra, prev, state, running)`` folds each
         step into ``extra``; ``emit(state)`` is returned for every step ``[num_steps, ...]``.
@@ -205,8 +205,7 @@ def episode_runner(
             r = by_episode(s.robots, lanes)
             return jnp.stack([r.x[:, own, own], r.y[:, own, own]], axis=-1)
 
-        _, alone, _, path = play(params, obs, state, lanes, step_keys, emit=own_xy,
-                                 every_step=every_step)
+        _, alone, _, path = play(params, obs, state, lanes, step_keys, emit=own_xy)
         path = jnp.concatenate([own_xy(state)[None], path])  # [T + 1, E, R, 2]
         arrived = by_episode(alone.arrived_at, lanes)[:, own, own]
         solo = cf.SoloPaths(x=jnp.moveaxis(path[..., 0], 0, -1),
@@ -225,12 +224,11 @@ def episode_runner(
         c0 = cf.start(first.x[:, 0], first.y[:, 0], solo)
         final, tally, c, out = play(
             params, obs, state, lanes, step_keys, hook=compare, extra=c0,
-            emit=(lambda s: jax.tree.map(lambda v: v[::lanes], s)) if record else None,
-            every_step=every_step)
+            emit=(lambda s: jax.tree.map(lambda v: v[::lanes], s)) if record else None)
         final, tally = jax.tree.map(lambda v: v[::lanes], (final, tally))
         robot, episode = finalize(tally, final, params)
         extra_robot, extra_episode = cf.finalize(c, solo, final, episode["makespan"], params)
-        return {**robot, **extra_robot}, {**episode, **extra_episode}, final, out, state
+        return {**robot, **extra_robot}, {**episode, **extra_episode}, out, state
 
     @jax.jit
     def run(key: jax.Array, params: EnvParams) -> tuple:
@@ -238,13 +236,12 @@ def episode_runner(
         reset_keys = jax.random.split(k_reset, num_episodes)
         step_keys = jax.random.split(k_steps, num_steps)
         if counterfactual:
-            robot, episode, _, states, first = run_counterfactual(reset_keys, step_keys, params)
+            robot, episode, states, first = run_counterfactual(reset_keys, step_keys, params)
             first = jax.tree.map(lambda v: v[::1 + num_robots], first)
         else:
             obs, first = reset(reset_keys, params)
             final, tally, _, states = play(params, obs, first, 1, step_keys,
-                                           emit=(lambda s: s) if record else None,
-                                           every_step=every_step)
+                                           emit=(lambda s: s) if record else None)
             robot, episode = finalize(tally, final, params)
         values = jax.vmap(metrics.per_episode)(robot, episode)
         if record:

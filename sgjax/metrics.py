@@ -508,6 +508,7 @@ def finalize(
         if info.level == "robot":
             robot[info.name] = jnp.full(present.shape, nan)
     team = team_success(present, robots.succeeded)
+    makespan = known(m.all_done_at * dt, team)  # s until the last robot arrived (successes)
     span = (m.zone_last_exit - m.zone_first_entry).astype(jnp.float32) * dt
     flowing = (m.zone_exits > 0) & (m.zone_first_entry >= 0) & (span > 0.0)
     widths = params.map.zone_width[:m.zone_exits.shape[0]]
@@ -518,10 +519,10 @@ def finalize(
         "team_success": team,
         "collision_episode": jnp.any(present & (total > 0)),
         "episode_length": m.length,
-        "aggregated_time": known(m.all_done_at * dt, team),
+        "aggregated_time": makespan,
         "deadlock": m.deadlock,
         "stuck_end": (m.length < params.max_steps) & ~jnp.all(~present | robots.finished),
-        "makespan": known(m.all_done_at * dt, team),
+        "makespan": makespan,
         "flow_rate": flow_rate,
         "makespan_ratio": nan,
     }
