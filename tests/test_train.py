@@ -243,6 +243,35 @@ def test_others_encoders_learn_shared_or_separate():
                                 fresh.params["params"][tower]["OthersEncoder_0"]), tower
 
 
+def test_lstm_encoder_skips_the_slots_that_are_always_empty_in_training():
+    """The trainer's LSTM reads only the slots that can hold a body in its environments (one
+    other robot here, of k = 4 slots): outputs and gradients equal, bit for bit, those of the
+    network reading every slot, which the saved actor keeps for other robot counts."""
+    from train.networks import ActorCritic, initial_carry
+
+    trainer = Trainer(tiny(network={"others_encoder": "lstm", "encoder_size": 8,
+                                    "shared_encoder": True}, env={"observations": "navigation"}))
+    assert trainer.actor.others.k == 4 and trainer.network.bodies == 1
+    every = ActorCritic(trainer.config.network, trainer.actor.action_dim, trainer.actor.discrete,
+                        trainer.actor.others)
+    runner = trainer.init(jax.random.PRNGKey(3))
+    runner, _ = jax.jit(lambda r: jax.lax.scan(trainer._env_step, r, None, 5))(runner)
+    actor, critic = trainer.inputs(runner.obs_stats, runner.obs)
+    assert float(jnp.abs(actor).sum()) > 0
+    carry = initial_carry(trainer.config.network, trainer.num_agents)
+    starts = jnp.zeros((1, trainer.num_agents), bool)
+
+    def loss(params, model):
+        _, out, value = model.apply(params, carry, actor[None], critic[None], starts)
+        return jnp.sum(out ** 2) + jnp.sum(value ** 2)
+
+    for fn in (loss, jax.grad(loss)):
+        quick = jax.jit(fn, static_argnums=1)(runner.params, trainer.network)
+        full = jax.jit(fn, static_argnums=1)(runner.params, every)
+        for a, b in zip(jax.tree.leaves(quick), jax.tree.leaves(full), strict=True):
+            np.testing.assert_array_equal(a, b)
+
+
 def test_gru_state_resets_at_episode_starts():
     gru = ResetGRU(4)
     x = jax.random.normal(jax.random.PRNGKey(0), (3, 2, 5))

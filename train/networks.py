@@ -61,6 +61,15 @@ def others_layout(env) -> OthersLayout | None:
     return OthersLayout(block.start, term.k, term.width, mask_column)
 
 
+def most_seen(env) -> int | None:
+    """The most ``others`` slots that can hold a body in ``env`` (None without the term): a
+    network built for ``env`` alone may skip the slots past it, which are always empty. Not
+    part of the saved :class:`OthersLayout`: the same weights run in an environment with more
+    robots, where every slot counts."""
+    terms = {t.name: t for t in env.config.observer.terms}
+    return terms["others"].most_seen(env.config.layout) if "others" in terms else None
+
+
 def _activation(name: str):
     return nn.tanh if name == "tanh" else nn.relu
 
@@ -71,11 +80,16 @@ def _dense(size: int, scale: float = 2 ** 0.5) -> nn.Dense:
 
 
 class OthersEncoder(nn.Module):
-    """``[..., D] -> [..., own + size]``: own features, and the others block pooled."""
+    """``[..., D] -> [..., own + size]``: own features, and the others block pooled.
+
+    ``bodies``: the LSTM reads only the first ``bodies`` slots (None: all ``k``), for an
+    environment where the later ones are always empty (:func:`most_seen`); an empty slot leaves
+    the LSTM's state as it was, so the result is the same, bit for bit, at less cost."""
 
     layout: OthersLayout
     kind: str
     size: int
+    bodies: int | None = None
 
     @nn.compact
     def __call__(self, obs: Array) -> Array:
@@ -97,7 +111,8 @@ class OthersEncoder(nn.Module):
         else:  # LSTM over the bodies, farthest first; empty slots leave the state unchanged
             cell = nn.OptimizedLSTMCell(self.size, recurrent_kernel_init=orthogonal())
             carry = cell.initialize_carry(jax.random.key(0), bodies[..., 0, :].shape)
-            for j in reversed(range(lay.k)):
+            read = lay.k if self.bodies is None else min(max(self.bodies, 1), lay.k)
+            for j in reversed(range(read)):
                 new_carry, _ = cell(carry, bodies[..., j, :])
                 keep = valid[..., j, None]
                 carry = jax.tree.map(lambda n, o, keep=keep: jnp.where(keep, n, o),
@@ -127,13 +142,14 @@ class Tower(nn.Module):
 
     config: NetworkConfig
     layout: OthersLayout | None
+    bodies: int | None = None
 
     @nn.compact
     def __call__(self, carry: Array, x: Array, starts: Array) -> tuple[Array, Array]:
         c = self.config
         act = _activation(c.activation)
         if self.layout is not None and c.others_encoder != "none":
-            x = OthersEncoder(self.layout, c.others_encoder, c.encoder_size)(x)
+            x = OthersEncoder(self.layout, c.others_encoder, c.encoder_size, self.bodies)(x)
         if c.kind == "gru":
             x = act(_dense(c.recurrent_size)(x))
             carry, x = ResetGRU(c.recurrent_size)(carry, (x, starts))
@@ -152,6 +168,7 @@ class ActorCritic(nn.Module):
     discrete: bool
     layout: OthersLayout | None
     centralised: bool = False
+    bodies: int | None = None  # see OthersEncoder: set only for the environment it was built for
 
     @property
     def shares_encoder(self) -> bool:
@@ -163,12 +180,14 @@ class ActorCritic(nn.Module):
     def setup(self) -> None:
         if self.shares_encoder:
             c = self.config
-            self.encoder = OthersEncoder(self.layout, c.others_encoder, c.encoder_size)
+            self.encoder = OthersEncoder(self.layout, c.others_encoder, c.encoder_size,
+                                         self.bodies)
             self.actor = Tower(c, None)
             self.critic = Tower(c, None)
         else:
-            self.actor = Tower(self.config, self.layout)
-            self.critic = Tower(self.config, None if self.centralised else self.layout)
+            self.actor = Tower(self.config, self.layout, self.bodies)
+            self.critic = Tower(self.config, None if self.centralised else self.layout,
+                                self.bodies)
         self.actor_head = _dense(self.action_dim, 0.01)
         self.critic_head = _dense(1, 1.0)
         if not self.discrete:

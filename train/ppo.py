@@ -47,6 +47,7 @@ from train.networks import (
     entropy,
     initial_carry,
     log_prob,
+    most_seen,
     others_layout,
     sample,
 )
@@ -196,8 +197,12 @@ class Trainer:
             obs_size=self.batch.obs_size, slots=self.slots, discrete=self.batch.discrete,
             action_dim=self.batch.action_dim, normalize=a.normalize_observations,
             others=others_layout(self.batch.env))
+        # Trained only in these environments: the others encoder skips the slots that are
+        # always empty there (the saved layout keeps every slot for other robot counts).
+        seen = [most_seen(env) for env in self.batch.envs]
         self.network = ActorCritic(config.network, self.actor.action_dim, self.actor.discrete,
-                                   self.actor.others, centralised=self.mappo)
+                                   self.actor.others, centralised=self.mappo,
+                                   bodies=None if None in seen else max(seen))
         updates = a.num_updates * a.update_epochs * a.num_minibatches
         lr = (optax.linear_schedule(a.learning_rate, 0.0, updates) if a.anneal_lr
               else a.learning_rate)

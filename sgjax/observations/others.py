@@ -68,6 +68,14 @@ class Others(ObservationTerm):
     def width(self) -> int:
         return sum(FEATURES[f] for f in self.features)
 
+    def most_seen(self, layout: Layout) -> int:
+        """The most slots that can hold a body in an environment of ``layout``: the other robot
+        slots and the pedestrian slots it sees, at most ``k``. Slots past it are always empty
+        (bodies come nearest first, empty slots last)."""
+        count = (layout.max_agents - 1 if self.robots else 0) + (
+            layout.max_humans if self.humans else 0)
+        return min(self.k, max(count, 0))
+
     def size(self, layout: Layout) -> int:
         return self.k * self.width
 
