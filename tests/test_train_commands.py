@@ -84,7 +84,7 @@ def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_reproduce_writes_the_papers_two_tables(tmp_path):
+def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
     from train.reproduce import reproduce
 
     reproduce(["open"], ["cadrl", "only_local", "dwa"], seeds=2, total_steps=8 * 8 * 2,
@@ -102,6 +102,19 @@ def test_reproduce_writes_the_papers_two_tables(tmp_path):
     again = tables_from_results(tmp_path / "results.json", tmp_path / "again", table_robots=2)
     assert again["success_table.md"] == success_table  # the tables come from results.json
     assert (tmp_path / "again" / "paper_comparison.md").is_file()
+    # --resume keeps the finished cells and runs only the missing one; other settings refuse.
+    kept = dict(results["open"])
+    run = dict(seeds=2, total_steps=8 * 8 * 2, num_envs=8, counts=[2, 3], episodes=2,
+               table_robots=2, out=tmp_path, time_limit=10.0, resume=True)
+    reproduce(["open"], ["cadrl", "only_local", "social_force"], **run)
+    assert "kept from" in capsys.readouterr().out
+    document = json.loads((tmp_path / "results.json").read_text())
+    assert list(document["results"]["open"]) == ["cadrl", "only_local", "dwa", "social_force"]
+    assert {b: document["results"]["open"][b] for b in kept} == kept
+    assert document["runs"] == 2 and "open/social_force" in document["cell_seconds"]
+    assert "| open | social_force |" in (tmp_path / "metrics_table.md").read_text()
+    with pytest.raises(ValueError, match="results.json: ran with episodes = 2"):
+        reproduce(["open"], ["cadrl"], **{**run, "episodes": 3})
 
 
 @pytest.mark.slow

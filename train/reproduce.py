@@ -298,14 +298,41 @@ def gather_seeds(by_count: dict[int, dict[str, list[float]]], seeds: int,
             for i, n in enumerate(counts)}
 
 
+SETTINGS = ("profile", "seeds", "total_steps", "num_envs", "episodes", "counts", "seed",
+            "time_limit")
+
+
+def stored_run(path: Path, settings: dict[str, Any]) -> dict[str, Any]:
+    """The ``results.json`` of an earlier run of the same ``settings`` (:data:`SETTINGS`), to
+    resume: a ValueError naming the file and the first setting that differs."""
+    try:
+        document = json.loads(path.read_text())
+    except json.JSONDecodeError as err:
+        raise ValueError(f"{path}: not a results.json ({err})") from err
+    for key in SETTINGS:
+        if key not in document:
+            raise ValueError(f"{path}: has no {key!r}; cannot tell whether it ran the same "
+                             f"settings (written before --resume existed?)")
+        if document[key] != settings[key]:
+            raise ValueError(f"{path}: ran with {key} = {document[key]!r}, this run asks for "
+                             f"{settings[key]!r}; resume with the same settings or another "
+                             "--out")
+    return document
+
+
 def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
               total_steps: int, num_envs: int, counts: Sequence[int], episodes: int,
               table_robots: int, out: Path, seed: int = 0, time_limit: float | None = None,
-              processes: Processes | None = None, profile: str = "sgjax") -> dict:
+              processes: Processes | None = None, profile: str = "sgjax",
+              resume: bool = False) -> dict:
     """Train and evaluate every (scenario, baseline); write and print the two tables. Under
     several ``processes`` (``jax.distributed``) each trains its share of the seeds of every
     trained baseline, the values are gathered, and process 0 writes the outputs. ``profile``:
-    ``sgjax`` or ``socialgym`` (the module doc); ``time_limit`` (s) overrides the profile's."""
+    ``sgjax`` or ``socialgym`` (the module doc); ``time_limit`` (s) overrides the profile's.
+
+    ``out/results.json`` is written again after every cell, so a killed run loses at most the
+    cell it was in; with ``resume`` the cells already there (from a run of the same settings)
+    are kept, not run again, and the tables hold them beside the new ones."""
     processes = processes or Processes()
     if profile not in PROFILES:
         raise ValueError(f"unknown profile {profile!r}; choose from {list(PROFILES)}")
@@ -316,18 +343,45 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
         raise ValueError(f"--seeds ({seeds}) must be at least --num-processes "
                          f"({processes.count}): the processes share the seeds")
     share = lane_share(seeds, processes)
-    results: dict[str, dict[str, dict[int, dict[str, list[float]]]]] = {}
-    timing: dict[str, float] = {}
+    settings = {"profile": profile, "seeds": seeds, "total_steps": total_steps,
+                "num_envs": num_envs if profile == "sgjax" else "the profile's",
+                "episodes": episodes, "counts": list(counts), "seed": seed,
+                "time_limit": time_limit}
+    path = out / "results.json"
+    stored: dict[str, Any] = {"results": {}, "train_seconds": {}, "cell_seconds": {}}
+    if resume and path.exists():
+        stored = stored_run(path, settings)
+    results: dict[str, dict[str, dict[int, dict[str, list[float]]]]] = {
+        s: {b: {int(n): m for n, m in c.items()} for b, c in r.items()}
+        for s, r in stored["results"].items()}
+    timing: dict[str, float] = dict(stored["train_seconds"])
+    cells: dict[str, dict[str, float]] = dict(stored.get("cell_seconds", {}))
     seconds = dict.fromkeys(("compile training", "train", "evaluate", "write"), 0.0)
     start = time.perf_counter()
+
+    def document() -> dict[str, Any]:
+        ordered = {s: {b: results[s][b] for b in BASELINES if b in results[s]}
+                   for s in (*scenarios, *(s for s in results if s not in scenarios))
+                   if s in results}
+        earlier = stored.get("seconds", {})
+        return {**settings, "train_seconds": timing, "cell_seconds": cells,
+                "seconds": {k: v + earlier.get(k, 0.0) for k, v in seconds.items()},
+                "runs": stored.get("runs", 1 if stored["results"] else 0) + 1,
+                "results": {s: {b: {str(n): m for n, m in c.items()} for b, c in r.items()}
+                            for s, r in ordered.items()}}
+
     for scenario in scenarios:
-        results[scenario] = {}
+        results.setdefault(scenario, {})
         for name in baselines:
+            if name in results[scenario]:
+                print(f"{scenario:>12} {name:>15}: kept from {path}", flush=True)
+                continue
+            cell = {"compile": 0.0, "train": 0.0}
             if BASELINES[name] is None:
                 t0 = time.perf_counter()
                 by_count = evaluate_seeds(scenario, counts, episodes, seed, None, None,
                                           only_local_settings(profile, time_limit), name)
-                seconds["evaluate"] += time.perf_counter() - t0
+                cell["evaluate"] = time.perf_counter() - t0
                 print(f"{scenario:>12} {name:>15}: not trained", flush=True)
             else:
                 if profile == "socialgym":
@@ -340,40 +394,45 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
                                              75.0 if time_limit is None else time_limit)
                 trainer, runner, compile_s, train_s = train_baseline(config)
                 timing[f"{scenario}/{name}"] = train_s
-                seconds["compile training"] += compile_s
-                seconds["train"] += train_s
+                cell.update(compile=compile_s, train=train_s)
                 t0 = time.perf_counter()
                 by_count = evaluate_seeds(scenario, counts, episodes, seed, trainer, runner,
                                           config.env.make_kwargs())
-                seconds["evaluate"] += time.perf_counter() - t0
+                cell["evaluate"] = time.perf_counter() - t0
                 by_count = gather_seeds(by_count, seeds, processes)
                 print(f"{scenario:>12} {name:>15}: trained {len(share)} seeds x "
                       f"{total_steps:,} steps in {train_s:.0f} s (compiled in {compile_s:.0f} s)",
                       flush=True)
             results[scenario][name] = by_count
+            cells[f"{scenario}/{name}"] = cell
+            seconds["compile training"] += cell["compile"]
+            seconds["train"] += cell["train"]
+            seconds["evaluate"] += cell["evaluate"]
             team = {n: np.nanmean(v["team_success"]) for n, v in by_count.items()}
             print("    team success by robots: " + ", ".join(f"{n}: {t:.2f}"
                                                           for n, t in team.items()))
+            if processes.is_main:  # a killed run keeps every finished cell
+                out.mkdir(parents=True, exist_ok=True)
+                path.write_text(json.dumps(document(), indent=1))
     if not processes.is_main:
         print(f"process {processes.index}: done; process 0 writes the tables")
         return results
     t0 = time.perf_counter()
-    tables = format_tables(results, counts, table_robots, seeds)
+    final = document()
+    final_results = {s: {b: {int(n): m for n, m in c.items()} for b, c in r.items()}
+                     for s, r in final["results"].items()}
+    tables = format_tables(final_results, counts, table_robots, seeds)
     out.mkdir(parents=True, exist_ok=True)
     for name, text in tables.items():
         (out / name).write_text(text)
-    document = {"profile": profile, "seeds": seeds, "total_steps": total_steps,
-                "num_envs": num_envs if profile == "sgjax" else "the profile's",
-                "episodes": episodes, "counts": list(counts), "train_seconds": timing,
-                "results": {s: {b: {str(n): m for n, m in c.items()} for b, c in r.items()}
-                            for s, r in results.items()}}
     seconds["write"] = time.perf_counter() - t0
-    document["seconds"] = seconds
-    (out / "results.json").write_text(json.dumps(document, indent=1))
+    path.write_text(json.dumps(document(), indent=1))
     for text in tables.values():
         print(f"\n{text}")
     print("time: " + ", ".join(f"{k} {v:.0f} s" for k, v in seconds.items())
-          + f" (evaluation includes its compiles); total {time.perf_counter() - start:.0f} s")
+          + f" (evaluation includes its compiles); total {time.perf_counter() - start:.0f} s"
+          + (f"; {len(stored['train_seconds'])} trained cells kept from {path}"
+             if stored["results"] else ""))
     return results
 
 
@@ -400,6 +459,9 @@ def main(argv: list[str] | None = None) -> None:
                         help="sgjax's settings, or each baseline as SocialGym 2.0 ran it "
                              "(see the module doc)")
     parser.add_argument("--out", default="runs/reproduce")
+    parser.add_argument("--resume", action="store_true",
+                        help="keep the cells already in --out/results.json (a run of the same "
+                             "settings, e.g. one that was killed) and run only the others")
     parser.add_argument("--from-results", default=None, metavar="RESULTS_JSON",
                         help="write the tables again from a run's results.json into --out "
                              "(no training)")
@@ -418,7 +480,7 @@ def main(argv: list[str] | None = None) -> None:
                                            else 2_000_000)
         reproduce(args.scenarios, args.baselines, args.seeds, total_steps, args.num_envs,
                   args.robots, args.episodes, args.table_robots, Path(args.out), args.seed,
-                  args.time_limit, processes, args.profile)
+                  args.time_limit, processes, args.profile, args.resume)
     except ValueError as err:
         raise SystemExit(f"reproduce: {err}") from err
 
