@@ -119,23 +119,37 @@ def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_ablation_command_prints_the_table(tmp_path, capsys):
+    from sgjax.terms import ConfigError
+    from train.ablation import load_variants
     from train.ablation import main as ablation_main
 
     variants = tmp_path / "variants.yaml"
     variants.write_text("baseline: {}\nno collision penalty: {rewards_off: [collision]}\n"
-                        "no headings: {hide: [pose.heading, others.heading]}\n")
+                        "no headings: {hide: [pose.heading, others.heading]}\n"
+                        "team reward: {set: {algorithm.team_reward: 1.0}}\n")
     ablation_main(["--config", str(ROOT / "train/configs/ablation.yaml"),
                    "--set", "algorithm.total_steps=64", "--set", "algorithm.num_envs=8",
                    "--set", "algorithm.num_steps=8", "--set", "env.time_limit=3",
                    "--set", "env.scenarios=[open]", "--variants", str(variants),
                    "--seeds", "2", "--lanes-per-run", "4", "--episodes", "2",
-                   "--out", str(tmp_path / "out")])
+                   "--robots", "2", "3", "--out", str(tmp_path / "out")])
     out = capsys.readouterr().out
     assert "| no headings |" in out and "Seeds beating the baseline" in out
+    assert "with 2 robots" in out and "with 3 robots" in out  # a table per count
+    assert "network mlp)" in out and out.count("trained and evaluated") == 2  # set: own group
     saved = json.loads((tmp_path / "out" / "ablation.json").read_text())
     assert {k: len(v) for k, v in saved["team_success"].items()} == {
-        "baseline": 2, "no collision penalty": 2, "no headings": 2}
+        "baseline": 2, "no collision penalty": 2, "no headings": 2, "team reward": 2}
+    assert set(saved["team_success_by_robots"]) == {"2", "3"}
+    assert saved["variants"]["team reward"]["settings"] == [["algorithm.team_reward", 1.0]]
     assert "compile and train" in saved["seconds"]
+    variants.write_text("baseline: {}\nwrong: {set: {team_reward: 1.0}}\n")
+    with pytest.raises(ConfigError, match="wrong.set: expected a mapping of section.key"):
+        load_variants(variants)
+    variants.write_text("baseline: {}\nwrong: {set: {algorithm.team_rewards: 1.0}}\n")
+    with pytest.raises(SystemExit, match="team_rewards"):
+        ablation_main(["--config", str(ROOT / "train/configs/ablation.yaml"),
+                       "--variants", str(variants), "--set", "algorithm.total_steps=64"])
 
 
 def _free_port() -> int:

@@ -14,13 +14,18 @@ Command line (the paper's Table 4 variants, or a variants file; prints the table
 
     python -m train.ablation --config train/configs/ablation.yaml --seeds 3 --lanes-per-run 24
 
-A variants file maps names to ``rewards_off``, ``hide`` and ``network`` (keys of the config's
-``network`` section: a variant with its own architecture trains as its own vmap)::
+A variants file maps names to ``rewards_off``, ``hide``, ``network`` (keys of the config's
+``network`` section) and ``set`` (any other config keys, ``section.key: value`` as ``--set``
+takes them); a variant with its own network or settings trains as its own vmap::
 
     baseline: {}
     no collision penalty: {rewards_off: [collision]}
     no velocities: {hide: [velocity, others.velocity]}
     GRU: {network: {kind: gru}}
+    own reward: {set: {algorithm.team_reward: 0.0}}
+
+``--robots 4 7`` evaluates every lane at each count (one compiled evaluation) and prints a table
+per count.
 """
 
 from __future__ import annotations
@@ -39,8 +44,8 @@ import numpy as np
 import yaml
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
+from sgjax.evaluate import params_by_count
 from sgjax.observations.others import FEATURES
-from sgjax.registry import make
 from sgjax.report import format_summary, markdown_table
 from sgjax.statistics import summarize
 from sgjax.terms import ConfigError, suggest
@@ -59,6 +64,7 @@ class Variant:
     rewards_off: tuple[str, ...] = ()
     hide: tuple[str, ...] = ()
     network: tuple[tuple[str, Any], ...] = ()  # (key, value) of the network section to change
+    settings: tuple[tuple[str, Any], ...] = ()  # ("section.key", value): other config keys
 
 
 def observation_mask(env: Any, hide: Sequence[str]) -> np.ndarray:
@@ -190,7 +196,7 @@ def load_variants(path: str | Path) -> dict[str, Variant]:
     data = yaml.safe_load(path.read_text()) or {}
     if not isinstance(data, Mapping) or not data:
         raise ConfigError(f"{path}: expected a mapping of variant names to settings")
-    fields = ("rewards_off", "hide", "network")
+    fields = ("rewards_off", "hide", "network", "set")
     variants = {}
     for name, spec in data.items():
         spec = spec or {}
@@ -210,63 +216,99 @@ def load_variants(path: str | Path) -> dict[str, Variant]:
         network = spec.get("network", {})
         if not isinstance(network, Mapping):
             raise ConfigError(f"{path}: {name}.network: expected a mapping of network keys")
-        variants[str(name)] = Variant(**lists, network=tuple(sorted(network.items())))
+        settings = spec.get("set", {})
+        if not isinstance(settings, Mapping) or not all(
+                isinstance(k, str) and "." in k for k in settings):
+            raise ConfigError(f"{path}: {name}.set: expected a mapping of section.key: value")
+        variants[str(name)] = Variant(**lists, network=tuple(sorted(network.items())),
+                                      settings=tuple(sorted(
+                                          (k, _frozen(v)) for k, v in settings.items())))
     if BASELINE not in variants:
         raise ConfigError(f"{path}: no {BASELINE!r} variant (the others are compared to it)")
     return variants
 
 
-def _with_network(config: TrainConfig, network: tuple[tuple[str, Any], ...], seeds: int
-                  ) -> TrainConfig:
-    """``config`` with ``seeds`` seeds and the network keys of a variant changed."""
+def _frozen(value: Any) -> Any:
+    """A YAML value made hashable (lists to tuples), so variants can group by it."""
+    if isinstance(value, list | tuple):
+        return tuple(_frozen(v) for v in value)
+    if isinstance(value, Mapping):
+        return tuple(sorted((k, _frozen(v)) for k, v in value.items()))
+    return value
+
+
+def _thawed(value: Any) -> Any:
+    return [_thawed(v) for v in value] if isinstance(value, tuple) else value
+
+
+def _variant_config(config: TrainConfig, variant: Variant, seeds: int) -> TrainConfig:
+    """``config`` with ``seeds`` seeds and a variant's network keys and settings changed."""
     data = config.to_dict()
     data["num_seeds"] = seeds
-    data["network"] = {**data["network"], **dict(network)}
-    return config_from_dict(data, f"variant network {dict(network)}")
+    data["network"] = {**data["network"], **dict(variant.network)}
+    for key, value in variant.settings:
+        section, _, field = key.partition(".")
+        if not isinstance(data.get(section), dict):
+            raise ConfigError(f"variant setting {key!r}: {section!r} is not a config section")
+        data[section] = {**data[section], field: _thawed(value)}
+    where = f"variant network {dict(variant.network)}, settings {dict(variant.settings)}"
+    return config_from_dict(data, where)
 
 
 def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: int,
-                 lanes_per_run: int | None, episodes: int, robots: int, log=print,
-                 processes: Processes | None = None) -> dict:
-    """Train every variant x seed (one vmap per network architecture), evaluate every lane on
-    the config's first scenario with ``robots`` robots; returns ``{"scores": {variant: [seeds]},
-    "seconds": {phase: s}}`` (team success per seed). Under several ``processes`` each trains
-    and evaluates its share of every architecture's lanes and the scores are gathered, so
-    every process returns the whole sweep's."""
+                 lanes_per_run: int | None, episodes: int, robots: int | Sequence[int],
+                 log=print, processes: Processes | None = None) -> dict:
+    """Train every variant x seed (one vmap per network architecture and settings), evaluate
+    every lane on the config's first scenario with ``robots`` robots (one count or several:
+    one compiled evaluation serves them all); returns ``{"scores": {variant: [seeds]},
+    "scores_by_robots": {count: {variant: [seeds]}}, "seconds": {phase: s}}`` (team success per
+    seed; ``scores`` at the first count). Under several ``processes`` each trains and evaluates
+    its share of every group's lanes and the scores are gathered, so every process returns the
+    whole sweep's."""
     processes = processes or Processes()
+    counts = [robots] if isinstance(robots, int) else [int(n) for n in robots]
     groups: dict[tuple, dict[str, Variant]] = {}
     for name, variant in variants.items():
-        groups.setdefault(variant.network, {})[name] = variant
-    scores: dict[str, list[float]] = {}
+        groups.setdefault((variant.network, variant.settings), {})[name] = variant
+    # Every group's config first: a bad variant setting fails before any training.
+    configs = [_variant_config(config, next(iter(group.values())), seeds)
+               for group in groups.values()]
+    scores: dict[int, dict[str, list[float]]] = {n: {} for n in counts}
     seconds = {"compile and train": 0.0, "evaluate": 0.0}
     scenario = config.env.scenarios[0]
     key = jax.random.PRNGKey(config.seed + 7)
-    for network, group in groups.items():
-        trainer = Trainer(_with_network(config, network, seeds))
+    for group, group_config in zip(groups.values(), configs, strict=True):
+        trainer = Trainer(group_config)
         labels = [(name, seed) for name in group for seed in range(seeds)]
         share = lane_share(len(labels), processes)
         t0 = t1 = time.perf_counter()
-        team = np.zeros(0)
+        team = np.zeros((len(counts), 0))
         if len(share):
             runner, _, _ = train_variants(trainer, group, seeds, lanes_per_run, share)
             jax.block_until_ready(runner.params)
             t1 = time.perf_counter()
-            env, params = make(scenario, num_agents=robots,
-                               max_agents=max(robots, trainer.slots),
-                               **trainer.config.env.make_kwargs())
-            team = evaluate_lanes(trainer, runner, env, params, episodes, key)
+            env, by_count = params_by_count(scenario, counts,
+                                            max_agents=max(*counts, trainer.slots),
+                                            **trainer.config.env.make_kwargs())
+            evaluator = lane_evaluator(trainer.config.network, trainer.actor, env,
+                                       by_count[counts[0]], episodes)
+            team = np.stack([np.mean(np.asarray(evaluator(ActorWeights.of(runner), key,
+                                                          by_count[n])[0]["team_success"]),
+                                     axis=1) for n in counts])
         t2 = time.perf_counter()
-        team = gather_lanes(team, len(labels), processes)
         seconds["compile and train"] += t1 - t0
         seconds["evaluate"] += t2 - t1
-        for (name, _), value in zip(labels, team, strict=True):
-            scores.setdefault(name, []).append(float(value))
+        for n, row in zip(counts, team, strict=True):
+            for (name, _), value in zip(labels, gather_lanes(row, len(labels), processes),
+                                        strict=True):
+                scores[n].setdefault(name, []).append(float(value))
         where = "" if processes.count == 1 else (
             f" (process {processes.index} of {processes.count}: lanes {share.tolist()})")
         log(f"trained and evaluated {len(share)} of {len(labels)} lanes ({', '.join(group)}; "
             f"network {trainer.config.network.kind}) in {t1 - t0:.0f} s + {t2 - t1:.0f} s"
             f"{where}")
-    return {"scores": {name: scores[name] for name in variants}, "seconds": seconds}
+    by_robots = {n: {name: scores[n][name] for name in variants} for n in counts}
+    return {"scores": by_robots[counts[0]], "scores_by_robots": by_robots, "seconds": seconds}
 
 
 def format_table(scores: Mapping[str, list[float]], paper: Mapping[str, int | None],
@@ -306,8 +348,9 @@ def main(argv: list[str] | None = None) -> None:
                         help="lanes per compiled call (default: all lanes in one call)")
     parser.add_argument("--episodes", type=int, default=None,
                         help="evaluation episodes per lane (default: evaluation.episodes)")
-    parser.add_argument("--robots", type=int, default=None,
-                        help="evaluation robot count (default: the curriculum's last)")
+    parser.add_argument("--robots", type=int, nargs="+", default=None,
+                        help="evaluation robot count(s) (default: the curriculum's last); "
+                             "a table per count")
     parser.add_argument("--out", default=None, help="folder for ablation.md and ablation.json")
     add_cache_arguments(parser)
     add_arguments(parser)
@@ -324,12 +367,14 @@ def main(argv: list[str] | None = None) -> None:
         else:
             variants, paper = load_variants(args.variants), {}
         episodes = args.episodes or config.evaluation.episodes
-        robots = args.robots or config.env.curriculum[-1][1]
+        counts = args.robots or [config.env.curriculum[-1][1]]
+        if min(counts) < 1:
+            raise ConfigError(f"--robots: counts must be at least 1, got {counts}")
         start = time.perf_counter()
         result = run_ablation(config, variants, args.seeds, args.lanes_per_run, episodes,
-                              robots, processes=processes)
-        table = format_table(result["scores"], paper, config.env.scenarios[0], robots,
-                             episodes)
+                              counts, processes=processes)
+        table = "\n".join(format_table(scores, paper, config.env.scenarios[0], n, episodes)
+                          for n, scores in result["scores_by_robots"].items())
         t_write = time.perf_counter()
         if not processes.is_main:
             print(f"process {processes.index}: done; process 0 writes the table")
@@ -340,7 +385,10 @@ def main(argv: list[str] | None = None) -> None:
             (out / "ablation.md").write_text(table)
             (out / "ablation.json").write_text(json.dumps(
                 {"config": config.to_dict(), "seeds": args.seeds, "episodes": episodes,
-                 "robots": robots, "team_success": result["scores"],
+                 "robots": counts[0], "team_success": result["scores"],
+                 "team_success_by_robots": {str(n): v for n, v in
+                                            result["scores_by_robots"].items()},
+                 "variants": {name: dataclasses.asdict(v) for name, v in variants.items()},
                  "seconds": result["seconds"]}, indent=1))
         print("\n" + table)
         times = {**result["seconds"], "write": time.perf_counter() - t_write}
