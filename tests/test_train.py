@@ -86,6 +86,12 @@ def test_command_line_overrides_and_shipped_configs():
         Trainer(loaded)  # builds every scenario and checks the shapes fit
     with pytest.raises(ConfigError, match="no such config"):
         load_config(ROOT / "train/configs/nope.yaml")
+    from train.ablation import _variant_config, load_variants
+
+    for path in sorted((ROOT / "train/configs/variants").glob("*.yaml")):
+        config = load_config(ROOT / "train/configs" / path.name)  # the config it varies
+        for variant in load_variants(path).values():  # every variant is a valid config
+            Trainer(_variant_config(config, variant, 2))
 
 
 def test_env_section_takes_every_make_option_and_round_trips():
