@@ -1,11 +1,14 @@
 """Training throughput: environment plus learning, in agent-steps per second.
 
 Times whole PPO updates (rollout with auto-reset, GAE, epochs of minibatches) of
-``train.ppo.Trainer`` on the doorway for several batch sizes and robot counts, and prints
-agent-steps/s, env-steps/s, compile time and peak memory (XLA's memory analysis of the
-compiled chunk of updates).
+``train.ppo.Trainer`` on the doorway for several batch sizes, robot counts and numbers of
+seeds, and prints agent-steps/s, env-steps/s (over all seeds), compile time, peak memory
+(XLA's memory analysis of the compiled chunk of updates) and, for several seeds, the cost of
+one seed lane against a run of one seed (``lane cost`` 1.00x: a ``vmap`` over seeds is as
+cheap per seed as separate runs; 2.00x: each lane costs twice a separate run).
 
     python bench/train_throughput.py --num-envs 64 256 1024 --robots 4 10
+    python bench/train_throughput.py --num-envs 256 --robots 4 --seeds 1 3 6
 """
 
 from __future__ import annotations
@@ -16,7 +19,30 @@ import time
 import jax
 
 from train.config import config_from_dict
-from train.ppo import Trainer
+from train.ppo import Trainer, seed_keys
+
+
+def time_updates(config: dict, seeds: int, updates: int) -> tuple[float, float, float]:
+    """Seconds per ``updates`` updates of ``seeds`` lanes (best of two), compile s, peak MB."""
+    config = dict(config, seed=0, num_seeds=seeds)
+    trainer = Trainer(config_from_dict(config))
+    runner = jax.jit(jax.vmap(trainer.init))(seed_keys(trainer.config))
+    chunk = jax.jit(jax.vmap(lambda r: trainer.update_chunk(r, updates)))
+    t0 = time.perf_counter()
+    compiled = chunk.lower(runner).compile()
+    compile_s = time.perf_counter() - t0
+    mem = compiled.memory_analysis()
+    peak = 0.0 if mem is None else (mem.argument_size_in_bytes + mem.output_size_in_bytes
+                                    + mem.temp_size_in_bytes) / 2**20
+    runner, _ = compiled(runner)  # warm
+    jax.block_until_ready(runner.params)
+    best = float("inf")
+    for _ in range(2):
+        t0 = time.perf_counter()
+        runner, _ = compiled(runner)
+        jax.block_until_ready(runner.params)
+        best = min(best, time.perf_counter() - t0)
+    return best, compile_s, peak
 
 
 def main() -> None:
@@ -24,39 +50,31 @@ def main() -> None:
     parser.add_argument("--scenario", default="doorway")
     parser.add_argument("--num-envs", nargs="+", type=int, default=[64, 256, 1024])
     parser.add_argument("--robots", nargs="+", type=int, default=[4, 10])
+    parser.add_argument("--seeds", nargs="+", type=int, default=[1],
+                        help="numbers of seeds trained as vmap lanes of one call")
     parser.add_argument("--updates", type=int, default=4, help="updates per timed call")
     parser.add_argument("--network", default="mlp", choices=["mlp", "gru"])
     args = parser.parse_args()
     print(f"jax {jax.__version__} on {jax.devices()[0].platform}, {args.scenario}, IPPO "
           f"{args.network}, 64 steps x 4 epochs x 4 minibatches per update")
-    print(f"{'robots':>6}{'envs':>7}{'agent-steps/s':>15}{'env-steps/s':>13}{'compile s':>11}"
-          f"{'peak MB':>9}")
+    print(f"{'robots':>6}{'envs':>7}{'seeds':>6}{'agent-steps/s':>15}{'env-steps/s':>13}"
+          f"{'compile s':>11}{'peak MB':>9}{'lane cost':>11}")
     for robots in args.robots:
         for envs in args.num_envs:
-            config = config_from_dict({
-                "env": {"scenarios": [args.scenario], "curriculum": [[0, robots]]},
-                "algorithm": {"num_envs": envs, "num_steps": 64, "total_steps": 10**8},
-                "network": {"kind": args.network}})
-            trainer = Trainer(config)
-            runner = jax.jit(trainer.init)(jax.random.PRNGKey(0))
-            chunk = jax.jit(lambda r, t=trainer: t.update_chunk(r, args.updates))
-            t0 = time.perf_counter()
-            compiled = chunk.lower(runner).compile()
-            compile_s = time.perf_counter() - t0
-            mem = compiled.memory_analysis()
-            peak = 0.0 if mem is None else (mem.argument_size_in_bytes + mem.output_size_in_bytes
-                                            + mem.temp_size_in_bytes) / 2**20
-            runner, _ = compiled(runner)  # warm
-            jax.block_until_ready(runner.params)
-            best = float("inf")
-            for _ in range(2):
-                t0 = time.perf_counter()
-                runner, _ = compiled(runner)
-                jax.block_until_ready(runner.params)
-                best = min(best, time.perf_counter() - t0)
-            env_rate = args.updates * 64 * envs / best
-            print(f"{robots:>6}{envs:>7}{env_rate * robots:>15,.0f}{env_rate:>13,.0f}"
-                  f"{compile_s:>11.1f}{peak:>9.1f}", flush=True)
+            one_seed = None
+            for seeds in args.seeds:
+                config = {
+                    "env": {"scenarios": [args.scenario], "curriculum": [[0, robots]]},
+                    "algorithm": {"num_envs": envs, "num_steps": 64, "total_steps": 10**8},
+                    "network": {"kind": args.network}}
+                seconds, compile_s, peak = time_updates(config, seeds, args.updates)
+                if seeds == 1:
+                    one_seed = seconds
+                lane = ("" if one_seed is None or seeds == 1
+                        else f"{seconds / (seeds * one_seed):.2f}x")
+                env_rate = seeds * args.updates * 64 * envs / seconds
+                print(f"{robots:>6}{envs:>7}{seeds:>6}{env_rate * robots:>15,.0f}"
+                      f"{env_rate:>13,.0f}{compile_s:>11.1f}{peak:>9.1f}{lane:>11}", flush=True)
 
 
 if __name__ == "__main__":
