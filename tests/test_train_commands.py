@@ -247,3 +247,27 @@ def test_ablation_command_rejects_an_unknown_reward_term(tmp_path):
     with pytest.raises(SystemExit, match="no reward term 'colision'"):
         ablation_main(["--config", str(ROOT / "train/configs/ablation.yaml"),
                        "--variants", str(variants)])
+
+
+def test_ablation_variant_sets_a_mapping_and_a_bad_one_fails_before_training(tmp_path,
+                                                                              monkeypatch):
+    import train.ablation as ablation
+    from train.config import load_config
+
+    variants = tmp_path / "v.yaml"
+    variants.write_text("baseline: {}\nexistence: {set: {env.rewards: "
+                        "{progress: 1.0, success: 100.0, existence: 0.1}}}\n")
+    config = load_config(ROOT / "train/configs/doorway.yaml", [])
+    changed = ablation._variant_config(config, ablation.load_variants(variants)["existence"], 2)
+    assert changed.env.make_kwargs()["rewards"] == {
+        "progress": 1.0, "success": 100.0, "existence": 0.1}
+    assert changed.num_seeds == 2 and config.env.make_kwargs()["rewards"] == "default"
+
+    def no_training(*args, **kwargs):
+        raise AssertionError("trained before every variant was checked")
+
+    monkeypatch.setattr(ablation, "train_variants", no_training)
+    variants.write_text("baseline: {}\nbad: {set: {env.rewards: {progres: 1.0}}}\n")
+    with pytest.raises(SystemExit, match="progres"):
+        ablation.main(["--config", str(ROOT / "train/configs/doorway.yaml"),
+                       "--variants", str(variants)])

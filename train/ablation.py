@@ -228,16 +228,24 @@ def load_variants(path: str | Path) -> dict[str, Variant]:
     return variants
 
 
+class _FrozenMapping(tuple):
+    """A YAML mapping made hashable: its sorted ``(key, value)`` pairs, told apart from a list."""
+
+
 def _frozen(value: Any) -> Any:
-    """A YAML value made hashable (lists to tuples), so variants can group by it."""
+    """A YAML value made hashable (lists to tuples, mappings to :class:`_FrozenMapping`), so
+    variants can group by it."""
     if isinstance(value, list | tuple):
         return tuple(_frozen(v) for v in value)
     if isinstance(value, Mapping):
-        return tuple(sorted((k, _frozen(v)) for k, v in value.items()))
+        return _FrozenMapping(sorted((k, _frozen(v)) for k, v in value.items()))
     return value
 
 
 def _thawed(value: Any) -> Any:
+    """The YAML value :func:`_frozen` made hashable."""
+    if isinstance(value, _FrozenMapping):
+        return {k: _thawed(v) for k, v in value}
     return [_thawed(v) for v in value] if isinstance(value, tuple) else value
 
 
@@ -273,12 +281,13 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
     # Every group's config first: a bad variant setting fails before any training.
     configs = [_variant_config(config, next(iter(group.values())), seeds)
                for group in groups.values()]
+    # ...and every group's environment and network (terms, weights, shapes): no compiling.
+    trainers = [Trainer(group_config) for group_config in configs]
     scores: dict[int, dict[str, list[float]]] = {n: {} for n in counts}
     seconds = {"compile and train": 0.0, "evaluate": 0.0}
     scenario = config.env.scenarios[0]
     key = jax.random.PRNGKey(config.seed + 7)
-    for group, group_config in zip(groups.values(), configs, strict=True):
-        trainer = Trainer(group_config)
+    for group, trainer in zip(groups.values(), trainers, strict=True):
         labels = [(name, seed) for name in group for seed in range(seeds)]
         share = lane_share(len(labels), processes)
         t0 = t1 = time.perf_counter()
