@@ -278,11 +278,10 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
     groups: dict[tuple, dict[str, Variant]] = {}
     for name, variant in variants.items():
         groups.setdefault((variant.network, variant.settings), {})[name] = variant
-    # Every group's config first: a bad variant setting fails before any training.
-    configs = [_variant_config(config, next(iter(group.values())), seeds)
-               for group in groups.values()]
-    # ...and every group's environment and network (terms, weights, shapes): no compiling.
-    trainers = [Trainer(group_config) for group_config in configs]
+    # Every group's config, environment and network first (terms, weights, shapes; nothing is
+    # compiled): a bad variant fails before any training.
+    trainers = [Trainer(_variant_config(config, next(iter(group.values())), seeds))
+                for group in groups.values()]
     scores: dict[int, dict[str, list[float]]] = {n: {} for n in counts}
     seconds = {"compile and train": 0.0, "evaluate": 0.0}
     scenario = config.env.scenarios[0]
