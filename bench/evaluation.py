@@ -19,6 +19,7 @@ import argparse
 import time
 
 import jax
+from compiled import compile_measured
 
 import sgjax
 from sgjax import metrics
@@ -62,20 +63,13 @@ def without_metrics(env, params, policy, num_episodes: int):
 def measure(run, repeats: int) -> tuple[float, float, float]:
     """(compile s, best run s, peak MB)."""
     key = jax.random.key(0)
-    t0 = time.perf_counter()
-    compiled = run.lower(key).compile()
-    compile_s = time.perf_counter() - t0
-    mem = compiled.memory_analysis()
-    peak = 0.0
-    if mem is not None:
-        peak = (mem.argument_size_in_bytes + mem.output_size_in_bytes
-                + mem.temp_size_in_bytes) / 2**20
+    compiled, compile_s, peak_bytes = compile_measured(run.lower(key))
     best = float("inf")
     for _ in range(repeats):
         t0 = time.perf_counter()
         jax.block_until_ready(compiled(key))
         best = min(best, time.perf_counter() - t0)
-    return compile_s, best, peak
+    return compile_s, best, peak_bytes / 2**20
 
 
 def main() -> None:

@@ -30,6 +30,7 @@ from collections.abc import Callable
 
 import jax
 import jax.numpy as jnp
+from compiled import compile_measured
 
 import sgjax
 from sgjax.presets import REWARD_PRESETS
@@ -53,14 +54,7 @@ def _scan_rollout(step_fn: Callable, sample_fn: Callable, steps: int) -> Callabl
 def _time_jax(rollout: Callable, state, steps: int, repeats: int) -> tuple[float, float, int]:
     """Returns (compile seconds, best seconds per step, peak bytes)."""
     key = jax.random.key(1)
-    t0 = time.perf_counter()
-    compiled = rollout.lower(state, key).compile()
-    compile_s = time.perf_counter() - t0
-    mem = compiled.memory_analysis()
-    peak = 0
-    if mem is not None:
-        peak = (mem.argument_size_in_bytes + mem.output_size_in_bytes
-                + mem.temp_size_in_bytes)
+    compiled, compile_s, peak = compile_measured(rollout.lower(state, key))
     jax.block_until_ready(compiled(state, key))  # warm-up
     best = float("inf")
     for r in range(repeats):

@@ -17,6 +17,7 @@ import argparse
 import time
 
 import jax
+from compiled import compile_measured
 
 from train.config import config_from_dict
 from train.ppo import Trainer, seed_keys
@@ -28,12 +29,7 @@ def time_updates(config: dict, seeds: int, updates: int) -> tuple[float, float, 
     trainer = Trainer(config_from_dict(config))
     runner = jax.jit(jax.vmap(trainer.init))(seed_keys(trainer.config))
     chunk = jax.jit(jax.vmap(lambda r: trainer.update_chunk(r, updates)))
-    t0 = time.perf_counter()
-    compiled = chunk.lower(runner).compile()
-    compile_s = time.perf_counter() - t0
-    mem = compiled.memory_analysis()
-    peak = 0.0 if mem is None else (mem.argument_size_in_bytes + mem.output_size_in_bytes
-                                    + mem.temp_size_in_bytes) / 2**20
+    compiled, compile_s, peak_bytes = compile_measured(chunk.lower(runner))
     runner, _ = compiled(runner)  # warm
     jax.block_until_ready(runner.params)
     best = float("inf")
@@ -42,7 +38,7 @@ def time_updates(config: dict, seeds: int, updates: int) -> tuple[float, float, 
         runner, _ = compiled(runner)
         jax.block_until_ready(runner.params)
         best = min(best, time.perf_counter() - t0)
-    return best, compile_s, peak
+    return best, compile_s, peak_bytes / 2**20
 
 
 def main() -> None:
