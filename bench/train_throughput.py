@@ -4,16 +4,21 @@ Times whole PPO updates (rollout with auto-reset, GAE, epochs of minibatches) of
 ``train.ppo.Trainer`` on the doorway for several batch sizes, robot counts and numbers of
 seeds, and prints agent-steps/s, env-steps/s (over all seeds), compile time, peak memory
 (XLA's memory analysis of the compiled chunk of updates) and, for several seeds, the cost of
-one seed lane against a run of one seed (``lane cost`` 1.00x: a ``vmap`` over seeds is as
-cheap per seed as separate runs; 2.00x: each lane costs twice a separate run).
+one seed lane against a run of one seed (``lane cost`` 1.00x: lanes of one call are as cheap
+per seed as separate runs; 2.00x: each lane costs twice a separate run), for each
+``algorithm.lanes`` mode asked for (batched: one ``vmap``; sequential: batched rollouts, the
+learning phases one lane after another).
 
     python bench/train_throughput.py --num-envs 64 256 1024 --robots 4 10
     python bench/train_throughput.py --num-envs 256 --robots 4 --seeds 1 3 6
+    python bench/train_throughput.py --num-envs 256 --robots 4 --seeds 1 3 \\
+        --lanes batched sequential
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import time
 
 import jax
@@ -28,7 +33,7 @@ def time_updates(config: dict, seeds: int, updates: int) -> tuple[float, float, 
     config = dict(config, seed=0, num_seeds=seeds)
     trainer = Trainer(config_from_dict(config))
     runner = jax.jit(jax.vmap(trainer.init))(seed_keys(trainer.config))
-    chunk = jax.jit(jax.vmap(lambda r: trainer.update_chunk(r, updates)))
+    chunk = jax.jit(lambda r: trainer.update_chunk_lanes(r, updates))
     compiled, compile_s, peak_bytes = compile_measured(chunk.lower(runner))
     runner, _ = compiled(runner)  # warm
     jax.block_until_ready(runner.params)
@@ -50,28 +55,32 @@ def main() -> None:
                         help="numbers of seeds trained as vmap lanes of one call")
     parser.add_argument("--updates", type=int, default=4, help="updates per timed call")
     parser.add_argument("--network", default="mlp", choices=["mlp", "gru"])
+    parser.add_argument("--others", default="none", choices=["none", "attention", "lstm"],
+                        help="others encoder (lstm: the reproduce benchmark's CADRL(L))")
+    parser.add_argument("--lanes", nargs="+", default=["auto"],
+                        choices=["auto", "batched", "sequential"],
+                        help="algorithm.lanes: how the seed lanes run the learning phase")
     args = parser.parse_args()
     print(f"jax {jax.__version__} on {jax.devices()[0].platform}, {args.scenario}, IPPO "
-          f"{args.network}, 64 steps x 4 epochs x 4 minibatches per update")
-    print(f"{'robots':>6}{'envs':>7}{'seeds':>6}{'agent-steps/s':>15}{'env-steps/s':>13}"
+          f"{args.network}/{args.others}, 64 steps x 4 epochs x 4 minibatches per update")
+    print(f"{'lanes':>11}{'robots':>7}{'envs':>7}{'seeds':>6}{'agent-steps/s':>15}{'env-steps/s':>13}"
           f"{'compile s':>11}{'peak MB':>9}{'lane cost':>11}")
-    for robots in args.robots:
-        for envs in args.num_envs:
-            one_seed = None
-            for seeds in args.seeds:
-                config = {
-                    "env": {"scenarios": [args.scenario], "curriculum": [[0, robots]]},
-                    "algorithm": {"num_envs": envs, "num_steps": 64, "total_steps": 10**8},
-                    "network": {"kind": args.network}}
-                seconds, compile_s, peak = time_updates(config, seeds, args.updates)
-                if seeds == 1:
-                    one_seed = seconds
-                lane = ("" if one_seed is None or seeds == 1
-                        else f"{seconds / (seeds * one_seed):.2f}x")
-                env_rate = seeds * args.updates * 64 * envs / seconds
-                print(f"{robots:>6}{envs:>7}{seeds:>6}{env_rate * robots:>15,.0f}"
-                      f"{env_rate:>13,.0f}{compile_s:>11.1f}{peak:>9.1f}{lane:>11}", flush=True)
-
+    for lanes, robots, envs in itertools.product(args.lanes, args.robots, args.num_envs):
+        one_seed = None
+        for seeds in args.seeds:
+            config = {
+                "env": {"scenarios": [args.scenario], "curriculum": [[0, robots]]},
+                "algorithm": {"num_envs": envs, "num_steps": 64, "total_steps": 10**8,
+                              "lanes": lanes},
+                "network": {"kind": args.network, "others_encoder": args.others}}
+            seconds, compile_s, peak = time_updates(config, seeds, args.updates)
+            if seeds == 1:
+                one_seed = seconds
+            lane = ("" if one_seed is None or seeds == 1
+                    else f"{seconds / (seeds * one_seed):.2f}x")
+            env_rate = seeds * args.updates * 64 * envs / seconds
+            print(f"{lanes:>11}{robots:>7}{envs:>7}{seeds:>6}{env_rate * robots:>15,.0f}"
+                  f"{env_rate:>13,.0f}{compile_s:>11.1f}{peak:>9.1f}{lane:>11}", flush=True)
 
 if __name__ == "__main__":
     main()

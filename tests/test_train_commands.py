@@ -28,7 +28,7 @@ config = config_from_dict({"env": {"scenarios": ["open"], "curriculum": [[0, 2]]
     "algorithm": {"num_envs": 8, "num_steps": 4, "total_steps": 32, "update_epochs": 1,
                   "num_minibatches": 2}, "network": {"hidden": [16]}})
 trainer = Trainer(config)
-step = jax.jit(jax.vmap(lambda r: trainer.update_chunk(r, 1)))
+step = jax.jit(lambda r: trainer.update_chunk_lanes(r, 1))
 runner = jax.vmap(trainer.init)(seed_keys(config))
 plain, _ = step(runner)
 sharded_in = shard_runner(runner, device_mesh(), trainer.num_envs)

@@ -1,9 +1,10 @@
-"""Reward and observation ablations trained as one ``vmap`` (the paper's Table 4).
+"""Reward and observation ablations trained as lanes of one function (the paper's Table 4).
 
 A *variant* switches reward terms off (a multiplier of 0 on ``info["reward_terms"]``) and hides
 observation features (a 0 in the observation mask). Reward weights and the mask are arrays in
-the runner state, so every variant x seed is one lane of one jitted, vmapped training function
-(in one call, or in groups of lanes); only the network architecture (MLP or GRU) needs its own.
+the runner state, so every variant x seed is one lane of one jitted training function (in one
+call, or in groups of lanes; ``algorithm.lanes`` says how the lanes run); only the network
+architecture (MLP or GRU) needs its own.
 
     variants = {"baseline": Variant(), "no collision": Variant(rewards_off=("collision",)),
                 "no velocities": Variant(hide=("velocity", "others.velocity"))}
@@ -122,12 +123,13 @@ def variant_inputs(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
 def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int,
                    lanes_per_run: int | None = None, lanes: Sequence[int] | None = None
                    ) -> tuple[Any, dict, list[tuple[str, int]]]:
-    """Train every variant x seed with one jitted ``vmap``: all lanes in one call, or
-    ``lanes_per_run`` lanes at a time (the same compiled function for every group, the last
-    group padded; for memory). ``lanes`` picks some of the lanes (indices into the variant x
-    seed order; this process's share of a multi-process sweep). Returns the lane-batched
-    runner, the per-update logs ``[lanes, updates]`` and the lane labels ``(variant, seed)``.
-    Wide vmaps used to hang on XLA:CPU; the cause is fixed (docs/xla-cpu-deadlock.md)."""
+    """Train every variant x seed as lanes of one jitted function
+    (``Trainer.update_chunk_lanes``): all lanes in one call, or ``lanes_per_run`` lanes at a
+    time (the same compiled function for every group, the last group padded; for memory).
+    ``lanes`` picks some of the lanes (indices into the variant x seed order; this process's
+    share of a multi-process sweep). Returns the lane-batched runner, the per-update logs
+    ``[lanes, updates]`` and the lane labels ``(variant, seed)``. Wide vmaps used to hang on
+    XLA:CPU; the cause is fixed (docs/xla-cpu-deadlock.md)."""
     keys, weights, masks, labels = variant_inputs(trainer, variants, seeds)
     if lanes is not None:
         index = np.asarray(lanes, int)
@@ -141,9 +143,9 @@ def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
     width = count if lanes_per_run is None else max(1, min(lanes_per_run, count))
 
     @jax.jit
-    @jax.vmap
-    def run(key, weight, mask):
-        return trainer.update_chunk(trainer.init(key, weight, mask), updates)
+    def run(keys, weights, masks):
+        runners = jax.vmap(trainer.init)(keys, weights, masks)
+        return trainer.update_chunk_lanes(runners, updates)
 
     outputs = []
     for start in range(0, count, width):

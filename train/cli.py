@@ -159,7 +159,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
         runner = shard_runner(runner, device_mesh(devices), trainer.num_envs)
 
     per_chunk = _updates_per_chunk(config)
-    chunk = jax.jit(jax.vmap(lambda r: trainer.update_chunk(r, per_chunk)), donate_argnums=0)
+    chunk = jax.jit(lambda r: trainer.update_chunk_lanes(r, per_chunk), donate_argnums=0)
     t0 = time.perf_counter()
     compiled = chunk.lower(runner).compile()
     compile_s = time.perf_counter() - t0
@@ -179,7 +179,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
     while meta["updates"] < a.num_updates:
         if meta["updates"] + per_chunk > a.num_updates:  # the last, shorter chunk
             per_chunk = a.num_updates - meta["updates"]
-            compiled = jax.jit(jax.vmap(lambda r, n=per_chunk: trainer.update_chunk(r, n)))
+            compiled = jax.jit(lambda r, n=per_chunk: trainer.update_chunk_lanes(r, n))
         t0 = time.perf_counter()
         runner, logs = compiled(runner)
         logs = jax.device_get(logs)

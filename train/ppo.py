@@ -14,9 +14,11 @@ finished (``info["was_active"]`` false) are masked out of every loss and statist
 * Observations are normalised by running statistics of the acting robots' observations, rewards
   scaled by the running spread of each robot's discounted return (SB3 ``VecNormalize``).
 
-``Trainer(config).train(key)`` is a whole run in one jitted function (``vmap`` it over seeds);
-``init`` + ``update_chunk`` give the same run in pieces for the command line's progress bar,
-evaluation and checkpoints.
+``Trainer(config).train(key)`` is a whole run in one jitted function; ``train_lanes(keys)`` runs
+several seeds as lanes of one function (``algorithm.lanes``: one ``vmap``, or the rollouts
+batched and the learning phases one lane after another, faster on a CPU). ``init`` +
+``update_chunk`` (``update_chunk_lanes``) give the same run in pieces for the command line's
+progress bar, evaluation and checkpoints.
 """
 
 from __future__ import annotations
@@ -179,6 +181,16 @@ class Transition:
     active: Array
 
 
+@struct.dataclass
+class Rollout:
+    """One update's data for the learning phase (``T = num_steps`` steps, ``B`` agents)."""
+
+    memory: tuple  # network memory at the rollout's first step, [B, H] each
+    traj: Transition  # [T, B, ...]
+    advantages: Array  # [T, B]
+    targets: Array  # [T, B] value targets
+
+
 class Trainer:
     """Builds the environment batch, the network and the optimiser from a ``TrainConfig``."""
 
@@ -193,6 +205,8 @@ class Trainer:
             raise ConfigError(f"algorithm.num_minibatches ({a.num_minibatches}) must divide "
                               f"num_envs x robot slots ({self.num_agents})")
         self.mappo = a.name == "mappo"
+        self.sequential_lanes = (a.lanes == "sequential"
+                                 or (a.lanes == "auto" and jax.default_backend() == "cpu"))
         self.actor = ActorLayout(
             obs_size=self.batch.obs_size, slots=self.slots, discrete=self.batch.discrete,
             action_dim=self.batch.action_dim, normalize=a.normalize_observations,
@@ -389,15 +403,24 @@ class Trainer:
         return total, {"policy_loss": policy_loss, "value_loss": value_loss, "entropy": ent,
                        "approx_kl": approx_kl}
 
-    def update(self, runner: RunnerState) -> tuple[RunnerState, dict]:
-        """One PPO update: collect ``num_steps`` steps, then learn from them."""
+    def collect(self, runner: RunnerState) -> tuple[RunnerState, Rollout, dict]:
+        """The rollout half of an update: ``num_steps`` steps of the whole batch, then GAE.
+        Returns the advanced runner, the learning phase's data and the per-step logs."""
         a = self.config.algorithm
-        start_carry = runner.carry
+        memory = runner.carry
         runner, (traj, logs) = jax.lax.scan(self._env_step, runner, None, a.num_steps)
         actor_in, critic_in = self.inputs(runner.obs_stats, runner.obs)
         _, _, last_value = self.network.apply(runner.params, runner.carry, actor_in[None],
                                               critic_in[None], runner.starts.reshape(1, -1))
         advantages, targets = self._advantages(traj, last_value[0])
+        return runner, Rollout(memory, traj, advantages, targets), logs
+
+    def learn(self, params: Any, opt_state: Any, key: Array, rollout: Rollout
+              ) -> tuple[Any, Any, Array, dict]:
+        """The learning half of an update: ``update_epochs`` passes of ``num_minibatches``
+        minibatches of agent sequences. Returns the new parameters, optimiser state and key,
+        and the loss terms ``[epochs, minibatches]``."""
+        a = self.config.algorithm
         size = self.num_agents // a.num_minibatches
         grad_fn = jax.value_and_grad(self._loss, has_aux=True)
 
@@ -411,9 +434,9 @@ class Trainer:
         def epoch(carry, key):
             # Shuffle the agents once (one gather), then cut contiguous minibatches.
             order = jax.random.permutation(key, self.num_agents)
-            memory = jax.tree.map(lambda c: jnp.take(c, order, axis=0), start_carry)
+            memory = jax.tree.map(lambda c: jnp.take(c, order, axis=0), rollout.memory)
             data = jax.tree.map(lambda x: jnp.take(x, order, axis=1),
-                                (traj, advantages, targets))
+                                (rollout.traj, rollout.advantages, rollout.targets))
 
             def cut_time_major(x):  # [T, B, ...] -> [M, T, B / M, ...]
                 x = x.reshape((x.shape[0], a.num_minibatches, size) + x.shape[2:])
@@ -424,9 +447,25 @@ class Trainer:
             return jax.lax.scan(minibatch, carry,
                                 (memory,) + jax.tree.map(cut_time_major, data))
 
-        key, k_epochs = jax.random.split(runner.key)
+        key, k_epochs = jax.random.split(key)
         (params, opt_state), aux = jax.lax.scan(
-            epoch, (runner.params, runner.opt_state), jax.random.split(k_epochs, a.update_epochs))
+            epoch, (params, opt_state), jax.random.split(k_epochs, a.update_epochs))
+        return params, opt_state, key, aux
+
+    def _learn_lane(self, params: Any, opt_state: Any, key: Array, rollout: Rollout
+                    ) -> tuple[Any, Any, Array, dict]:
+        """``learn`` for one lane, as the lane mode compiles it: written as a batch of one
+        when sequential (the same values; XLA:CPU then hands every product of the backward
+        pass, the weight gradients included, to its fast matmul fusions:
+        docs/xla-cpu-learning-layout.md), as is when batched (a ``vmap`` adds the lanes)."""
+        if not self.sequential_lanes:
+            return self.learn(params, opt_state, key, rollout)
+        one = jax.tree.map(lambda x: x[None], (params, opt_state, key, rollout))
+        return jax.tree.map(lambda x: x[0], jax.vmap(self.learn)(*one))
+
+    def _finish(self, runner: RunnerState, learned: tuple, logs: dict
+                ) -> tuple[RunnerState, dict]:
+        params, opt_state, key, aux = learned
         runner = runner.replace(params=params, opt_state=opt_state, key=key)
         metrics = {name: jnp.sum(v) for name, v in logs.items()}
         metrics.update({name: jnp.mean(v) for name, v in aux.items()})
@@ -434,13 +473,48 @@ class Trainer:
         metrics["num_agents"] = self.num_agents_at(runner.steps)
         return runner, metrics
 
+    def update(self, runner: RunnerState) -> tuple[RunnerState, dict]:
+        """One PPO update of one lane: collect ``num_steps`` steps, then learn from them."""
+        runner, rollout, logs = self.collect(runner)
+        learned = self._learn_lane(runner.params, runner.opt_state, runner.key, rollout)
+        return self._finish(runner, learned, logs)
+
+    def update_lanes(self, runners: RunnerState) -> tuple[RunnerState, dict]:
+        """One update of every lane of ``runners`` (leaves ``[L, ...]``: seeds, ablation
+        variants). Batched: a ``vmap`` of ``update``. Sequential: the rollouts as one
+        ``vmap``, the learning phases one lane after another (``lax.map``); with one lane,
+        ``update`` itself. Metrics ``[L]``."""
+        lanes = jax.tree.leaves(runners.steps)[0].shape[0]
+        if not self.sequential_lanes:
+            return jax.vmap(self.update)(runners)
+        if lanes == 1:
+            runner, metrics = self.update(jax.tree.map(lambda x: x[0], runners))
+            return jax.tree.map(lambda x: x[None], (runner, metrics))
+        runners, rollouts, logs = jax.vmap(self.collect)(runners)
+        learned = jax.lax.map(lambda x: self._learn_lane(*x),
+                              (runners.params, runners.opt_state, runners.key, rollouts))
+        return jax.vmap(self._finish)(runners, learned, logs)
+
     def update_chunk(self, runner: RunnerState, count: int) -> tuple[RunnerState, dict]:
-        """``count`` updates in one ``lax.scan`` (metrics stacked ``[count]``)."""
+        """``count`` updates of one lane in one ``lax.scan`` (metrics stacked ``[count]``)."""
         return jax.lax.scan(lambda r, _: self.update(r), runner, None, count)
+
+    def update_chunk_lanes(self, runners: RunnerState, count: int
+                           ) -> tuple[RunnerState, dict]:
+        """``count`` updates of every lane (``update_lanes``); metrics ``[L, count]``."""
+        runners, metrics = jax.lax.scan(lambda r, _: self.update_lanes(r), runners, None,
+                                        count)
+        return runners, jax.tree.map(lambda x: jnp.swapaxes(x, 0, 1), metrics)
 
     def train(self, key: Array) -> tuple[RunnerState, dict]:
         """A whole run: ``init`` then every update, one jittable function of the key."""
         return self.update_chunk(self.init(key), self.config.algorithm.num_updates)
+
+    def train_lanes(self, keys: Array) -> tuple[RunnerState, dict]:
+        """A whole run of every seed key ``[L, 2]`` as lanes of one function (``train``
+        per lane, the lanes run as ``algorithm.lanes`` says)."""
+        return self.update_chunk_lanes(jax.vmap(self.init)(keys),
+                                       self.config.algorithm.num_updates)
 
     # ------------------------------------------------------------------ acting
     def policy(self, params: Any, obs_stats: RunningStats, deterministic: bool = False,

@@ -13,7 +13,7 @@ in the same world. Training follows the paper's setting where sgjax can: PPO, GO
 over the local planner, observation and reward normalisation, 3 robots, then 3 or 4 drawn per
 episode from a tenth of the steps on (the paper's "trained with up to 4 agents"; a policy that
 met only 4 robots for most of its training forgets 3: open/cadrl scored 0.00 at 3 robots and
-1.00 at 4 without the draw). Each seed is one ``vmap`` lane of one jitted run.
+1.00 at 4 without the draw). Each seed is one lane of one jitted run (``Trainer.train_lanes``).
 
 Two profiles (``--profile``):
 
@@ -162,7 +162,7 @@ def train_baseline(config: Any) -> tuple[Trainer, Any, float, float]:
     trainer = Trainer(config)
     keys = seed_keys(config)
     t0 = time.perf_counter()
-    compiled = jax.jit(jax.vmap(trainer.train)).lower(keys).compile()
+    compiled = jax.jit(trainer.train_lanes).lower(keys).compile()
     t1 = time.perf_counter()
     runner, _ = compiled(keys)
     jax.block_until_ready(runner.params)
