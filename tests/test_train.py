@@ -70,6 +70,7 @@ def test_a_tiny_run_learns_to_reach_the_goal():
     ({"env": {"num_agents": 5}}, "unknown key 'num_agents'.*valid keys are: scenarios"),
     ({"env": {"human_model": "orka"}}, "env: human_model must be one of"),
     ({"env": {"dt": -1}}, "env: dt must be a positive number"),
+    ({"algorithm": {"lanes": "parallel"}}, "algorithm: lanes must be one of auto, batched"),
 ])
 def test_the_config_validator_rejects_bad_keys(data, message):
     with pytest.raises(ConfigError, match=message):
@@ -107,15 +108,15 @@ def test_env_section_takes_every_make_option_and_round_trips():
 
 @pytest.fixture(scope="module")
 def two_seeds():
-    """Sixteen seeds (lanes) of a GRU + attention network, and one update vmapped over them
-    (compiled once for the tests below). Sixteen lanes in one call used to hang XLA:CPU
-    (docs/xla-cpu-deadlock.md)."""
+    """Sixteen seeds (lanes) of a GRU + attention network, and one update of all of them as
+    lanes of one function (compiled once for the tests below). Sixteen lanes in one call used
+    to hang XLA:CPU (docs/xla-cpu-deadlock.md)."""
     config = tiny(num_seeds=16, env={"observations": "navigation"},
                   network={"kind": "gru", "recurrent_size": 16, "hidden": [16],
                            "others_encoder": "attention", "encoder_size": 8})
     trainer = Trainer(config)
     step = lambda r: trainer.update_chunk(r, 1)  # noqa: E731
-    return config, trainer, step, jax.jit(jax.vmap(step))
+    return config, trainer, step, jax.jit(lambda r: trainer.update_chunk_lanes(r, 1))
 
 
 @pytest.mark.slow
@@ -131,6 +132,31 @@ def test_multi_seed_vmap_matches_separate_seeds(two_seeds):
         # batched and the single program round differently moves its weight by a visible part
         # of a step (lr 3e-4). 3e-5 is a tenth of a step; a wrong lane is off by whole steps.
         assert leaves_close(mine, alone.params, rtol=1e-4, atol=3e-5)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("network", [{"hidden": [32, 32]},
+                                     {"kind": "gru", "recurrent_size": 16, "hidden": [16]},
+                                     {"others_encoder": "lstm", "encoder_size": 8}])
+def test_sequential_and_batched_lanes_train_the_same_seeds(network):
+    """``algorithm.lanes``: the learning phases one lane after another (each a batch of one)
+    give every lane what one vmap gives it, up to float rounding; the lanes differ."""
+    runs = {}
+    for mode in ("batched", "sequential"):
+        config = tiny(num_seeds=3, env={"observations": "navigation"}, network=network,
+                      algorithm={"lanes": mode})
+        trainer = Trainer(config)
+        assert trainer.sequential_lanes == (mode == "sequential")
+        runner, logs = jax.jit(lambda r, t=trainer: t.update_chunk_lanes(r, 2))(
+            jax.vmap(trainer.init)(seed_keys(config)))
+        assert logs["policy_loss"].shape == (3, 2)
+        runs[mode] = runner, logs
+    (batched, b_logs), (sequential, s_logs) = runs["batched"], runs["sequential"]
+    assert leaves_close(batched.params, sequential.params, rtol=1e-4, atol=3e-5)
+    np.testing.assert_allclose(b_logs["value_loss"], s_logs["value_loss"], rtol=1e-4)
+    np.testing.assert_array_equal(b_logs["episodes"], s_logs["episodes"])
+    first = jax.tree.leaves(sequential.params)[0]
+    assert not np.allclose(first[0], first[1])
 
 
 def _equations(jaxpr):

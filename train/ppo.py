@@ -475,21 +475,21 @@ class Trainer:
 
     def update(self, runner: RunnerState) -> tuple[RunnerState, dict]:
         """One PPO update of one lane: collect ``num_steps`` steps, then learn from them."""
+        return self._update(runner, self._learn_lane)
+
+    def _update(self, runner: RunnerState, learn: Any) -> tuple[RunnerState, dict]:
         runner, rollout, logs = self.collect(runner)
-        learned = self._learn_lane(runner.params, runner.opt_state, runner.key, rollout)
+        learned = learn(runner.params, runner.opt_state, runner.key, rollout)
         return self._finish(runner, learned, logs)
 
     def update_lanes(self, runners: RunnerState) -> tuple[RunnerState, dict]:
         """One update of every lane of ``runners`` (leaves ``[L, ...]``: seeds, ablation
-        variants). Batched: a ``vmap`` of ``update``. Sequential: the rollouts as one
-        ``vmap``, the learning phases one lane after another (``lax.map``); with one lane,
-        ``update`` itself. Metrics ``[L]``."""
-        lanes = jax.tree.leaves(runners.steps)[0].shape[0]
-        if not self.sequential_lanes:
-            return jax.vmap(self.update)(runners)
-        if lanes == 1:
-            runner, metrics = self.update(jax.tree.map(lambda x: x[0], runners))
-            return jax.tree.map(lambda x: x[None], (runner, metrics))
+        variants). Batched, or a single lane: one ``vmap`` of the update. Sequential: the
+        rollouts as one ``vmap``, the learning phases one lane after another (``lax.map``).
+        Metrics ``[L]``."""
+        lanes = runners.steps.shape[0]
+        if not self.sequential_lanes or lanes == 1:
+            return jax.vmap(lambda r: self._update(r, self.learn))(runners)
         runners, rollouts, logs = jax.vmap(self.collect)(runners)
         learned = jax.lax.map(lambda x: self._learn_lane(*x),
                               (runners.params, runners.opt_state, runners.key, rollouts))
