@@ -21,6 +21,10 @@ Actions (static ``action_mode``):
     ``(forward, lateral, turn)`` when the team has an omnidirectional robot
     (see :func:`sgjax.dynamics.decode_continuous`).
 
+With ``decision_period=k`` (default 1) robots read new actions only at the steps whose episode
+time is a multiple of ``k`` and hold their last one in between (``state.held_action``;
+``info["decided"]`` says whether a step read them): a STOP lasts ``k`` steps, a GO too.
+
 Observations, rewards and episode ends are made of named terms (``sgjax.observations``,
 ``sgjax.rewards``, ``sgjax.enders``; ``docs/terms.md``), chosen in ``make`` by preset or spec.
 The default observation is ``[R, 10]``: world pose ``(x, y, cos h, sin h)``, body velocity
@@ -95,6 +99,7 @@ class EnvConfig:
     track_zones: bool = False  # keep zone books even when no term reads them (for metrics)
     arrived: str = "park"  # an arrived robot stays parked as a body, or leaves the world
     ended: str = "leave"  # the same for a robot an ender terminates (e.g. a fatal collision)
+    decision_period: int = 1  # steps each action is held (robots read actions every that many)
 
     def __post_init__(self) -> None:
         if self.action_mode not in ACTION_MODES:
@@ -104,6 +109,9 @@ class EnvConfig:
             if getattr(self, name) not in WORLD_SEMANTICS:
                 raise ValueError(f"{name} must be one of {WORLD_SEMANTICS}, "
                                  f"got {getattr(self, name)!r}")
+        if self.decision_period < 1:
+            raise ValueError(f"decision_period must be a positive integer, got "
+                             f"{self.decision_period!r}")
 
     @property
     def layout(self) -> Layout:
@@ -295,6 +303,9 @@ class SocialNavEnv:
             zones=zones,
             moved=jnp.zeros((self.config.enders.window, num_robots), jnp.float32),
             total_steps=jnp.zeros((), jnp.int32),
+            held_action=(jnp.zeros((num_robots, self.config.action_dim), jnp.float32)
+                         if self.config.action_mode == "continuous"
+                         else jnp.full(num_robots, GO, jnp.int32)),
         )
         return self.observe(state, params, key_obs), state
 
@@ -352,6 +363,7 @@ class SocialNavEnv:
         cfg, layout = self.config, self.config.layout
         key_humans, key_obs = jax.random.split(key) if cfg.observer.needs_key else (key, key)
         with jax.named_scope("decode_actions"):
+            actions = self._held(state, self._checked(actions))
             commands = self._commands(state, actions, params)
         with jax.named_scope("pedestrian_waypoints"):
             humans = advance_waypoints(key_humans, cfg.humans, params.humans, params.map,
@@ -365,7 +377,7 @@ class SocialNavEnv:
         with jax.named_scope("enders"):
             outcome, ender_rewards = cfg.enders(state, moved, params, layout)
             next_state = self._conclude(state, moved, outcome, cfg.arrived == "park",
-                                        cfg.ended == "park")
+                                        cfg.ended == "park").replace(held_action=actions)
         with jax.named_scope("rewards"):
             reward, reward_terms = cfg.rewarder(state, next_state, actions, params, layout)
             was_active = state.robots.active
@@ -384,6 +396,7 @@ class SocialNavEnv:
             "collision_human": contacts.human,
             "arrived": next_state.robots.succeeded & ~state.robots.succeeded,
             "reward_terms": reward_terms,
+            "decided": self.decides(state),
         }
         return obs, next_state, reward, terminated, truncated, info
 
@@ -422,6 +435,7 @@ class SocialNavEnv:
                                self.config.tracked_zones(params.map.zone_rect), time),
             moved=moved,
             total_steps=state.total_steps + 1,
+            held_action=state.held_action,
         )
 
     @staticmethod
@@ -435,22 +449,43 @@ class SocialNavEnv:
         newly = state.robots.active & ((r.succeeded & park_arrived) | (ended & park_ended))
         return moved.replace(robots=r.replace(ended=ended, parked=r.parked | newly))
 
-    def _commands(self, state: EnvState, actions: Array, params: EnvParams) -> Commands:
-        """Decode actions into per-robot commands: continuous actions directly, GO through the
-        local planner, STOP as braking at the deceleration limit."""
-        cfg, rp, robots = self.config, params.robots, state.robots
+    def _checked(self, actions: Array) -> Array:
+        """``actions`` as the step takes them (``[R]`` int32 GO/STOP or ``[R, A]`` float32), or
+        an error naming the expected shape and type."""
+        cfg = self.config
         actions = jnp.asarray(actions)
         if cfg.action_mode == "continuous":
             expected = (self.max_agents, cfg.action_dim)
             if actions.shape != expected:
                 raise ValueError(f"actions: expected shape {expected} (robots, action dim) for "
                                  f"continuous actions, got {actions.shape}")
-            return Commands(*decode_continuous(actions, rp, cfg.action_dim))
+            return actions.astype(jnp.float32)
         if actions.shape != (self.max_agents,):
             raise ValueError(f"actions: expected shape ({self.max_agents},) of GO(0)/STOP(1) "
                              f"ints, got {actions.shape}")
         if not jnp.issubdtype(actions.dtype, jnp.integer):
             raise ValueError(f"actions: expected integers GO(0)/STOP(1), got dtype {actions.dtype}")
+        return actions.astype(jnp.int32)
+
+    def decides(self, state: EnvState) -> Array:
+        """Whether a step from ``state`` reads new actions (bool scalar): always with
+        ``decision_period`` 1, else when the episode time is a multiple of it."""
+        period = self.config.decision_period
+        return jnp.asarray(True) if period == 1 else state.time % period == 0
+
+    def _held(self, state: EnvState, actions: Array) -> Array:
+        """The actions in force this step: the new ones at a decision step, else each robot's
+        held one."""
+        if self.config.decision_period == 1:
+            return actions
+        return jnp.where(self.decides(state), actions, state.held_action)
+
+    def _commands(self, state: EnvState, actions: Array, params: EnvParams) -> Commands:
+        """Decode checked actions into per-robot commands: continuous actions directly, GO
+        through the local planner, STOP as braking at the deceleration limit."""
+        cfg, rp, robots = self.config, params.robots, state.robots
+        if cfg.action_mode == "continuous":
+            return Commands(*decode_continuous(actions, rp, cfg.action_dim))
         carrot_x, carrot_y = carrot_point(params.planner, state.route, state.progress)
         forward, turn = plan(
             cfg.planner, params.planner, rp, params.map, robots.x, robots.y, robots.heading,

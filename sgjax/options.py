@@ -4,7 +4,7 @@
 each belongs to one group:
 
 * :class:`RobotOptions`: ``num_agents``, ``min_agents``, ``max_agents``, ``robots``,
-  ``action_mode``, ``goal_tolerance``, ``arrived``, ``ended``;
+  ``action_mode``, ``decision_period``, ``goal_tolerance``, ``arrived``, ``ended``;
 * :class:`HumanOptions`: ``num_humans``, ``max_humans``, ``human_model``, ``human_walls``,
   ``human_goals``, ``human_radius``, ``humans_see_robots``, ``human_groups``;
 * :class:`TermOptions`: ``observations``, ``rewards``, ``enders``, ``terms``,
@@ -76,6 +76,9 @@ class RobotOptions:
     max_agents: int | None = None  # robot slots R (static); default: num_agents
     robots: Any = "socialgym"  # preset name, RobotPreset, or a list (one per slot, cycled)
     action_mode: str = "go_stop"  # or "continuous"
+    # Steps each action is held: robots read a new action at the steps whose episode time is
+    # a multiple of it (1: every step); in between each keeps its last one.
+    decision_period: int = 1
     goal_tolerance: float = 0.5  # m (SocialGym's success radius)
     arrived: str = "park"  # an arrived robot stays at its goal as a static body, or will "leave"
     ended: str = "leave"  # the same for a robot an ender terminates (e.g. a fatal collision)
@@ -87,6 +90,7 @@ class RobotOptions:
             _within_slots("min_agents", self.min_agents, "num_agents", self.num_agents,
                           _positive_int)
         _choice("action_mode", self.action_mode, ACTION_MODES)
+        _positive_int("decision_period", self.decision_period)
         _positive_float("goal_tolerance", self.goal_tolerance)
         _choice("arrived", self.arrived, WORLD_SEMANTICS)
         _choice("ended", self.ended, WORLD_SEMANTICS)

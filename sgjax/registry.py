@@ -108,6 +108,7 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
         contact_passes=physics.contact_passes, humans=human_config, observer=observer,
         rewarder=rewarder, enders=enders, num_zones=len(spec.zones),
         arrived=robot_opts.arrived, ended=robot_opts.ended,
+        decision_period=robot_opts.decision_period,
     )
     params = EnvParams(
         robots=robot_params(presets),

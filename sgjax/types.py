@@ -181,6 +181,9 @@ class EnvState:
     zones: ZoneState  # [R, Z] conflict-zone bookkeeping
     moved: Array  # [T, R] m travelled per step over the stuck detector's window (ring buffer)
     total_steps: Array  # int32 steps since the first reset, kept across auto-resets (schedules)
+    # [R] int32 GO/STOP or [R, A] float32: each robot's action in force (the last one read;
+    # EnvConfig.decision_period)
+    held_action: Array
 
     @property
     def goal_distance(self) -> Array:

@@ -117,6 +117,7 @@ class EnvBatch:
             final = info["final_robots"]
             parts.append((obs, state, reward, term, trunc, {
                 "was_active": info["was_active"], "episode_done": info["episode_done"],
+                "decided": info["decided"],
                 "reward_terms": info["reward_terms"],
                 "final_observation": info["final_observation"],
                 "final_present": final.present, "final_succeeded": final.succeeded}))
@@ -179,6 +180,7 @@ class Transition:
     truncated: Array
     final_value: Array  # critic's value of the final observation (for truncation)
     active: Array
+    decides: Array  # the environment read this action (make's decision_period; else held)
 
 
 @struct.dataclass
@@ -339,7 +341,9 @@ class Trainer:
             actor_in=actor_in, critic_in=critic_in, starts=starts, action=action, logp=logp,
             value=value, reward=scaled.reshape(-1), terminated=term.reshape(-1),
             truncated=trunc.reshape(-1), final_value=final_value[0],
-            active=active.reshape(-1))
+            active=active.reshape(-1),
+            decides=jnp.broadcast_to(info["decided"][:, None],
+                                     (self.num_envs, self.slots)).reshape(-1))
 
         episode_return = runner.episode_return + jnp.where(active, reward, 0.0)
         present, succeeded = info["final_present"], info["final_succeeded"]
@@ -382,24 +386,28 @@ class Trainer:
                                            traj.starts)
         log_std = self._log_std(params)
         logp = log_prob(out, log_std, traj.action, self.batch.discrete)
-        mask = traj.active.astype(jnp.float32)
-        count = jnp.maximum(jnp.sum(mask), 1.0)
 
-        def mean(x: Array) -> Array:
-            return jnp.sum(x * mask) / count
+        def masked_mean(mask: Array) -> Any:
+            mask = mask.astype(jnp.float32)
+            count = jnp.maximum(jnp.sum(mask), 1.0)
+            return lambda x: jnp.sum(x * mask) / count
 
-        adv_mean = mean(advantages)
-        adv_std = jnp.sqrt(mean(jnp.square(advantages - adv_mean)))
+        # The critic learns every active step; the actor only the steps whose action the
+        # environment read (all of them unless make's decision_period holds actions).
+        mean = masked_mean(traj.active)
+        acted = masked_mean(traj.active & traj.decides)
+        adv_mean = acted(advantages)
+        adv_std = jnp.sqrt(acted(jnp.square(advantages - adv_mean)))
         adv = (advantages - adv_mean) / (adv_std + 1e-8)
         ratio = jnp.exp(logp - traj.logp)
-        policy_loss = -mean(jnp.minimum(ratio * adv, jnp.clip(ratio, 1.0 - a.clip_eps,
-                                                              1.0 + a.clip_eps) * adv))
+        policy_loss = -acted(jnp.minimum(ratio * adv, jnp.clip(ratio, 1.0 - a.clip_eps,
+                                                               1.0 + a.clip_eps) * adv))
         clipped = traj.value + jnp.clip(value - traj.value, -a.clip_eps, a.clip_eps)
         value_loss = 0.5 * mean(jnp.maximum(jnp.square(value - targets),
                                             jnp.square(clipped - targets)))
-        ent = mean(entropy(out, log_std, self.batch.discrete))
+        ent = acted(entropy(out, log_std, self.batch.discrete))
         total = policy_loss + a.vf_coef * value_loss - a.ent_coef * ent
-        approx_kl = mean((ratio - 1.0) - jnp.log(ratio))
+        approx_kl = acted((ratio - 1.0) - jnp.log(ratio))
         return total, {"policy_loss": policy_loss, "value_loss": value_loss, "entropy": ent,
                        "approx_kl": approx_kl}
 
