@@ -86,7 +86,7 @@ def run_evaluate(args: argparse.Namespace) -> None:
           + (", counterfactual lanes on" if args.counterfactual else ""))
     evaluate(args.scenario, args.policy, num_agents=args.num_agents, episodes=args.episodes,
              seed=args.seed, out=args.out, make_kwargs=_make_kwargs(args),
-             counterfactual=args.counterfactual)
+             counterfactual=args.counterfactual, deterministic=args.deterministic)
     print(f"table: {Path(args.out) / 'table.md'}")
 
 
@@ -197,6 +197,12 @@ def build_parser() -> argparse.ArgumentParser:
                     help=f"a built-in protocol ({', '.join(PROTOCOLS)}) or a protocol YAML "
                          "file fixing scenarios, robot counts, episodes, seed, time limit and "
                          "counterfactual lanes (sgjax.protocols)")
+    actions = ev.add_mutually_exclusive_group()
+    actions.add_argument("--greedy", dest="deterministic", action="store_const", const=True,
+                         default=None, help="trained checkpoints take their most likely action "
+                         "every step (default: as their run's evaluation.deterministic says)")
+    actions.add_argument("--sampled", dest="deterministic", action="store_const", const=False,
+                         help="trained checkpoints sample their actions")
     ev.add_argument("--out", default="runs/eval", help="output folder")
     _add_environment_options(ev)
     ev.set_defaults(run=run_evaluate)

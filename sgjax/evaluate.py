@@ -321,6 +321,7 @@ def evaluate(
     log: Callable[[str], None] | None = print,
     policy_names: Sequence[str] | None = None,
     counterfactual: bool = False,
+    deterministic: bool | None = None,
 ) -> list[ConfigResult]:
     """Evaluate every policy on every scenario and robot count; with ``out``, write
     ``metrics.json``, ``metrics.csv``, ``table.md`` and PNG charts there (:mod:`sgjax.report`).
@@ -335,7 +336,10 @@ def evaluate(
     largest count (unless ``make_kwargs`` sets it) and every robot count is a params value of
     the same compiled run. ``counterfactual`` adds the lanes of :mod:`sgjax.counterfactual`
     (each robot alone, the episode without each robot: ``1 + 2 max_agents`` times the work) and
-    their metrics; the episodes and every other metric are the same either way."""
+    their metrics; the episodes and every other metric are the same either way.
+    ``deterministic`` makes trained checkpoints act greedily (True) or sample their actions
+    (False) instead of their run's ``evaluation.deterministic`` (:func:`sgjax.policies.load_policy`;
+    baselines and policy objects are unaffected)."""
     if not scenarios or not policies or not num_agents:
         raise ValueError("evaluate: scenarios, policies and num_agents must not be empty")
     if episodes < 1:
@@ -350,8 +354,8 @@ def evaluate(
             env, by_count = params_by_count(
                 scenario, num_agents, **policy_make_kwargs(policy), **(make_kwargs or {}))
             params = by_count[num_agents[0]]
-            run = episode_runner(env, params, load_policy(policy, env), episodes, constants,
-                                 counterfactual=counterfactual)
+            run = episode_runner(env, params, load_policy(policy, env, deterministic), episodes,
+                                 constants, counterfactual=counterfactual)
             compiled = run.lower(key, params).compile()
             compile_seconds = time.perf_counter() - t0
             for n in num_agents:

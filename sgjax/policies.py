@@ -138,12 +138,15 @@ class PolicyLoader:
     """Policies from specs that are neither baselines nor ``module:function``: ``matches(spec)``
     says whether this loader reads ``spec``; ``load(spec, env)`` builds the policy for ``env``
     (``env`` may be None); ``make_kwargs(spec)`` gives the :func:`sgjax.make` settings the policy
-    needs (a checkpoint's observation and action settings), applied before the caller's own."""
+    needs (a checkpoint's observation and action settings), applied before the caller's own.
+    ``greedy`` says that ``load`` takes ``deterministic=True | False`` (the most likely action
+    every step, or actions sampled from the policy)."""
 
     name: str
     matches: Callable[[str], bool]
-    load: Callable[[str, Any], Policy | RecurrentPolicy]
+    load: Callable[..., Policy | RecurrentPolicy]
     make_kwargs: Callable[[str], dict[str, Any]] = lambda spec: {}
+    greedy: bool = False
 
 
 _LOADERS: dict[str, PolicyLoader] = {}
@@ -151,8 +154,9 @@ _discovery: list[str] | None = None  # None until the entry points are read; the
 
 
 def register_loader(name: str | PolicyLoader, matches: Callable[[str], bool] | None = None,
-                    load: Callable[[str, Any], Policy | RecurrentPolicy] | None = None,
-                    make_kwargs: Callable[[str], dict[str, Any]] | None = None) -> PolicyLoader:
+                    load: Callable[..., Policy | RecurrentPolicy] | None = None,
+                    make_kwargs: Callable[[str], dict[str, Any]] | None = None,
+                    greedy: bool = False) -> PolicyLoader:
     """Register a policy loader (a :class:`PolicyLoader`, or its name and functions); a loader
     of the same name is replaced. Returns the loader."""
     if isinstance(name, PolicyLoader):
@@ -161,7 +165,7 @@ def register_loader(name: str | PolicyLoader, matches: Callable[[str], bool] | N
         if matches is None or load is None:
             raise TypeError("register_loader: give a PolicyLoader, or a name with matches and "
                             "load functions")
-        loader = PolicyLoader(name, matches, load, make_kwargs or (lambda spec: {}))
+        loader = PolicyLoader(name, matches, load, make_kwargs or (lambda spec: {}), greedy)
     _LOADERS[loader.name] = loader
     return loader
 
@@ -205,12 +209,18 @@ def find_loader(spec: Any) -> PolicyLoader | None:
     return None
 
 
-def load_policy(spec: str | Policy | RecurrentPolicy, env: SocialNavEnv
-                ) -> Policy | RecurrentPolicy:
+def load_policy(spec: str | Policy | RecurrentPolicy, env: SocialNavEnv,
+                deterministic: bool | None = None) -> Policy | RecurrentPolicy:
     """A policy for ``env`` from a baseline name, ``"package.module:function"`` naming a
     function ``fn(obs, key) -> actions``, a spec a registered loader reads (a trainer
     checkpoint: a ``.msgpack`` file or a run folder, see ``train.checkpoint``), or a policy
-    (returned as is)."""
+    (returned as is).
+
+    ``deterministic`` (True: the most likely action every step; False: sampled; None: the
+    loader's default, for a checkpoint its run's ``evaluation.deterministic``) is passed to a
+    loader that reads stochastic policies (``PolicyLoader.greedy``); a loader that does not
+    take it is an error naming it. Baselines, functions and policy objects act as they are
+    written and ignore it."""
     if callable(spec) or isinstance(spec, RecurrentPolicy):
         return spec
     if spec in _BUILDERS:
@@ -219,7 +229,13 @@ def load_policy(spec: str | Policy | RecurrentPolicy, env: SocialNavEnv
         return _function_policy(spec)
     loader = find_loader(spec)
     if loader is not None:
-        return loader.load(spec, env)
+        if deterministic is None:
+            return loader.load(spec, env)
+        if not loader.greedy:
+            raise ValueError(f"policy {spec!r}: its loader {loader.name!r} cannot choose "
+                             "between greedy and sampled actions (deterministic="
+                             f"{deterministic}); load it without that choice")
+        return loader.load(spec, env, deterministic=deterministic)
     if spec.endswith(".msgpack") or Path(spec).exists():
         problems = "".join(f"; {p}" for p in _discover())
         raise ValueError(

@@ -17,7 +17,7 @@ from PIL import Image
 from scenes import make_room, place
 
 import sgjax
-from sgjax import metrics, policies, statistics
+from sgjax import cli, metrics, policies, statistics
 from sgjax.cli import main
 from sgjax.evaluate import run_episodes
 from sgjax.policies import GO, STOP, load_policy, stop_when_blocked
@@ -248,6 +248,38 @@ def test_a_checkpoint_without_a_loader_is_a_clear_error(tmp_path, monkeypatch, f
                              load=lambda spec, env: seen.append(spec) or policies.only_local(env))
     load_policy(str(tmp_path), env)
     assert seen == [str(tmp_path)]
+
+
+def test_greedy_or_sampled_reaches_loaders_that_take_it(fresh_loaders):
+    """``load_policy(..., deterministic=)`` (``sgjax evaluate --greedy/--sampled``) goes to a
+    loader that declares ``greedy``; one that does not is an error naming it; baselines ignore
+    it."""
+    asked = []
+    policies.register_loader(
+        "chooser", matches=lambda spec: spec.endswith(".choose"), greedy=True,
+        load=lambda spec, env, deterministic=None: asked.append(deterministic)
+        or policies.only_local(env))
+    policies.register_loader("plain", matches=lambda spec: spec.endswith(".plain"),
+                             load=lambda spec, env: policies.only_local(env))
+    env, _ = sgjax.make("open", num_agents=2)
+    load_policy("run.choose", env)
+    load_policy("run.choose", env, deterministic=True)
+    load_policy("run.choose", env, deterministic=False)
+    assert asked == [None, True, False]
+    load_policy("run.plain", env)
+    with pytest.raises(ValueError, match=r"run\.plain.*loader 'plain' cannot choose"):
+        load_policy("run.plain", env, deterministic=True)
+    assert load_policy("only_local", env, deterministic=True) is not None
+
+
+def test_evaluate_command_passes_greedy_and_sampled(monkeypatch):
+    seen = []
+    monkeypatch.setattr(cli, "evaluate", lambda *a, **k: seen.append(k["deterministic"]))
+    for flags, expected in (([], None), (["--greedy"], True), (["--sampled"], False)):
+        cli.main(["evaluate", "--scenario", "open", "--episodes", "1", *flags])
+        assert seen.pop() is expected
+    with pytest.raises(SystemExit):
+        cli.main(["evaluate", "--greedy", "--sampled"])
 
 
 EVALUATION_AND_APPS = ("policies", "evaluate", "metrics", "statistics", "report", "render",

@@ -234,6 +234,9 @@ def test_a_checkpoint_policy_loads_from_the_file_alone(two_seeds, tmp_path, monk
         assert action.tolist() == reference[1].tolist()
         assert np.allclose(carry, reference[0], atol=1e-6)
     assert through_sgjax.step(through_sgjax.init(2), obs, key, state, params)[1].shape == (2,)
+    greedy = load_policy(str(path), env, deterministic=True)  # sgjax evaluate --greedy
+    assert greedy.step(greedy.init(2), obs, key, state, params)[1].tolist() == (
+        reference[1].tolist())
 
 
 @pytest.mark.slow

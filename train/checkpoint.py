@@ -175,5 +175,7 @@ def load_policy(path: str | Path, env: Any = None, seed_index: int | None = None
     return acting_policy(config.network, layout, weights, deterministic)
 
 
-LOADER = register_loader("checkpoint", matches=is_checkpoint,
-                         load=lambda spec, env: load_policy(spec, env), make_kwargs=make_kwargs)
+LOADER = register_loader(
+    "checkpoint", matches=is_checkpoint, make_kwargs=make_kwargs, greedy=True,
+    load=lambda spec, env, deterministic=None: load_policy(spec, env,
+                                                           deterministic=deterministic))
