@@ -18,11 +18,17 @@ from typing import Any
 import jax
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
-from sgjax.evaluate import DEFAULT_EPISODES, DEFAULT_NUM_AGENTS, evaluate, run_episodes
+from sgjax.evaluate import (
+    DEFAULT_EPISODES,
+    DEFAULT_NUM_AGENTS,
+    evaluate,
+    params_by_count,
+    run_episodes,
+)
 from sgjax.maps.io import load as load_map
-from sgjax.policies import BASELINES
+from sgjax.policies import BASELINES, load_policy, policy_make_kwargs
 from sgjax.protocols import PROTOCOLS, load_protocol
-from sgjax.registry import make, registered
+from sgjax.registry import registered
 from sgjax.types import ACTION_MODES
 from sgjax.version import __version__
 
@@ -40,6 +46,15 @@ def _add_environment_options(parser: argparse.ArgumentParser) -> None:
     add_cache_arguments(parser)
 
 
+def _add_action_choice(parser: argparse.ArgumentParser) -> None:
+    actions = parser.add_mutually_exclusive_group()
+    actions.add_argument("--greedy", dest="deterministic", action="store_const", const=True,
+                         default=None, help="trained checkpoints take their most likely action "
+                         "every step (default: as their run's evaluation.deterministic says)")
+    actions.add_argument("--sampled", dest="deterministic", action="store_const", const=False,
+                         help="trained checkpoints sample their actions")
+
+
 def _make_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     names = {"num_humans": "num_humans", "time_limit": "time_limit",
              "action_mode": "action_mode", "observation_preset": "observation_preset"}
@@ -48,8 +63,9 @@ def _make_kwargs(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _policy_help() -> str:
-    return (f"a baseline ({', '.join(BASELINES)}) or 'package.module:function' naming a "
-            "jittable function (obs [R, D], key) -> actions")
+    return (f"a baseline ({', '.join(BASELINES)}), 'package.module:function' naming a "
+            "jittable function (obs [R, D], key) -> actions, or a trainer checkpoint (a "
+            ".msgpack file or a run folder; built with the settings it was trained with)")
 
 
 PROTOCOL_FIXED = {"scenario": "scenarios", "num_agents": "num_agents", "episodes": "episodes",
@@ -96,8 +112,13 @@ def run_render(args: argparse.Namespace) -> None:
     out = Path(args.out)
     if out.suffix.lower() not in (".gif", ".mp4"):
         raise SystemExit(f"sgjax render: --out {args.out!r} must end in .gif or .mp4")
-    env, params = make(args.scenario, num_agents=args.num_agents, **_make_kwargs(args))
-    batch = run_episodes(env, params, args.policy, jax.random.key(args.seed), 1, record=True)
+    # the settings the policy needs (a checkpoint's observations, orca's continuous actions),
+    # then the user's own, and exactly --num-agents robots, as sgjax evaluate builds them
+    kwargs = {**policy_make_kwargs(args.policy), **_make_kwargs(args)}
+    env, by_count = params_by_count(args.scenario, [args.num_agents], **kwargs)
+    params = by_count[args.num_agents]
+    policy = load_policy(args.policy, env, args.deterministic)
+    batch = run_episodes(env, params, policy, jax.random.key(args.seed), 1, record=True)
     states = jax.tree.map(lambda leaf: leaf[:, 0], batch.states)
     length = int(batch.values["episode_length"][0])
     spec = load_map(args.scenario)
@@ -197,12 +218,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help=f"a built-in protocol ({', '.join(PROTOCOLS)}) or a protocol YAML "
                          "file fixing scenarios, robot counts, episodes, seed, time limit and "
                          "counterfactual lanes (sgjax.protocols)")
-    actions = ev.add_mutually_exclusive_group()
-    actions.add_argument("--greedy", dest="deterministic", action="store_const", const=True,
-                         default=None, help="trained checkpoints take their most likely action "
-                         "every step (default: as their run's evaluation.deterministic says)")
-    actions.add_argument("--sampled", dest="deterministic", action="store_const", const=False,
-                         help="trained checkpoints sample their actions")
+    _add_action_choice(ev)
     ev.add_argument("--out", default="runs/eval", help="output folder")
     _add_environment_options(ev)
     ev.set_defaults(run=run_evaluate)
@@ -218,6 +234,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="trajectory plot PNG (default: --out with .png)")
     rd.add_argument("--width", type=int, default=480, help="frame width in pixels")
     rd.add_argument("--max-frames", type=int, default=300)
+    _add_action_choice(rd)
     _add_environment_options(rd)
     rd.set_defaults(run=run_render)
 

@@ -157,6 +157,41 @@ def test_render_command_writes_animation_and_trajectory(tmp_path, capsys):
         assert picture.size[0] == 160
 
 
+@pytest.mark.slow
+def test_render_builds_the_environment_the_policy_needs(tmp_path, capsys):
+    """``sgjax render`` applies a policy's make settings as ``sgjax evaluate`` does: ``orca``
+    drives continuous actions (in a GO/STOP environment it is an error)."""
+    main(["render", "--scenario", "open", "--num-agents", "2", "--policy", "orca", "--width",
+          "120", "--max-frames", "4", "--time-limit", "3", "--out", str(tmp_path / "o.gif")])
+    assert "policy orca" in capsys.readouterr().out
+    with pytest.raises(SystemExit, match="render: policy 'orca'.*continuous"):
+        main(["render", "--scenario", "open", "--num-agents", "2", "--policy", "orca",
+              "--action-mode", "go_stop", "--out", str(tmp_path / "p.gif")])
+
+
+@pytest.mark.slow
+def test_render_plays_exactly_the_robots_asked_for(tmp_path, capsys, monkeypatch,
+                                                   fresh_loaders):
+    """A checkpoint trained on a range of robot counts (its make settings carry
+    ``min_agents``) is rendered with exactly ``--num-agents`` robots, as it is evaluated."""
+    policies.register_loader("ranged", matches=lambda spec: spec.endswith(".ranged"),
+                             load=lambda spec, env: policies.only_local(env),
+                             make_kwargs=lambda spec: {"min_agents": 1})
+    played = []
+
+    def recording(env, params, *args, **kwargs):
+        played.append(params)
+        return run_episodes(env, params, *args, **kwargs)
+
+    monkeypatch.setattr(cli, "run_episodes", recording)
+    main(["render", "--scenario", "open", "--num-agents", "4", "--policy", "run.ranged",
+          "--width", "120", "--max-frames", "4", "--time-limit", "3",
+          "--out", str(tmp_path / "r.gif")])
+    assert " of 4 arrived" in capsys.readouterr().out
+    (params,) = played
+    assert int(params.num_agents) == 4 and int(params.min_agents) == 0
+
+
 def test_mp4_needs_ffmpeg_or_is_written(tmp_path):
     frames = [np.full((30, 41, 3), v, np.uint8) for v in (0, 128, 255)]
     if shutil.which("ffmpeg") is None:
