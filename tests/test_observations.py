@@ -117,6 +117,26 @@ def test_others_nearest_first_in_robot_frame(room):
     np.testing.assert_allclose(value2[0, :2], [0, -1], atol=1e-5)
 
 
+def test_others_goal_is_where_the_other_robot_is_going(room):
+    """``features: [..., goal]``: the other robot's goal from the observer, in its frame;
+    zeros for a pedestrian. Not part of the default features (sizes unchanged)."""
+    env, params = room
+    # Robot 0 at (1, 0) facing +y; robot 1 at (2, 0); a pedestrian at (0, 3).
+    state = place(env, params, [1.0, 2.0, -3.0], [0.0, 0.0, 0.0], [math.pi / 2, 0.0, 0.0],
+                  humans=[(0.0, 3.0, 0.0, 0.0)])
+    goal_x, goal_y = np.asarray(state.route.x[:, -1]), np.asarray(state.route.y[:, -1])
+    term = Others(k=3, features=("position", "goal"))
+    value = np.asarray(term(state, params, env.config.layout, KEY))[0].reshape(3, 4)
+    # facing +y, world (dx, dy) reads (dy, -dx) in the robot's frame
+    dx, dy = goal_x[1] - 1.0, goal_y[1] - 0.0
+    np.testing.assert_allclose(value[0], [0, -1, dy, -dx], atol=1e-5)  # robot 1, nearest
+    np.testing.assert_allclose(value[1], [3, 1, 0, 0], atol=1e-5)  # the pedestrian
+    assert Others().width == Others(features=("position", "distance", "heading", "velocity",
+                                              "radius", "kind", "mask")).width == 10
+    with pytest.raises(ValueError, match="unknown feature 'goals'"):
+        Others(features=("goals",))
+
+
 def test_others_masks_absent_and_filtered_bodies(room):
     env, params = room
     state = place(env, params, [0.0, 2.0], [0.0, 0.0], humans=[(0.0, 3.0, 0.0, 0.0)])

@@ -17,7 +17,7 @@ from sgjax.terms import check_bool, check_int, check_positive
 if TYPE_CHECKING:
     from sgjax.types import EnvParams, EnvState, Layout
 
-# Per-other feature groups and their widths, in output order.
+# Per-other feature groups and their widths.
 FEATURES = {
     "position": 2,  # (dx, dy) m, robot frame
     "distance": 1,  # body-to-body gap (m): centre distance minus both radii
@@ -26,7 +26,10 @@ FEATURES = {
     "radius": 1,  # m
     "kind": 1,  # 1 = pedestrian, 0 = robot
     "mask": 1,  # 1 = a real, visible body in this slot; 0 = padding
+    "goal": 2,  # (dx, dy) m, robot frame, from the robot to the other robot's goal; 0 for people
 }
+# The features seen when none are named, in output order (every feature but "goal").
+DEFAULT_FEATURES = ("position", "distance", "heading", "velocity", "radius", "kind", "mask")
 _FAR = 1.0e9
 
 
@@ -38,13 +41,14 @@ class Others(ObservationTerm):
 
     ``robots`` / ``humans`` choose who is seen; ``line_of_sight`` hides bodies whose centre is
     behind a wall (SocialGym's ``partially_observable``); ``max_range`` (m) hides farther ones;
-    ``relative_velocity`` reports ``v_other - v_self`` instead of ``v_other``. Size
-    ``k x sum(feature widths)``.
+    ``relative_velocity`` reports ``v_other - v_self`` instead of ``v_other``. ``features``
+    defaults to ``DEFAULT_FEATURES``; ``goal`` (where another robot is going) is asked for by
+    name. Size ``k x sum(feature widths)``.
     """
 
     name = "others"
     k: int = 4
-    features: tuple[str, ...] = tuple(FEATURES)
+    features: tuple[str, ...] = DEFAULT_FEATURES
     robots: bool = True
     humans: bool = True
     line_of_sight: bool = False
@@ -121,6 +125,11 @@ class Others(ObservationTerm):
         rel_cos = c * each(bodies.cos_h) + s * each(bodies.sin_h)
         rel_sin = c * each(bodies.sin_h) - s * each(bodies.cos_h)
         px, py = to_robot_frame(r.heading[:, None], dxw, dyw)
+        goal_x, goal_y = self._body_goals(state)
+        is_robot = each(bodies.is_human) == 0.0
+        gx, gy = to_robot_frame(r.heading[:, None],
+                                jnp.where(is_robot, each(goal_x) - r.x[:, None], 0.0),
+                                jnp.where(is_robot, each(goal_y) - r.y[:, None], 0.0))
         qx, qy = to_robot_frame(r.heading[:, None], vx, vy)
         radius = each(bodies.radius)
         columns = {
@@ -131,10 +140,25 @@ class Others(ObservationTerm):
             "radius": [radius],
             "kind": [each(bodies.is_human)],
             "mask": [jnp.ones((num_robots, count))],
+            "goal": [gx, gy],
         }
         feats = {name: jnp.stack([pick(v) for v in columns[name]], axis=-1)
                  for name in self.features}
         return chosen, feats
+
+    def _body_goals(self, state: EnvState) -> tuple[Array, Array]:
+        """Goal ``x, y [B]`` (m, world) of every body in :func:`gather_bodies` order: each
+        robot's goal, zeros for pedestrians."""
+        xs, ys = [], []
+        if self.robots:
+            xs.append(state.route.x[:, -1])
+            ys.append(state.route.y[:, -1])
+        if self.humans and state.humans.x.shape[0]:
+            xs.append(jnp.zeros_like(state.humans.x))
+            ys.append(jnp.zeros_like(state.humans.y))
+        if not xs:
+            return jnp.zeros((0,), jnp.float32), jnp.zeros((0,), jnp.float32)
+        return jnp.concatenate(xs), jnp.concatenate(ys)
 
     def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
                  ) -> Array:
