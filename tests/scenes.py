@@ -66,3 +66,22 @@ def place(env, params, xs, ys, headings=None, speeds=None, starts=None, goals=No
                         env.config.tracked_zones(params.map.zone_rect))
     history = History.start(env.config.observer.history_length - 1, robots, distance)
     return state.replace(history=history, zones=zones)
+
+
+def go_run_counting_traces(env, params, steps, seed=1):
+    """Every robot on GO for ``steps`` steps through one jitted ``env.step`` (auto-resets
+    included). Returns each step's ``(state, info)`` and how many times the step was traced."""
+    traces = []
+
+    def counted(key, state, actions, params):
+        traces.append(1)
+        return env.step(key, state, actions, params)
+
+    step = jax.jit(counted)
+    _, state = env.reset(jax.random.key(seed), params)
+    visited = []
+    for t in range(steps):
+        _, state, _, _, _, info = step(jax.random.key(t), state,
+                                       jnp.zeros(env.max_agents, jnp.int32), params)
+        visited.append((state, info))
+    return visited, len(traces)

@@ -5,6 +5,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from scenes import go_run_counting_traces
 
 import sgjax
 from train.config import config_from_dict
@@ -67,19 +68,8 @@ def test_a_held_run_equals_period_one_fed_the_held_actions():
 
 def test_holding_does_not_retrace_across_decisions_and_episodes():
     env, params = sgjax.make("open", num_agents=2, decision_period=4, time_limit=3.0)
-    traces = []
-
-    def counted(key, state, actions, params):
-        traces.append(1)
-        return env.step(key, state, actions, params)
-
-    step = jax.jit(counted)
-    _, state = env.reset(jax.random.key(1), params)
-    done = False
-    for t in range(40):
-        _, state, _, _, _, info = step(jax.random.key(t), state, jnp.zeros(2, jnp.int32), params)
-        done |= bool(info["episode_done"])
-    assert done and len(traces) == 1
+    visited, traces = go_run_counting_traces(env, params, 40)
+    assert any(bool(info["episode_done"]) for _, info in visited) and traces == 1
 
 
 def test_bad_decision_periods_are_errors_naming_the_option():

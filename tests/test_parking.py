@@ -6,7 +6,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from scenes import make_room, place
+from scenes import go_run_counting_traces, make_room, place
 
 from sgjax.queries import FAR, body_gaps
 
@@ -94,20 +94,9 @@ def test_a_robot_stopped_by_a_collision_ender_parks_or_leaves(ended):
 def test_parking_does_not_retrace_across_episodes():
     """Robots park and the episode auto-resets inside one compiled step."""
     env, params = make_room(num_agents=2, arrived="park", time_limit=8.0)
-    traces = []
-
-    def counted(key, state, actions, params):
-        traces.append(1)
-        return env.step(key, state, actions, params)
-
-    step = jax.jit(counted)
-    _, state = env.reset(jax.random.key(1), params)
-    parked = done = False
-    for t in range(200):
-        _, state, _, _, _, info = step(jax.random.key(t), state, jnp.zeros(2, jnp.int32), params)
-        parked |= bool(jnp.any(state.robots.parked))
-        done |= bool(info["episode_done"])
-    assert parked and done and len(traces) == 1
+    visited, traces = go_run_counting_traces(env, params, 200)
+    assert any(bool(jnp.any(state.robots.parked)) for state, _ in visited)
+    assert any(bool(info["episode_done"]) for _, info in visited) and traces == 1
 
 
 def test_world_semantics_are_validated():
