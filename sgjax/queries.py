@@ -34,6 +34,8 @@ class Bodies:
     vx: Array
     vy: Array
     radius: Array
+    goal_x: Array  # m, world: a robot's goal; 0 for a pedestrian
+    goal_y: Array
     is_human: Array  # float 0/1
     in_world: Array  # bool: the body is there (an active or parked robot, an active pedestrian)
 
@@ -47,18 +49,19 @@ def gather_bodies(state: EnvState, params: EnvParams, robots: bool = True,
     parts = []
     if robots:
         parts.append((r.x, r.y, jnp.cos(r.heading), jnp.sin(r.heading), vel[:, 0], vel[:, 1],
-                      params.robots.radius, jnp.zeros_like(r.x), r.in_world))
+                      params.robots.radius, state.route.goal_x, state.route.goal_y,
+                      jnp.zeros_like(r.x), r.in_world))
     if humans and h.x.shape[0]:
         speed = safe_norm(h.vx, h.vy)
         moving = speed > 1e-3
         inv = 1.0 / jnp.where(moving, speed, 1.0)
         parts.append((h.x, h.y, jnp.where(moving, h.vx * inv, 1.0),
                       jnp.where(moving, h.vy * inv, 0.0), h.vx, h.vy,
-                      jnp.broadcast_to(params.humans.radius, h.x.shape), jnp.ones_like(h.x),
-                      h.active))
+                      jnp.broadcast_to(params.humans.radius, h.x.shape), jnp.zeros_like(h.x),
+                      jnp.zeros_like(h.x), jnp.ones_like(h.x), h.active))
     if not parts:
         empty = jnp.zeros((0,), jnp.float32)
-        return Bodies(*(empty,) * 8, in_world=jnp.zeros((0,), bool))
+        return Bodies(*(empty,) * 10, in_world=jnp.zeros((0,), bool))
     columns = [jnp.concatenate(c) for c in zip(*parts, strict=True)]
     return Bodies(*columns)
 

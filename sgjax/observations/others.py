@@ -125,11 +125,10 @@ class Others(ObservationTerm):
         rel_cos = c * each(bodies.cos_h) + s * each(bodies.sin_h)
         rel_sin = c * each(bodies.sin_h) - s * each(bodies.cos_h)
         px, py = to_robot_frame(r.heading[:, None], dxw, dyw)
-        goal_x, goal_y = self._body_goals(state)
         is_robot = each(bodies.is_human) == 0.0
         gx, gy = to_robot_frame(r.heading[:, None],
-                                jnp.where(is_robot, each(goal_x) - r.x[:, None], 0.0),
-                                jnp.where(is_robot, each(goal_y) - r.y[:, None], 0.0))
+                                jnp.where(is_robot, each(bodies.goal_x) - r.x[:, None], 0.0),
+                                jnp.where(is_robot, each(bodies.goal_y) - r.y[:, None], 0.0))
         qx, qy = to_robot_frame(r.heading[:, None], vx, vy)
         radius = each(bodies.radius)
         columns = {
@@ -145,20 +144,6 @@ class Others(ObservationTerm):
         feats = {name: jnp.stack([pick(v) for v in columns[name]], axis=-1)
                  for name in self.features}
         return chosen, feats
-
-    def _body_goals(self, state: EnvState) -> tuple[Array, Array]:
-        """Goal ``x, y [B]`` (m, world) of every body in :func:`gather_bodies` order: each
-        robot's goal, zeros for pedestrians."""
-        xs, ys = [], []
-        if self.robots:
-            xs.append(state.route.x[:, -1])
-            ys.append(state.route.y[:, -1])
-        if self.humans and state.humans.x.shape[0]:
-            xs.append(jnp.zeros_like(state.humans.x))
-            ys.append(jnp.zeros_like(state.humans.y))
-        if not xs:
-            return jnp.zeros((0,), jnp.float32), jnp.zeros((0,), jnp.float32)
-        return jnp.concatenate(xs), jnp.concatenate(ys)
 
     def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
                  ) -> Array:
