@@ -363,7 +363,9 @@ class SocialNavEnv:
         cfg, layout = self.config, self.config.layout
         key_humans, key_obs = jax.random.split(key) if cfg.observer.needs_key else (key, key)
         with jax.named_scope("decode_actions"):
-            actions = self._held(state, self._checked(actions))
+            # at a decision step the new actions, else each robot's held one
+            decided = self.decides(state)
+            actions = jnp.where(decided, self._checked(actions), state.held_action)
             commands = self._commands(state, actions, params)
         with jax.named_scope("pedestrian_waypoints"):
             humans = advance_waypoints(key_humans, cfg.humans, params.humans, params.map,
@@ -396,7 +398,7 @@ class SocialNavEnv:
             "collision_human": contacts.human,
             "arrived": next_state.robots.succeeded & ~state.robots.succeeded,
             "reward_terms": reward_terms,
-            "decided": self.decides(state),
+            "decided": decided,
         }
         return obs, next_state, reward, terminated, truncated, info
 
@@ -472,13 +474,6 @@ class SocialNavEnv:
         ``decision_period`` 1, else when the episode time is a multiple of it."""
         period = self.config.decision_period
         return jnp.asarray(True) if period == 1 else state.time % period == 0
-
-    def _held(self, state: EnvState, actions: Array) -> Array:
-        """The actions in force this step: the new ones at a decision step, else each robot's
-        held one."""
-        if self.config.decision_period == 1:
-            return actions
-        return jnp.where(self.decides(state), actions, state.held_action)
 
     def _commands(self, state: EnvState, actions: Array, params: EnvParams) -> Commands:
         """Decode checked actions into per-robot commands: continuous actions directly, GO
