@@ -18,9 +18,8 @@ import argparse
 import jax
 import numpy as np
 
-import train.checkpoint  # noqa: F401  (registers the checkpoint policy loader)
-from sgjax.evaluate import params_by_count, run_episodes
-from sgjax.policies import load_policy, policy_make_kwargs
+from sgjax.evaluate import policy_environment, run_episodes
+from sgjax.policies import load_policy
 
 CHUNK = 64  # episodes recorded per batched call (each keeps every step's state)
 
@@ -29,7 +28,7 @@ def unarrived(spec: str, scenario: str, num_agents: int, episodes: int, seed: in
               ) -> tuple[int, np.ndarray, np.ndarray]:
     """Failed episodes, and per unarrived robot ``[N]``: its final distance to its goal and
     the distance from its goal to the nearest parked robot (inf if none), both in m."""
-    env, by_count = params_by_count(scenario, [num_agents], **policy_make_kwargs(spec))
+    env, by_count = policy_environment(scenario, [num_agents], spec)
     params = by_count[num_agents]
     policy = load_policy(spec, env)
     failed_teams, ended, blocker = 0, [], []

@@ -22,11 +22,11 @@ from sgjax.evaluate import (
     DEFAULT_EPISODES,
     DEFAULT_NUM_AGENTS,
     evaluate,
-    params_by_count,
+    policy_environment,
     run_episodes,
 )
 from sgjax.maps.io import load as load_map
-from sgjax.policies import BASELINES, load_policy, policy_make_kwargs
+from sgjax.policies import BASELINES, load_policy
 from sgjax.protocols import PROTOCOLS, load_protocol
 from sgjax.registry import registered
 from sgjax.types import ACTION_MODES
@@ -112,10 +112,9 @@ def run_render(args: argparse.Namespace) -> None:
     out = Path(args.out)
     if out.suffix.lower() not in (".gif", ".mp4"):
         raise SystemExit(f"sgjax render: --out {args.out!r} must end in .gif or .mp4")
-    # the settings the policy needs (a checkpoint's observations, orca's continuous actions),
-    # then the user's own, and exactly --num-agents robots, as sgjax evaluate builds them
-    kwargs = {**policy_make_kwargs(args.policy), **_make_kwargs(args)}
-    env, by_count = params_by_count(args.scenario, [args.num_agents], **kwargs)
+    # exactly --num-agents robots in the settings the policy needs, as sgjax evaluate plays
+    env, by_count = policy_environment(args.scenario, [args.num_agents], args.policy,
+                                       _make_kwargs(args))
     params = by_count[args.num_agents]
     policy = load_policy(args.policy, env, args.deterministic)
     batch = run_episodes(env, params, policy, jax.random.key(args.seed), 1, record=True)

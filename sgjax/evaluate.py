@@ -265,6 +265,16 @@ def params_by_count(scenario: Any, counts: Sequence[int], **make_kwargs: Any
     return env, by_count
 
 
+def policy_environment(scenario: Any, counts: Sequence[int], policy: Any,
+                       make_kwargs: dict[str, Any] | None = None
+                       ) -> tuple[SocialNavEnv, dict[int, EnvParams]]:
+    """:func:`params_by_count` in the settings ``policy`` needs (a checkpoint's observations,
+    a velocity baseline's continuous actions: :func:`sgjax.policies.policy_make_kwargs`), with
+    ``make_kwargs`` on top."""
+    return params_by_count(scenario, counts,
+                           **{**policy_make_kwargs(policy), **(make_kwargs or {})})
+
+
 def check_steps(params: EnvParams, num_steps: int, where: str) -> None:
     """Raise unless episodes under ``params`` end within ``num_steps`` steps (the length a
     runner from :func:`episode_runner` was built for)."""
@@ -351,8 +361,7 @@ def evaluate(
             name = (policy_names[p] if policy_names is not None
                     else policy if isinstance(policy, str) else f"policy{p}")
             t0 = time.perf_counter()
-            env, by_count = params_by_count(
-                scenario, num_agents, **policy_make_kwargs(policy), **(make_kwargs or {}))
+            env, by_count = policy_environment(scenario, num_agents, policy, make_kwargs)
             params = by_count[num_agents[0]]
             run = episode_runner(env, params, load_policy(policy, env, deterministic), episodes,
                                  constants, counterfactual=counterfactual)
