@@ -24,7 +24,7 @@ import time
 import jax
 from compiled import compile_measured
 
-from train.config import config_from_dict
+from train.config import LANE_MODES, config_from_dict
 from train.ppo import Trainer, seed_keys
 
 
@@ -52,13 +52,13 @@ def main() -> None:
     parser.add_argument("--num-envs", nargs="+", type=int, default=[64, 256, 1024])
     parser.add_argument("--robots", nargs="+", type=int, default=[4, 10])
     parser.add_argument("--seeds", nargs="+", type=int, default=[1],
-                        help="numbers of seeds trained as vmap lanes of one call")
+                        help="numbers of seeds trained as lanes of one call")
     parser.add_argument("--updates", type=int, default=4, help="updates per timed call")
     parser.add_argument("--network", default="mlp", choices=["mlp", "gru"])
     parser.add_argument("--others", default="none", choices=["none", "attention", "lstm"],
                         help="others encoder (lstm: the reproduce benchmark's CADRL(L))")
     parser.add_argument("--lanes", nargs="+", default=["auto"],
-                        choices=["auto", "batched", "sequential"],
+                        choices=list(LANE_MODES),
                         help="algorithm.lanes: how the seed lanes run the learning phase")
     args = parser.parse_args()
     print(f"jax {jax.__version__} on {jax.devices()[0].platform}, {args.scenario}, IPPO "
@@ -81,6 +81,7 @@ def main() -> None:
             env_rate = seeds * args.updates * 64 * envs / seconds
             print(f"{lanes:>11}{robots:>7}{envs:>7}{seeds:>6}{env_rate * robots:>15,.0f}"
                   f"{env_rate:>13,.0f}{compile_s:>11.1f}{peak:>9.1f}{lane:>11}", flush=True)
+
 
 if __name__ == "__main__":
     main()
