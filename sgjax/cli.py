@@ -29,7 +29,7 @@ from sgjax.maps.io import load as load_map
 from sgjax.policies import BASELINES, load_policy
 from sgjax.protocols import PROTOCOLS, load_protocol
 from sgjax.registry import registered
-from sgjax.types import ACTION_MODES
+from sgjax.types import ACTION_MODES, ARRIVED_SEMANTICS
 from sgjax.version import __version__
 
 MINI_GAMES = ("open", "doorway", "hallway", "intersection", "roundabout")
@@ -41,6 +41,10 @@ def _add_environment_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--time-limit", type=float, default=None,
                         help="seconds before truncation (default 75)")
     parser.add_argument("--action-mode", default=None, choices=ACTION_MODES)
+    parser.add_argument("--arrived", default=None, choices=ARRIVED_SEMANTICS,
+                        help="what an arrived robot does: drive on to its goal point and park "
+                        "(settle), park where it arrived, or leave the world (default: the "
+                        "checkpoint's, else settle)")
     parser.add_argument("--observation-preset", default=None,
                         help="observation preset the policy expects (docs/terms.md)")
     add_cache_arguments(parser)
@@ -57,7 +61,8 @@ def _add_action_choice(parser: argparse.ArgumentParser) -> None:
 
 def _make_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     names = {"num_humans": "num_humans", "time_limit": "time_limit",
-             "action_mode": "action_mode", "observation_preset": "observation_preset"}
+             "action_mode": "action_mode", "arrived": "arrived",
+             "observation_preset": "observation_preset"}
     return {key: getattr(args, attr) for attr, key in names.items()
             if getattr(args, attr) is not None}
 

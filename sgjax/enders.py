@@ -2,8 +2,8 @@
 
 An ender maps ``(prev, state, params, layout)`` to an :class:`Outcome`: which robots it
 terminates (they leave the world, or stay parked with ``make(ended="park")``; arrived robots
-park by default), which it truncates (the episode ends for them without a terminal state) and
-a reward adjustment (for example the stuck penalty).
+settle on their goals by default), which it truncates (the episode ends for them without a
+terminal state) and a reward adjustment (for example the stuck penalty).
 ``success`` (a robot at its goal terminates) is always on: it is what success means here.
 """
 

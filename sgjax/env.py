@@ -9,10 +9,13 @@ One environment is written for one episode; batch it with ``jax.vmap`` from outs
 
 Robots are ``[R]`` arrays padded to ``env.max_agents``; ``params.num_agents`` of them take part in
 an episode (``present``). A robot that reaches its goal is terminated and absorbing (frozen,
-reward 0). With ``arrived="park"`` (the default, as SocialGym 2.0 ran) it stays parked at rest
-where it arrived, a static body that the others plan around, collide with and observe; with
-``arrived="leave"`` it leaves the world. ``ended`` makes the same choice for robots an ender
-terminates (default ``"leave"``).
+reward 0). With ``arrived="settle"`` (the default, as SocialGym 2.0 ran: its arrived robots kept
+their GO) its local planner drives it on from where it arrived to its goal point (within
+``SETTLE_TOLERANCE``), a moving body that reads no actions and earns nothing, and it parks there,
+a static body that the others plan around, collide with and observe; with ``arrived="park"`` it
+parks at rest where it arrived (up to ``goal_tolerance`` short of its goal); with
+``arrived="leave"`` it leaves the world. ``ended`` makes the park-or-leave choice for robots an
+ender terminates (default ``"leave"``).
 
 Actions (static ``action_mode``):
   * ``"go_stop"``: ``[R]`` ints, 0 = GO (follow the local planner), any other value = STOP
@@ -56,6 +59,7 @@ from sgjax.presets import OBSERVATION_PRESETS, REWARD_PRESETS
 from sgjax.rewards import Rewarder, parse_rewards
 from sgjax.types import (
     ACTION_MODES,
+    ARRIVED_SEMANTICS,
     GO,
     STOP,
     WORLD_SEMANTICS,
@@ -68,6 +72,10 @@ from sgjax.types import (
     RobotState,
 )
 from sgjax.zones import start_zones, update_zones
+
+# Distance (m) from its goal point at which a settling robot parks: SocialGym 2.0's planner
+# completes a navigation within 0.1 m of its target (``target_dist_tolerance``).
+SETTLE_TOLERANCE = 0.1
 
 __all__ = [  # the datatypes live in sgjax.types; re-exported here for existing imports
     "ACTION_MODES", "GO", "OBS_SIZE", "STOP", "CollisionCounts", "EnvConfig", "EnvParams",
@@ -97,7 +105,7 @@ class EnvConfig:
         default_factory=lambda: parse_enders(REWARD_PRESETS["default"]["enders"]))
     num_zones: int = 0  # conflict zones on the map (sizes the zone terms)
     track_zones: bool = False  # keep zone books even when no term reads them (for metrics)
-    arrived: str = "park"  # an arrived robot stays parked as a body, or leaves the world
+    arrived: str = "settle"  # an arrived robot settles on its goal, parks where it is, or leaves
     ended: str = "leave"  # the same for a robot an ender terminates (e.g. a fatal collision)
     decision_period: int = 1  # steps each action is held (robots read actions every that many)
 
@@ -105,10 +113,9 @@ class EnvConfig:
         if self.action_mode not in ACTION_MODES:
             raise ValueError(f"action_mode must be one of {ACTION_MODES}, "
                              f"got {self.action_mode!r}")
-        for name in ("arrived", "ended"):
-            if getattr(self, name) not in WORLD_SEMANTICS:
-                raise ValueError(f"{name} must be one of {WORLD_SEMANTICS}, "
-                                 f"got {getattr(self, name)!r}")
+        for name, valid in (("arrived", ARRIVED_SEMANTICS), ("ended", WORLD_SEMANTICS)):
+            if getattr(self, name) not in valid:
+                raise ValueError(f"{name} must be one of {valid}, got {getattr(self, name)!r}")
         if self.decision_period < 1:
             raise ValueError(f"decision_period must be a positive integer, got "
                              f"{self.decision_period!r}")
@@ -283,6 +290,7 @@ class SocialNavEnv:
                            steering=zeros),
             present=jnp.asarray(present, bool), succeeded=jnp.zeros(num_robots, bool),
             ended=jnp.zeros(num_robots, bool), parked=jnp.zeros(num_robots, bool),
+            settling=jnp.zeros(num_robots, bool),
         )
         no = jnp.zeros(num_robots, bool)
         none = jnp.zeros(num_robots, jnp.int32)
@@ -378,8 +386,8 @@ class SocialNavEnv:
             moved = self._book(state, robots, humans, contacts, params)
         with jax.named_scope("enders"):
             outcome, ender_rewards = cfg.enders(state, moved, params, layout)
-            next_state = self._conclude(state, moved, outcome, cfg.arrived == "park",
-                                        cfg.ended == "park").replace(held_action=actions)
+            next_state = self._conclude(state, moved, outcome, cfg.arrived, cfg.ended == "park",
+                                        ).replace(held_action=actions)
         with jax.named_scope("rewards"):
             reward, reward_terms = cfg.rewarder(state, next_state, actions, params, layout)
             was_active = state.robots.active
@@ -410,8 +418,8 @@ class SocialNavEnv:
         active = state.robots.active
         x, y = robots.x, robots.y
         arrived = active & (state.route.goal_distance(x, y) < params.goal_tolerance)
-        progress = jnp.where(active, route_progress(state.route, x, y, state.progress),
-                             state.progress)
+        progress = jnp.where(state.robots.moving,
+                             route_progress(state.route, x, y, state.progress), state.progress)
         counts = state.collisions
         collisions = CollisionCounts(
             robot=counts.robot + (contacts.robot & ~state.touching_robot).astype(jnp.int32),
@@ -441,15 +449,25 @@ class SocialNavEnv:
         )
 
     @staticmethod
-    def _conclude(state: EnvState, moved: EnvState, outcome: Outcome, park_arrived: bool,
+    def _conclude(state: EnvState, moved: EnvState, outcome: Outcome, arrived: str,
                   park_ended: bool) -> EnvState:
         """Robots the enders terminate without success end (absorbing) in the next state; the
         robots that finish this step park where they are if their kind parks (their kinematic
-        state stays frozen as it was; as bodies they are at rest: ``RobotState.body_velocity``)."""
+        state stays frozen as it was; as bodies they are at rest: ``RobotState.body_velocity``),
+        or, arrived under ``"settle"``, start settling; settling robots within
+        ``SETTLE_TOLERANCE`` of their goal park."""
         r = moved.robots
-        ended = r.ended | (outcome.terminated & state.robots.active & ~r.succeeded)
-        newly = state.robots.active & ((r.succeeded & park_arrived) | (ended & park_ended))
-        return moved.replace(robots=r.replace(ended=ended, parked=r.parked | newly))
+        was_active = state.robots.active
+        ended = r.ended | (outcome.terminated & was_active & ~r.succeeded)
+        arrived_now = was_active & r.succeeded
+        newly = (arrived_now & (arrived == "park")) | (was_active & ended & park_ended)
+        settling = r.settling
+        if arrived == "settle":
+            settling = settling | arrived_now
+            settled = settling & (moved.route.goal_distance(r.x, r.y) < SETTLE_TOLERANCE)
+            newly, settling = newly | settled, settling & ~settled
+        return moved.replace(robots=r.replace(ended=ended, parked=r.parked | newly,
+                                              settling=settling))
 
     def _checked(self, actions: Array) -> Array:
         """``actions`` as the step takes them (``[R]`` int32 GO/STOP or ``[R, A]`` float32), or
@@ -477,9 +495,12 @@ class SocialNavEnv:
 
     def _commands(self, state: EnvState, actions: Array, params: EnvParams) -> Commands:
         """Decode checked actions into per-robot commands: continuous actions directly, GO
-        through the local planner, STOP as braking at the deceleration limit."""
+        through the local planner, STOP as braking at the deceleration limit. Settling robots
+        (``arrived="settle"``) follow the planner whatever their action, no faster than they
+        can stop at their goal point."""
         cfg, rp, robots = self.config, params.robots, state.robots
-        if cfg.action_mode == "continuous":
+        settle = cfg.arrived == "settle"
+        if cfg.action_mode == "continuous" and not settle:
             return Commands(*decode_continuous(actions, rp, cfg.action_dim))
         carrot_x, carrot_y = carrot_point(params.planner, state.route, state.progress)
         forward, turn = plan(
@@ -487,7 +508,17 @@ class SocialNavEnv:
             robots.kin.v_forward, params.dt, robots.in_world, carrot_x, carrot_y,
             velocity=robots.body_velocity, bodies=self._pedestrian_bodies(state, params),
         )
-        go = actions == GO
+        if settle:
+            to_goal = state.route.goal_distance(robots.x, robots.y)
+            forward = jnp.where(robots.settling,
+                                jnp.minimum(forward, jnp.sqrt(2.0 * rp.max_decel * to_goal)),
+                                forward)
+        if cfg.action_mode == "continuous":
+            chosen = Commands(*decode_continuous(actions, rp, cfg.action_dim))
+            return Commands(jnp.where(robots.settling, forward, chosen.forward),
+                            jnp.where(robots.settling, 0.0, chosen.lateral),
+                            jnp.where(robots.settling, turn, chosen.turn))
+        go = (actions == GO) | robots.settling
         # STOP: brake to rest; Ackermann robots hold their steering.
         turn = jnp.where(go, turn, jnp.where(rp.model == ACKERMANN, robots.kin.steering, 0.0))
         return Commands(jnp.where(go, forward, 0.0), jnp.zeros_like(forward), turn)

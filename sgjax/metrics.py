@@ -164,8 +164,8 @@ METRICS: tuple[MetricInfo, ...] = (
        "min over active steps and pedestrians of centre distance - both radii (NaN without "
        "pedestrians)", "HuNavSim, socialnav.md C1"),
     _m("min_distance_robot", "m", "robot", "mean",
-       "min over active steps and other robots in the world (active or parked) of centre "
-       "distance - both radii",
+       "min over active steps and other robots in the world (active, settling or parked) of "
+       "centre distance - both radii",
        "socialnav.md C1"),
     *(_m(f"{space}_space_{kind}", "fraction", "robot", "mean",
          f"fraction of active steps with the nearest {kind} body gap < {radius} m "

@@ -31,7 +31,7 @@ from sgjax.dynamics.limits import RobotPreset
 from sgjax.humans.crowd import FORCE_MODELS, GOAL_MODES, WALL_MODELS, HumanConfig
 from sgjax.humans.groups import leaders
 from sgjax.terms import suggest
-from sgjax.types import ACTION_MODES, WORLD_SEMANTICS
+from sgjax.types import ACTION_MODES, ARRIVED_SEMANTICS, WORLD_SEMANTICS
 
 
 def _positive_int(name: str, value: Any) -> None:
@@ -80,7 +80,9 @@ class RobotOptions:
     # a multiple of it (1: every step); in between each keeps its last one.
     decision_period: int = 1
     goal_tolerance: float = 0.5  # m (SocialGym's success radius)
-    arrived: str = "park"  # an arrived robot stays at its goal as a static body, or will "leave"
+    # An arrived robot is driven on to its goal point by its planner and parks there ("settle",
+    # as SocialGym 2.0 ran), stays where it arrived as a static body ("park"), or will "leave".
+    arrived: str = "settle"
     ended: str = "leave"  # the same for a robot an ender terminates (e.g. a fatal collision)
 
     def __post_init__(self) -> None:
@@ -92,7 +94,7 @@ class RobotOptions:
         _choice("action_mode", self.action_mode, ACTION_MODES)
         _positive_int("decision_period", self.decision_period)
         _positive_float("goal_tolerance", self.goal_tolerance)
-        _choice("arrived", self.arrived, WORLD_SEMANTICS)
+        _choice("arrived", self.arrived, ARRIVED_SEMANTICS)
         _choice("ended", self.ended, WORLD_SEMANTICS)
         if not isinstance(self.robots, str | RobotPreset | list | tuple):
             raise ValueError(f"robots must be a preset name, a RobotPreset or a list of them, "

@@ -3,10 +3,10 @@
 Each of ``substeps`` sub-steps of ``dt / substeps`` s moves pedestrians by their social forces,
 integrates each robot's commands under its own limits, separates overlapping robots, clamps every
 robot to the walls (swept: nobody passes through a wall), lets pedestrians yield to robots, and
-stops robots whose bumpers touch something. Only ``active`` robots move; the others keep their
-state. Parked robots (``RobotState.parked``) are static bodies: pedestrians avoid them and
-moving robots are pushed off them, but they never move. Shapes: ``R`` robots, ``H``
-pedestrians; SI units.
+stops robots whose bumpers touch something. Only ``moving`` robots (active, or settling on
+their goal) move; the others keep their state. Parked robots (``RobotState.parked``) are static
+bodies: pedestrians avoid them and moving robots are pushed off them, but they never move.
+Shapes: ``R`` robots, ``H`` pedestrians; SI units.
 """
 
 from __future__ import annotations
@@ -52,7 +52,7 @@ def advance(
     and kinematics; the flags are unchanged), the moved pedestrians and the contacts.
     """
     rp = params.robots
-    active, in_world = robots.active, robots.in_world
+    moving, in_world = robots.moving, robots.in_world
     dt_sub = params.dt / substeps
     num_robots = robots.x.shape[0]
     x, y, kin = robots.x, robots.y, robots.kin
@@ -62,20 +62,20 @@ def advance(
             velocity = robots.replace(kin=kin).body_velocity
             fx, fy, heading, omega = human_forces(
                 human_config, params.humans, params.map, humans, x, y, velocity[:, 0],
-                velocity[:, 1], in_world, active, rp.radius, dt_sub)
+                velocity[:, 1], in_world, moving, rp.radius, dt_sub)
             humans = move_humans(params.humans, params.map, humans, fx, fy, dt_sub).replace(
                 heading=heading, omega=omega)
         new_kin, dx, dy = integrate(kin, commands.forward, commands.lateral, commands.turn, rp,
                                     dt_sub)
-        dx, dy = jnp.where(active, dx, 0.0), jnp.where(active, dy, 0.0)
-        push_x, push_y, overlap = separate_robots(x + dx, y + dy, rp.radius, in_world, active)
+        dx, dy = jnp.where(moving, dx, 0.0), jnp.where(moving, dy, 0.0)
+        push_x, push_y, overlap = separate_robots(x + dx, y + dy, rp.radius, in_world, moving)
         dx, dy, wall = clamp_to_walls(x, y, dx + push_x, dy + push_y, rp.radius, params.map)
         x, y = x + dx, y + dy
         # Optional relaxation: a robot pinned against a wall cannot take its half of a push, so
         # the overlap left over is split again (each pass halves what a pinned pair leaves).
         # Robots in contact also stop (below), which bounds what is left.
         for _ in range(contact_passes - 1):
-            push_x, push_y, _ = separate_robots(x, y, rp.radius, in_world, active)
+            push_x, push_y, _ = separate_robots(x, y, rp.radius, in_world, moving)
             push_x, push_y, pinned = clamp_to_walls(x, y, push_x, push_y, rp.radius, params.map)
             x, y, wall = x + push_x, y + push_y, wall | pinned
         if human_config.max_humans:
@@ -85,8 +85,8 @@ def advance(
             met = jnp.zeros(num_robots, bool)
         # Bumpers: a robot touching a wall, another robot or a pedestrian stops.
         new_kin = stop_on_contact(new_kin, wall | overlap | met, rp)
-        kin = jax.tree.map(lambda new, old: jnp.where(active, new, old), new_kin, kin)
-        touched = Contacts(robot=touched.robot | (overlap & active),
-                           wall=touched.wall | (wall & active),
-                           human=touched.human | (met & active))
+        kin = jax.tree.map(lambda new, old: jnp.where(moving, new, old), new_kin, kin)
+        touched = Contacts(robot=touched.robot | (overlap & moving),
+                           wall=touched.wall | (wall & moving),
+                           human=touched.human | (met & moving))
     return robots.replace(x=x, y=y, kin=kin), humans, touched

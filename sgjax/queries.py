@@ -37,13 +37,14 @@ class Bodies:
     goal_x: Array  # m, world: a robot's goal; 0 for a pedestrian
     goal_y: Array
     is_human: Array  # float 0/1
-    in_world: Array  # bool: the body is there (an active or parked robot, an active pedestrian)
+    in_world: Array  # bool: the body is there (an active, settling or parked robot; an active
+    # pedestrian)
 
 
 def gather_bodies(state: EnvState, params: EnvParams, robots: bool = True,
                   humans: bool = True) -> Bodies:
-    """Robots in the world (active, or parked at rest) and active pedestrians as one body list.
-    Pedestrians face along their velocity (+x when standing)."""
+    """Robots in the world (active, settling, or parked at rest) and active pedestrians as one
+    body list. Pedestrians face along their velocity (+x when standing)."""
     r, h = state.robots, state.humans
     vel = r.body_velocity
     parts = []

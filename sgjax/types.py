@@ -17,11 +17,15 @@ Robot slots, one vocabulary everywhere:
 * **finished** (``RobotState.finished``): present and terminated, by arrival (``succeeded``) or
   by an ender (``ended``, e.g. a fatal collision); absorbing: frozen, reward 0;
 * **active** (``RobotState.active``): present and not finished: it moves, is rewarded and can end;
+* **settling** (``RobotState.settling``): arrived, and driven on to its goal point by its local
+  planner (``make(arrived="settle")``, the default): a moving body that reads no actions and earns
+  nothing, until it parks within ``sgjax.env.SETTLE_TOLERANCE`` of the goal;
+* **moving** (``RobotState.moving``): active or settling: what the physics moves;
 * **parked** (``RobotState.parked``): finished and kept in the world at rest, a static body that
-  the others plan around, collide with and observe (``make(arrived="park")``, the default, for
-  robots that arrived; ``ended="park"`` for robots an ender stopped). With ``"leave"`` a finished
-  robot leaves the world instead;
-* **in world** (``RobotState.in_world``): active or parked: a body that others meet.
+  the others plan around, collide with and observe (an arrived robot once it has settled, or at
+  once where it arrived with ``arrived="park"``; ``ended="park"`` for robots an ender stopped).
+  With ``"leave"`` a finished robot leaves the world instead;
+* **in world** (``RobotState.in_world``): active, settling or parked: a body that others meet.
 
 Units are SI throughout (m, s, rad; angles wrapped to (-pi, pi]).
 """
@@ -44,9 +48,13 @@ from sgjax.planner import PlannerParams
 from sgjax.zones import ZoneState
 
 ACTION_MODES = ("go_stop", "continuous")
-# What becomes of a finished robot: it stays at rest where it finished as a static body ("park",
-# SocialGym 2.0's behaviour for arrived robots) or leaves the world ("leave").
+# What becomes of a finished robot: it stays at rest where it finished as a static body ("park")
+# or leaves the world ("leave").
 WORLD_SEMANTICS = ("park", "leave")
+# What becomes of an arrived robot: the same two, or "settle" (SocialGym 2.0's behaviour: its
+# local planner keeps driving it on to its goal point, where it parks; it is a moving body, not
+# a learner, on the way).
+ARRIVED_SEMANTICS = ("park", "settle", "leave")
 GO, STOP = 0, 1  # the two GO/STOP actions
 
 
@@ -77,6 +85,7 @@ class RobotState:
     succeeded: Array  # bool: reached its goal (absorbing)
     ended: Array  # bool: terminated by an ender without success, e.g. a collision (absorbing)
     parked: Array  # bool: finished and kept in the world at rest as a static body
+    settling: Array  # bool: arrived, and driven on to its goal point by the planner (a body)
 
     @property
     def position(self) -> Array:
@@ -113,9 +122,14 @@ class RobotState:
         return self.present & ~self.finished
 
     @property
+    def moving(self) -> Array:
+        """``[R]`` bool: moves this step: active, or settling on its goal point."""
+        return self.active | self.settling
+
+    @property
     def in_world(self) -> Array:
-        """``[R]`` bool: a body in the world (active, or parked where it finished)."""
-        return self.active | self.parked
+        """``[R]`` bool: a body in the world (active, settling, or parked where it finished)."""
+        return self.active | self.settling | self.parked
 
 
 @struct.dataclass

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import sgjax
-from sgjax.env import OBS_SIZE
+from sgjax.env import OBS_SIZE, SETTLE_TOLERANCE
 
 
 def go_actions(env, batch=None):
@@ -152,22 +152,30 @@ def test_inactive_slots_are_absorbing_and_masked():
 
 
 @pytest.mark.slow
-def test_success_is_terminal_and_absorbing():
-    env, params = sgjax.make("open", num_agents=1)
+@pytest.mark.parametrize("arrived", ["park", "settle"])
+def test_success_is_terminal_and_absorbing(arrived):
+    """Success is rewarded once and terminal for good; the robot is frozen where it arrived
+    (``park``) or once it has parked on its goal point (``settle``)."""
+    env, params = sgjax.make("open", num_agents=1, arrived=arrived)
     obs, state = env.reset(jax.random.key(2), params)
     step = jax.jit(env.step_env)
-    arrived_at = None
+    arrived_at, frozen = None, None
     for t in range(400):
         obs, state, reward, term, trunc, info = step(jax.random.key(t), state, go_actions(env),
                                                      params)
         if arrived_at is None and bool(term[0]):
             arrived_at = t
             assert float(reward[0]) > 50.0  # success reward once
-            frozen = state.robots.position
         elif arrived_at is not None:
             assert bool(term[0]) and float(reward[0]) == 0.0
+        if frozen is not None:
             np.testing.assert_array_equal(state.robots.position, frozen)
-    assert arrived_at is not None
+        elif bool(state.robots.parked[0]):
+            frozen = state.robots.position
+    assert arrived_at is not None and frozen is not None
+    goal = np.array([float(state.route.goal_x[0]), float(state.route.goal_y[0])])
+    to_goal = float(np.hypot(*(np.asarray(frozen[0]) - goal)))
+    assert to_goal < (SETTLE_TOLERANCE if arrived == "settle" else params.goal_tolerance)
 
 
 def test_auto_reset_keeps_final_observation():

@@ -317,6 +317,18 @@ def test_evaluate_command_passes_greedy_and_sampled(monkeypatch):
         cli.main(["evaluate", "--greedy", "--sampled"])
 
 
+def test_evaluate_command_passes_the_arrived_world(monkeypatch):
+    seen = []
+    monkeypatch.setattr(cli, "evaluate", lambda *a, **k: seen.append(k["make_kwargs"]))
+    cli.main(["evaluate", "--scenario", "open", "--episodes", "1"])
+    assert "arrived" not in seen.pop()  # the checkpoint's setting, else make's default
+    for world in ("settle", "park", "leave"):
+        cli.main(["evaluate", "--scenario", "open", "--episodes", "1", "--arrived", world])
+        assert seen.pop()["arrived"] == world
+    with pytest.raises(SystemExit):
+        cli.main(["evaluate", "--arrived", "stay"])
+
+
 EVALUATION_AND_APPS = ("policies", "evaluate", "metrics", "statistics", "report", "render",
                        "cli", "pettingzoo", "sb3", "jaxmarl")
 

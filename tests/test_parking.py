@@ -1,6 +1,7 @@
 """World semantics of finished robots: ``arrived="park"`` keeps an arrived robot in the world as
-a static body (SocialGym 2.0's behaviour), ``"leave"`` takes it out; ``ended`` does the same for
-robots an ender stops."""
+a static body where it arrived, ``"settle"`` lets its planner drive it on to its goal point and
+parks it there (SocialGym 2.0's behaviour), ``"leave"`` takes it out; ``ended`` parks or takes
+out robots an ender stops."""
 
 import jax
 import jax.numpy as jnp
@@ -8,6 +9,7 @@ import numpy as np
 import pytest
 from scenes import go_run_counting_traces, make_room, place
 
+from sgjax.env import SETTLE_TOLERANCE
 from sgjax.queries import FAR, body_gaps
 
 STEPS = 60
@@ -99,8 +101,85 @@ def test_parking_does_not_retrace_across_episodes():
     assert any(bool(info["episode_done"]) for _, info in visited) and traces == 1
 
 
+def _arrive_short(arrived, action_mode="go_stop", steps=STEPS):
+    """One robot 0.45 m short of its goal (the room's centre, inside the 0.5 m tolerance), at
+    rest and facing it; it is told to STOP (or stand still) at every step. Returns every
+    step's ``(state, reward, terminated, info)``."""
+    env, params = make_room(num_agents=1, max_agents=1, arrived=arrived,
+                            action_mode=action_mode)
+    state = place(env, params, [-0.45], [0.0], starts=[0], goals=[4])
+    stop = jnp.zeros((1, 2)) if action_mode == "continuous" else jnp.ones(1, jnp.int32)
+    step = jax.jit(env.step_env)
+    out = []
+    for _ in range(steps):
+        _, state, reward, terminated, _, info = step(jax.random.key(0), state, stop, params)
+        out.append((state, reward, terminated, info))
+    return out
+
+
+@pytest.mark.parametrize("action_mode", ["go_stop", "continuous"])
+def test_a_settling_robot_is_driven_on_to_its_goal_point_and_parks(action_mode):
+    """Under ``settle`` the robot arrives (terminated, rewarded) on the first step, then its
+    planner, not its actions, drives it to within ``SETTLE_TOLERANCE`` of the goal point, where
+    it parks; it earns nothing on the way and is a moving body meanwhile."""
+    steps = _arrive_short("settle", action_mode)
+    first_state, first_reward, first_terminated, _ = steps[0]
+    assert bool(first_state.robots.succeeded[0]) and bool(first_terminated[0])
+    assert float(first_reward[0]) > 0.0  # the arrival bonus
+    moving = [s for s, *_ in steps if bool(s.robots.settling[0])]
+    assert moving, "it never settled"
+    assert all(bool(s.robots.in_world[0]) and not bool(s.robots.active[0]) for s in moving)
+    assert any(float(jnp.abs(s.robots.body_velocity[0]).sum()) > 0.05 for s in moving)
+    for _, reward, terminated, info in steps[1:]:
+        assert float(reward[0]) == 0.0 and not bool(info["was_active"][0])
+        assert bool(terminated[0])
+    last = steps[-1][0]
+    assert bool(last.robots.parked[0]) and not bool(last.robots.settling[0])
+    assert float(jnp.hypot(last.robots.x[0], last.robots.y[0])) < SETTLE_TOLERANCE
+    assert float(jnp.abs(last.robots.body_velocity[0]).sum()) == 0.0
+
+
+def test_park_stops_where_it_arrived():
+    """The same start under ``park``: the robot stays 0.45 m short, never settling."""
+    steps = _arrive_short("park")
+    assert not any(bool(s.robots.settling[0]) for s, *_ in steps)
+    last = steps[-1][0]
+    assert bool(last.robots.parked[0])
+    assert float(last.robots.x[0]) == pytest.approx(-0.45, abs=1e-6)
+
+
+def test_a_settling_robot_is_a_body_that_others_meet():
+    """Robot 0 settles from 0.45 m short of the room's centre; robot 1 drives at the centre from
+    3 m below at full speed (continuous actions): it cannot drive through the settling (and
+    then parked) robot, and it observes it."""
+    env, params = make_room(num_agents=2, action_mode="continuous", arrived="settle")
+    state = place(env, params, [-0.45, 0.0], [0.0, -3.0], headings=[0.0, np.pi / 2],
+                  starts=[0, 0], goals=[4, 1])
+    actions = jnp.array([[0.0, 0.0], [1.0, 0.0]])
+    step = jax.jit(env.step_env)
+    radii = float(params.robots.radius[0] + params.robots.radius[1])
+    gaps, seen = [], []
+    for _ in range(STEPS):
+        _, state, *_ = step(jax.random.key(0), state, actions, params)
+        assert bool(state.robots.in_world[0])
+        gaps.append(float(jnp.hypot(state.robots.x[1] - state.robots.x[0],
+                                    state.robots.y[1] - state.robots.y[0])))
+        seen.append(float(body_gaps(state, params, env.config.layout)[1, 0]))
+    assert min(gaps) > radii - 0.02, min(gaps)  # it cannot drive through (it is pushed aside)
+    assert int(state.collisions.robot[1]) >= 1 and min(seen) < 0.05
+
+
+def test_settling_does_not_retrace_across_episodes():
+    env, params = make_room(num_agents=2, arrived="settle", time_limit=8.0)
+    visited, traces = go_run_counting_traces(env, params, 200)
+    assert any(bool(jnp.any(state.robots.settling)) for state, _ in visited)
+    assert any(bool(info["episode_done"]) for _, info in visited) and traces == 1
+
+
 def test_world_semantics_are_validated():
     with pytest.raises(ValueError, match="arrived must be one of"):
         make_room(arrived="stay")
     with pytest.raises(ValueError, match="ended must be one of"):
         make_room(ended="vanish")
+    with pytest.raises(ValueError, match="ended must be one of"):
+        make_room(ended="settle")  # an ended robot has no goal to settle on

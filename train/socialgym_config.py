@@ -365,7 +365,7 @@ def convert(data: Mapping[str, Any], source: str = "config") -> tuple[dict[str, 
     config = {
         "env": {"scenarios": scenarios, "curriculum": curriculum, "dt": SOCIALGYM_DT,
                 "time_limit": limit_steps * SOCIALGYM_DT, "robots": "socialgym",
-                "action_mode": "go_stop", "arrived": "park", "observations": observations,
+                "action_mode": "go_stop", "arrived": "settle", "observations": observations,
                 "rewards": rewards, "enders": enders},
         "algorithm": algorithm, "network": network, "evaluation": evaluation,
         "logging": {"out": f"runs/{run}"},

@@ -3,7 +3,7 @@ SA-CADRL social norms (right-handed: pass, overtake and cross the way pedestrian
 
 Geometry is in the robot's frame (x forward, y to the left); ``dh`` is the other's heading
 minus the robot's, wrapped. Pedestrians face along their velocity. Bodies counted: other robots
-in the world (active, or parked at rest) and active pedestrians.
+in the world (active, settling, or parked at rest) and active pedestrians.
 """
 
 from __future__ import annotations
