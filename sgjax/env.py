@@ -54,7 +54,7 @@ from sgjax.humans.crowd import HumanConfig, HumanState, advance_waypoints, spawn
 from sgjax.maps.sampling import build_routes, sample_starts_goals
 from sgjax.observations import Observer, parse_observations
 from sgjax.physics import Commands
-from sgjax.planner import PlannerConfig, carrot_point, plan, route_progress
+from sgjax.planner import PlannerConfig, approach, carrot_point, plan, route_progress
 from sgjax.presets import OBSERVATION_PRESETS, REWARD_PRESETS
 from sgjax.rewards import Rewarder, parse_rewards
 from sgjax.types import (
@@ -496,12 +496,21 @@ class SocialNavEnv:
     def _commands(self, state: EnvState, actions: Array, params: EnvParams) -> Commands:
         """Decode checked actions into per-robot commands: continuous actions directly, GO
         through the local planner, STOP as braking at the deceleration limit. Settling robots
-        (``arrived="settle"``) follow the planner whatever their action, no faster than they
-        can stop at their goal point."""
+        (``arrived="settle"``) ignore their actions: under GO/STOP they follow the planner no
+        faster than they can stop at their goal point; under continuous actions (where the
+        planner is not run) they drive straight onto it (:func:`sgjax.planner.approach`)."""
         cfg, rp, robots = self.config, params.robots, state.robots
         settle = cfg.arrived == "settle"
-        if cfg.action_mode == "continuous" and not settle:
-            return Commands(*decode_continuous(actions, rp, cfg.action_dim))
+        if cfg.action_mode == "continuous":
+            chosen = Commands(*decode_continuous(actions, rp, cfg.action_dim))
+            if not settle:
+                return chosen
+            forward, turn = approach(params.planner, rp, robots.x, robots.y, robots.heading,
+                                     robots.kin.v_forward, params.dt, state.route.goal_x,
+                                     state.route.goal_y)
+            return Commands(jnp.where(robots.settling, forward, chosen.forward),
+                            jnp.where(robots.settling, 0.0, chosen.lateral),
+                            jnp.where(robots.settling, turn, chosen.turn))
         carrot_x, carrot_y = carrot_point(params.planner, state.route, state.progress)
         forward, turn = plan(
             cfg.planner, params.planner, rp, params.map, robots.x, robots.y, robots.heading,
@@ -513,11 +522,6 @@ class SocialNavEnv:
             forward = jnp.where(robots.settling,
                                 jnp.minimum(forward, jnp.sqrt(2.0 * rp.max_decel * to_goal)),
                                 forward)
-        if cfg.action_mode == "continuous":
-            chosen = Commands(*decode_continuous(actions, rp, cfg.action_dim))
-            return Commands(jnp.where(robots.settling, forward, chosen.forward),
-                            jnp.where(robots.settling, 0.0, chosen.lateral),
-                            jnp.where(robots.settling, turn, chosen.turn))
         go = (actions == GO) | robots.settling
         # STOP: brake to rest; Ackermann robots hold their steering.
         turn = jnp.where(go, turn, jnp.where(rp.model == ACKERMANN, robots.kin.steering, 0.0))

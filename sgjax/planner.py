@@ -263,6 +263,50 @@ def plan(
     return forward, turn
 
 
+def approach(
+    pp: PlannerParams,
+    robots: RobotParams,
+    x: Array,
+    y: Array,
+    heading: Array,
+    v_forward: Array,
+    dt: Array,
+    target_x: Array,
+    target_y: Array,
+) -> tuple[Array, Array]:
+    """Commands ``(forward m/s, turn)`` ``[R]`` that drive each robot straight onto a nearby
+    target point, with no obstacle checks (bumpers and contacts still apply): the pure-pursuit
+    arc through the target (curvature ``2 y / d^2`` in the robot frame), no faster than the robot
+    can stop at the target (``sqrt(2 max_decel d)``); beyond ``turn_in_place_angle`` of bearing
+    it halts and turns in place, as :func:`plan` does (Ackermann robots keep to the arc), at the
+    time-optimal rate for the chord ``2 sin(bearing / 2)``, a lower bound of the bearing (so it
+    never overshoots). ``turn`` is a yaw rate (rad/s), or a steering angle (rad)
+    for Ackermann robots. The cheap way to settle an arrived robot on its goal when :func:`plan`
+    is not run (continuous actions)."""
+    ackermann = robots.model == ACKERMANN
+    cos_h, sin_h = jnp.cos(heading), jnp.sin(heading)
+    rel_x, rel_y = target_x - x, target_y - y
+    local_x = cos_h * rel_x + sin_h * rel_y
+    local_y = -sin_h * rel_x + cos_h * rel_y
+    dist_sq = jnp.maximum(jnp.square(local_x) + jnp.square(local_y), 1e-12)
+    dist = jnp.sqrt(dist_sq)
+    curvature = 2.0 * local_y / dist_sq
+    curvature = jnp.where(ackermann, jnp.clip(curvature, -1.0 / robots.min_turn_radius,
+                                              1.0 / robots.min_turn_radius), curvature)
+    speed = jnp.minimum(robots.max_speed, jnp.sqrt(2.0 * robots.max_decel * dist))
+    reached = v_forward + jnp.clip(speed - v_forward, -robots.max_decel * dt, robots.max_accel * dt)
+    arc_turn = jnp.where(ackermann, jnp.arctan(robots.wheelbase * curvature),
+                         reached * curvature)
+    chord = jnp.sqrt(jnp.maximum(2.0 - 2.0 * local_x / dist, 0.0))  # 2 sin(|bearing| / 2)
+    turn_rate = jnp.sign(local_y) * jnp.minimum(robots.max_omega,
+                                                jnp.sqrt(2.0 * robots.max_alpha * chord))
+    rotate = ~ackermann & (local_x < jnp.cos(pp.turn_in_place_angle) * dist)
+    halted = jnp.abs(v_forward) <= pp.halt_speed
+    forward = jnp.where(rotate, 0.0, speed)
+    turn = jnp.where(rotate, jnp.where(halted, turn_rate, 0.0), arc_turn)
+    return forward, turn
+
+
 def carrot_point(pp: PlannerParams, route: Route, progress: Array) -> tuple[Array, Array]:
     """The pure-pursuit target ``carrot_distance`` ahead of each robot's progress."""
     return point_along_route(route, progress + pp.carrot_distance)

@@ -101,13 +101,13 @@ def test_parking_does_not_retrace_across_episodes():
     assert any(bool(info["episode_done"]) for _, info in visited) and traces == 1
 
 
-def _arrive_short(arrived, action_mode="go_stop", steps=STEPS):
+def _arrive_short(arrived, action_mode="go_stop", steps=STEPS, heading=0.0):
     """One robot 0.45 m short of its goal (the room's centre, inside the 0.5 m tolerance), at
-    rest and facing it; it is told to STOP (or stand still) at every step. Returns every
-    step's ``(state, reward, terminated, info)``."""
+    rest and facing ``heading`` (rad; 0 faces the goal); it is told to STOP (or stand still)
+    at every step. Returns every step's ``(state, reward, terminated, info)``."""
     env, params = make_room(num_agents=1, max_agents=1, arrived=arrived,
                             action_mode=action_mode)
-    state = place(env, params, [-0.45], [0.0], starts=[0], goals=[4])
+    state = place(env, params, [-0.45], [0.0], headings=[heading], starts=[0], goals=[4])
     stop = jnp.zeros((1, 2)) if action_mode == "continuous" else jnp.ones(1, jnp.int32)
     step = jax.jit(env.step_env)
     out = []
@@ -117,12 +117,15 @@ def _arrive_short(arrived, action_mode="go_stop", steps=STEPS):
     return out
 
 
-@pytest.mark.parametrize("action_mode", ["go_stop", "continuous"])
-def test_a_settling_robot_is_driven_on_to_its_goal_point_and_parks(action_mode):
+@pytest.mark.parametrize("action_mode,heading", [("go_stop", 0.0), ("continuous", 0.0),
+                                                  ("go_stop", 2.5), ("continuous", 2.5),
+                                                  ("continuous", -np.pi / 2)])
+def test_a_settling_robot_is_driven_on_to_its_goal_point_and_parks(action_mode, heading):
     """Under ``settle`` the robot arrives (terminated, rewarded) on the first step, then its
-    planner, not its actions, drives it to within ``SETTLE_TOLERANCE`` of the goal point, where
-    it parks; it earns nothing on the way and is a moving body meanwhile."""
-    steps = _arrive_short("settle", action_mode)
+    planner (under continuous actions the straight approach), not its actions, drives it to
+    within ``SETTLE_TOLERANCE`` of the goal point, facing it or turned away, where it parks; it
+    earns nothing on the way and is a moving body meanwhile."""
+    steps = _arrive_short("settle", action_mode, heading=heading)
     first_state, first_reward, first_terminated, _ = steps[0]
     assert bool(first_state.robots.succeeded[0]) and bool(first_terminated[0])
     assert float(first_reward[0]) > 0.0  # the arrival bonus
