@@ -55,7 +55,7 @@ def drive(spec: sgjax.maps.MapSpec, robots: int, episodes: int) -> tuple[np.ndar
             live = np.asarray(state.robots.in_world)
             if live.any():
                 gap = min(gap, float(clear[live].min()))
-    return np.asarray(state.robots.parked).sum(axis=1), gap
+    return np.asarray(state.robots.succeeded).sum(axis=1), gap
 
 
 def main() -> None:

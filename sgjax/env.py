@@ -520,7 +520,8 @@ class SocialNavEnv:
         if settle:
             to_goal = state.route.goal_distance(robots.x, robots.y)
             forward = jnp.where(robots.settling,
-                                jnp.minimum(forward, jnp.sqrt(2.0 * rp.max_decel * to_goal)),
+                                jnp.minimum(forward, jnp.sqrt(
+                                    2.0 * rp.max_decel * jnp.maximum(to_goal, 1e-12))),
                                 forward)
         go = (actions == GO) | robots.settling
         # STOP: brake to rest; Ackermann robots hold their steering.

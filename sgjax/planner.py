@@ -293,11 +293,13 @@ def approach(
     curvature = 2.0 * local_y / dist_sq
     curvature = jnp.where(ackermann, jnp.clip(curvature, -1.0 / robots.min_turn_radius,
                                               1.0 / robots.min_turn_radius), curvature)
-    speed = jnp.minimum(robots.max_speed, jnp.sqrt(2.0 * robots.max_decel * dist))
+    speed = jnp.minimum(robots.max_speed, jnp.sqrt(2.0 * robots.max_decel * dist))  # dist > 0
     reached = v_forward + jnp.clip(speed - v_forward, -robots.max_decel * dt, robots.max_accel * dt)
     arc_turn = jnp.where(ackermann, jnp.arctan(robots.wheelbase * curvature),
                          reached * curvature)
-    chord = jnp.sqrt(jnp.maximum(2.0 - 2.0 * local_x / dist, 0.0))  # 2 sin(|bearing| / 2)
+    # 2 sin(|bearing| / 2); floored so that its gradient stays finite when facing the target
+    # (a NaN there would leak through the caller's jnp.where into every gradient).
+    chord = jnp.sqrt(jnp.maximum(2.0 - 2.0 * local_x / dist, 1e-12))
     turn_rate = jnp.sign(local_y) * jnp.minimum(robots.max_omega,
                                                 jnp.sqrt(2.0 * robots.max_alpha * chord))
     rotate = ~ackermann & (local_x < jnp.cos(pp.turn_in_place_angle) * dist)

@@ -280,7 +280,7 @@ def test_socialgym_scenario_paths_and_edgeless_spawns_import_as_socialgym_ran_th
     step = jax.jit(jax.vmap(env.step_env, in_axes=(0, 0, 0, None)))
     for _ in range(int(params.max_steps)):
         _, state, *_ = step(keys, state, jax.numpy.zeros((4, 2), jax.numpy.int32), params)
-    arrived = np.asarray(state.robots.parked)
+    arrived = np.asarray(state.robots.succeeded)
     assert arrived.sum(axis=1).min() >= 1, arrived  # every episode: someone came through
 
 
