@@ -46,7 +46,9 @@ def test_actions_are_read_every_period_and_held_in_between():
 
 def test_a_held_run_equals_period_one_fed_the_held_actions():
     """Random GO/STOP requests under period 3 give, step by step, the same episode as period 1
-    given the actions in force (the held ones), through an auto-reset."""
+    given the actions in force (the held ones), through an auto-reset: the same observations
+    and positions bit for bit, the same rewards to float rounding (the two programs compile
+    the route progress behind the reward in different fusions: up to 2e-6 m apart)."""
     held_env, params = sgjax.make("doorway", num_agents=3, decision_period=3, time_limit=6.0)
     plain_env, _ = sgjax.make("doorway", num_agents=3, time_limit=6.0)
     _, held = held_env.reset(jax.random.key(4), params)
@@ -61,7 +63,7 @@ def test_a_held_run_equals_period_one_fed_the_held_actions():
         obs_p, plain, reward_p, _, _, _ = plain_step(key, plain, in_force, params)
         ends += int(info["episode_done"])
         np.testing.assert_array_equal(obs_h, obs_p)
-        np.testing.assert_array_equal(reward_h, reward_p)
+        np.testing.assert_allclose(reward_h, reward_p, rtol=0, atol=1e-5)
         np.testing.assert_array_equal(held.robots.x, plain.robots.x)
     assert ends >= 1
 
