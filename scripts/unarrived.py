@@ -43,7 +43,8 @@ def unarrived(spec: str, scenario: str, num_agents: int, episodes: int, seed: in
         failed_teams += int(failed.any(axis=1).sum())
         for e, r in zip(*np.nonzero(failed), strict=True):
             ended.append(np.hypot(x[e, r] - goal_x[e, r], y[e, r] - goal_y[e, r]))
-            others = last.robots.parked[e] & (np.arange(x.shape[1]) != r)
+            others = ((last.robots.parked[e] | last.robots.settling[e])  # arrived, still there
+                      & (np.arange(x.shape[1]) != r))
             gaps = np.hypot(x[e, others] - goal_x[e, r], y[e, others] - goal_y[e, r])
             blocker.append(gaps.min() if gaps.size else np.inf)
     return failed_teams, np.array(ended), np.array(blocker)

@@ -8,14 +8,14 @@ One environment is written for one episode; batch it with ``jax.vmap`` from outs
     step = jax.jit(jax.vmap(env.step, in_axes=(0, 0, 0, None)))
 
 Robots are ``[R]`` arrays padded to ``env.max_agents``; ``params.num_agents`` of them take part in
-an episode (``present``). A robot that reaches its goal is terminated and absorbing (frozen,
-reward 0). With ``arrived="settle"`` (the default, as SocialGym 2.0 ran: its arrived robots kept
-their GO) its local planner drives it on from where it arrived to its goal point (within
-``SETTLE_TOLERANCE``), a moving body that reads no actions and earns nothing, and it parks there,
-a static body that the others plan around, collide with and observe; with ``arrived="park"`` it
-parks at rest where it arrived (up to ``goal_tolerance`` short of its goal); with
-``arrived="leave"`` it leaves the world. ``ended`` makes the park-or-leave choice for robots an
-ender terminates (default ``"leave"``).
+an episode (``present``). A robot that reaches its goal is terminated and absorbing (it reads no
+actions; reward 0). With ``arrived="settle"`` (the default, as SocialGym 2.0 ran: its arrived
+robots kept their GO) its local planner drives it on from where it arrived to its goal point
+(within ``SETTLE_TOLERANCE``, or for at most ``SETTLE_SECONDS``), a moving body that reads no
+actions and earns nothing, and it parks there, a static body that the others plan around,
+collide with and observe; with ``arrived="park"`` it parks at rest where it arrived (up to
+``goal_tolerance`` short of its goal); with ``arrived="leave"`` it leaves the world. ``ended``
+makes the park-or-leave choice for robots an ender terminates (default ``"leave"``).
 
 Actions (static ``action_mode``):
   * ``"go_stop"``: ``[R]`` ints, 0 = GO (follow the local planner), any other value = STOP
@@ -76,6 +76,10 @@ from sgjax.zones import start_zones, update_zones
 # Distance (m) from its goal point at which a settling robot parks: SocialGym 2.0's planner
 # completes a navigation within 0.1 m of its target (``target_dist_tolerance``).
 SETTLE_TOLERANCE = 0.1
+# Time (s) after which a settling robot that has not reached its goal point parks where it is:
+# its goal is taken by another body, or out of an Ackermann robot's turning circle. From 0.5 m
+# out a robot turns and drives onto its goal in well under this.
+SETTLE_SECONDS = 5.0
 
 __all__ = [  # the datatypes live in sgjax.types; re-exported here for existing imports
     "ACTION_MODES", "GO", "OBS_SIZE", "STOP", "CollisionCounts", "EnvConfig", "EnvParams",
@@ -290,7 +294,7 @@ class SocialNavEnv:
                            steering=zeros),
             present=jnp.asarray(present, bool), succeeded=jnp.zeros(num_robots, bool),
             ended=jnp.zeros(num_robots, bool), parked=jnp.zeros(num_robots, bool),
-            settling=jnp.zeros(num_robots, bool),
+            settling=jnp.zeros(num_robots, bool), settle_steps=jnp.zeros(num_robots, jnp.int32),
         )
         no = jnp.zeros(num_robots, bool)
         none = jnp.zeros(num_robots, jnp.int32)
@@ -359,9 +363,9 @@ class SocialNavEnv:
 
         ``info["reward_terms"]`` holds each reward term's weighted value ``[R]`` (and the stuck
         penalty under ``"stuck"`` when that ender is on); ``info["was_active"] [R]`` says which
-        robots were active at the start of the step (they alone moved and were rewarded),
-        ``info["arrived"] [R]`` which arrived during it, ``info["collision_*"] [R]`` what they
-        touched.
+        robots were active at the start of the step (they alone were rewarded; settling robots
+        move too), ``info["arrived"] [R]`` which arrived during it, ``info["collision_*"] [R]``
+        what they touched.
         """
         return self._step_env_compiled(key, state, actions, params)
 
@@ -387,7 +391,7 @@ class SocialNavEnv:
         with jax.named_scope("enders"):
             outcome, ender_rewards = cfg.enders(state, moved, params, layout)
             next_state = self._conclude(state, moved, outcome, cfg.arrived, cfg.ended == "park",
-                                        ).replace(held_action=actions)
+                                        params.dt).replace(held_action=actions)
         with jax.named_scope("rewards"):
             reward, reward_terms = cfg.rewarder(state, next_state, actions, params, layout)
             was_active = state.robots.active
@@ -450,24 +454,26 @@ class SocialNavEnv:
 
     @staticmethod
     def _conclude(state: EnvState, moved: EnvState, outcome: Outcome, arrived: str,
-                  park_ended: bool) -> EnvState:
+                  park_ended: bool, dt: Array) -> EnvState:
         """Robots the enders terminate without success end (absorbing) in the next state; the
         robots that finish this step park where they are if their kind parks (their kinematic
         state stays frozen as it was; as bodies they are at rest: ``RobotState.body_velocity``),
         or, arrived under ``"settle"``, start settling; settling robots within
-        ``SETTLE_TOLERANCE`` of their goal park."""
+        ``SETTLE_TOLERANCE`` of their goal, or settling for ``SETTLE_SECONDS``, park."""
         r = moved.robots
         was_active = state.robots.active
         ended = r.ended | (outcome.terminated & was_active & ~r.succeeded)
         arrived_now = was_active & r.succeeded
         newly = (arrived_now & (arrived == "park")) | (was_active & ended & park_ended)
-        settling = r.settling
+        settling, steps = r.settling, r.settle_steps
         if arrived == "settle":
             settling = settling | arrived_now
-            settled = settling & (moved.route.goal_distance(r.x, r.y) < SETTLE_TOLERANCE)
+            steps = steps + settling.astype(jnp.int32)
+            settled = settling & ((moved.route.goal_distance(r.x, r.y) < SETTLE_TOLERANCE)
+                                  | (steps.astype(jnp.float32) * dt >= SETTLE_SECONDS))
             newly, settling = newly | settled, settling & ~settled
         return moved.replace(robots=r.replace(ended=ended, parked=r.parked | newly,
-                                              settling=settling))
+                                              settling=settling, settle_steps=steps))
 
     def _checked(self, actions: Array) -> Array:
         """``actions`` as the step takes them (``[R]`` int32 GO/STOP or ``[R, A]`` float32), or
@@ -519,10 +525,19 @@ class SocialNavEnv:
         )
         if settle:
             to_goal = state.route.goal_distance(robots.x, robots.y)
-            forward = jnp.where(robots.settling,
-                                jnp.minimum(forward, jnp.sqrt(
-                                    2.0 * rp.max_decel * jnp.maximum(to_goal, 1e-12))),
-                                forward)
+            capped = jnp.minimum(forward, jnp.sqrt(2.0 * rp.max_decel
+                                                   * jnp.maximum(to_goal, 1e-12)))
+            # The planner's yaw rate is the speed it will reach x the arc's curvature: scale it
+            # with that speed so that the driven arc stays the one the planner checked.
+            v = robots.kin.v_forward
+            limit_down, limit_up = rp.max_decel * params.dt, rp.max_accel * params.dt
+            reach = v + jnp.clip(forward - v, -limit_down, limit_up)
+            reach_capped = v + jnp.clip(capped - v, -limit_down, limit_up)
+            scale = jnp.where(jnp.abs(reach) > 1e-6, reach_capped / jnp.where(
+                jnp.abs(reach) > 1e-6, reach, 1.0), 1.0)
+            arc = robots.settling & (rp.model != ACKERMANN) & (forward > 0.0)
+            turn = jnp.where(arc, turn * scale, turn)
+            forward = jnp.where(robots.settling, capped, forward)
         go = (actions == GO) | robots.settling
         # STOP: brake to rest; Ackermann robots hold their steering.
         turn = jnp.where(go, turn, jnp.where(rp.model == ACKERMANN, robots.kin.steering, 0.0))

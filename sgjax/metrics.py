@@ -408,8 +408,8 @@ def update(
         ttc_low=add(m.ttc_low, 1, was_active & (ttc < constants.ttc_threshold)),
         stall_run=jnp.where(running, stall_run, m.stall_run),
         deadlock=m.deadlock | (running & (stall_run >= deadlock_steps)),
-        bad_entries=add(m.bad_entries, bad_entries, running),
-        bad_exits=add(m.bad_exits, bad_exits, running),
+        bad_entries=add(m.bad_entries, bad_entries),  # robots that moved as learners
+        bad_exits=add(m.bad_exits, bad_exits),
         zone_exits=m.zone_exits + jnp.where(running, exits, 0),
         zone_first_entry=jnp.where(running & (entries > 0) & (m.zone_first_entry < 0), now,
                                    m.zone_first_entry),

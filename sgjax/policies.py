@@ -85,7 +85,8 @@ def random_policy(env: SocialNavEnv) -> Policy:
 
 def stop_when_blocked(env: SocialNavEnv, distance: float = STOP_DISTANCE,
                       half_angle: float = STOP_HALF_ANGLE) -> Policy:
-    """GO unless a pedestrian or a robot of higher priority (smaller index) is close ahead."""
+    """GO unless a pedestrian, a robot of higher priority (smaller index) or a robot settling on
+    its goal is close ahead."""
     _require_go_stop(env, "stop_when_blocked")
     cos_limit = math.cos(half_angle)
 
@@ -102,7 +103,8 @@ def stop_when_blocked(env: SocialNavEnv, distance: float = STOP_DISTANCE,
         r, h = state.robots, state.humans
         radius = params.robots.radius
         index = jnp.arange(r.x.shape[0])
-        higher = r.active[None, :] & (index[None, :] < index[:, None])
+        # a robot settling on its goal yields to nobody: wait for it whatever its index
+        higher = (r.active[None, :] & (index[None, :] < index[:, None])) | r.settling[None, :]
         stop = blocked_by(r.x, r.y, r.heading, radius, r.x, r.y, radius, higher)
         if h.x.shape[0]:
             human_radius = jnp.broadcast_to(params.humans.radius, h.x.shape)

@@ -15,7 +15,8 @@ Robot slots, one vocabulary everywhere:
 * **present** (``RobotState.present``): the slot takes part in this episode (the first
   ``params.num_agents`` slots that ``reset`` could place); absent slots are padding;
 * **finished** (``RobotState.finished``): present and terminated, by arrival (``succeeded``) or
-  by an ender (``ended``, e.g. a fatal collision); absorbing: frozen, reward 0;
+  by an ender (``ended``, e.g. a fatal collision); absorbing: reads no actions, reward 0 (a
+  settling robot still moves);
 * **active** (``RobotState.active``): present and not finished: it moves, is rewarded and can end;
 * **settling** (``RobotState.settling``): arrived, and driven on to its goal point by its local
   planner (``make(arrived="settle")``, the default): a moving body that reads no actions and earns
@@ -86,6 +87,7 @@ class RobotState:
     ended: Array  # bool: terminated by an ender without success, e.g. a collision (absorbing)
     parked: Array  # bool: finished and kept in the world at rest as a static body
     settling: Array  # bool: arrived, and driven on to its goal point by the planner (a body)
+    settle_steps: Array  # int32: steps spent settling so far
 
     @property
     def position(self) -> Array:

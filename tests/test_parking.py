@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scenes import go_run_counting_traces, make_room, place
 
-from sgjax.env import SETTLE_TOLERANCE
+from sgjax.env import SETTLE_SECONDS, SETTLE_TOLERANCE
 from sgjax.queries import FAR, body_gaps
 
 STEPS = 60
@@ -151,25 +151,46 @@ def test_park_stops_where_it_arrived():
     assert float(last.robots.x[0]) == pytest.approx(-0.45, abs=1e-6)
 
 
-def test_a_settling_robot_is_a_body_that_others_meet():
-    """Robot 0 settles from 0.45 m short of the room's centre; robot 1 drives at the centre from
-    3 m below at full speed (continuous actions): it cannot drive through the settling (and
-    then parked) robot, and it observes it."""
-    env, params = make_room(num_agents=2, action_mode="continuous", arrived="settle")
-    state = place(env, params, [-0.45, 0.0], [0.0, -3.0], headings=[0.0, np.pi / 2],
+def test_a_settling_robot_is_a_body_that_others_meet_and_see():
+    """Robot 0 arrives 0.45 m short of the room's centre facing away from it, so it settles
+    slowly (it turns in place first); robot 1 drives up at it from 1.2 m below (continuous
+    actions). While robot 0 is still settling, robot 1 touches it (and is stopped short of
+    overlapping it) and sees it in its ``others`` observation, moving."""
+    env, params = make_room(num_agents=2, action_mode="continuous", arrived="settle",
+                            observations=[{"others": {"k": 1, "humans": False}}])
+    state = place(env, params, [-0.45, -0.45], [0.0, -1.2], headings=[np.pi, np.pi / 2],
                   starts=[0, 0], goals=[4, 1])
-    actions = jnp.array([[0.0, 0.0], [1.0, 0.0]])
+    actions = jnp.array([[0.0, 0.0], [0.6, 0.0]])
     step = jax.jit(env.step_env)
     radii = float(params.robots.radius[0] + params.robots.radius[1])
-    gaps, seen = [], []
+    met_settling, seen_moving = False, False
     for _ in range(STEPS):
-        _, state, *_ = step(jax.random.key(0), state, actions, params)
-        assert bool(state.robots.in_world[0])
-        gaps.append(float(jnp.hypot(state.robots.x[1] - state.robots.x[0],
-                                    state.robots.y[1] - state.robots.y[0])))
-        seen.append(float(body_gaps(state, params, env.config.layout)[1, 0]))
-    assert min(gaps) > radii - 0.02, min(gaps)  # it cannot drive through (it is pushed aside)
-    assert int(state.collisions.robot[1]) >= 1 and min(seen) < 0.05
+        obs, state, *_ = step(jax.random.key(0), state, actions, params)
+        gap = float(jnp.hypot(state.robots.x[1] - state.robots.x[0],
+                              state.robots.y[1] - state.robots.y[0]))
+        assert gap > radii - 0.02, gap  # it cannot drive through
+        if bool(state.robots.settling[0]):
+            met_settling |= bool(state.touching_robot[1])
+            row = np.asarray(obs[1])  # position, distance, heading, velocity, radius, kind, mask
+            seen_moving |= row[-1] == 1.0 and float(np.abs(row[5:7]).sum()) > 0.0
+    assert met_settling and seen_moving
+
+
+def test_a_settling_robot_whose_goal_is_taken_parks_after_settle_seconds():
+    """Robot 1 stands (told to STOP) on robot 0's goal point; robot 0 arrives 0.45 m short of
+    it and cannot get within ``SETTLE_TOLERANCE``: it parks after ``SETTLE_SECONDS``."""
+    env, params = make_room(num_agents=2, arrived="settle")
+    state = place(env, params, [-0.45, 0.0], [0.0, 0.0], headings=[0.0, np.pi / 2],
+                  starts=[0, 3], goals=[4, 2])
+    step = jax.jit(env.step_env)
+    limit = round(SETTLE_SECONDS / float(params.dt))
+    for t in range(limit + 5):
+        _, state, *_ = step(jax.random.key(0), state, jnp.array([1, 1], jnp.int32), params)
+        if t < limit - 1:
+            assert bool(state.robots.settling[0]), t
+    assert bool(state.robots.parked[0]) and not bool(state.robots.settling[0])
+    assert int(state.robots.settle_steps[0]) == limit
+    assert float(jnp.hypot(state.robots.x[0], state.robots.y[0])) > SETTLE_TOLERANCE
 
 
 def test_settling_does_not_retrace_across_episodes():

@@ -2,12 +2,15 @@
 validated, a vmap over sixteen seeds equals separate seeds and never hangs (the commands end to
 end: tests/test_train_commands.py)."""
 
+import json
 from pathlib import Path
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+import yaml
+from flax import serialization
 
 from sgjax.policies import load_policy, policy_make_kwargs
 from sgjax.terms import ConfigError
@@ -105,6 +108,22 @@ def test_env_section_takes_every_make_option_and_round_trips():
     assert config_from_dict(config.to_dict()) == config
     preset = config_from_dict({"env": {"preset": "cadrl"}}).env.make_kwargs()
     assert preset["observations"] == preset["rewards"] == "cadrl"
+
+
+def test_checkpoints_keep_their_world_when_the_default_changes(tmp_path):
+    """A saved config states ``arrived``/``ended`` even at their defaults; a checkpoint written
+    before it did (no ``arrived``) was trained when the default was ``park`` and loads so."""
+    config = config_from_dict({"env": {"curriculum": [[0, 2]]}})
+    assert config.to_dict()["env"]["arrived"] == "settle"
+    assert config.to_dict()["env"]["ended"] == "leave"
+    old = config.to_dict()
+    del old["env"]["arrived"]
+    payload = {"config": yaml.safe_dump(old), "meta": json.dumps({}), "runner": {}}
+    path = tmp_path / "old.msgpack"
+    path.write_bytes(serialization.msgpack_serialize(payload))
+    loaded, _, _ = checkpoint.read(path)
+    assert loaded.env.make.robots.arrived == "park"
+    assert loaded.env.make_kwargs()["arrived"] == "park"
 
 
 @pytest.fixture(scope="module")

@@ -61,7 +61,13 @@ def read(path: str | Path) -> tuple[TrainConfig, dict[str, Any], dict[str, Any]]
     path = resolve(path)
     try:
         payload = serialization.msgpack_restore(path.read_bytes())
-        config = config_from_dict(yaml.safe_load(payload["config"]), str(path))
+        data = yaml.safe_load(payload["config"])
+        env = data.get("env") if isinstance(data, dict) else None
+        if isinstance(env, dict) and "arrived" not in env:
+            # Written before checkpoints recorded it (2026-11-25), when the default was "park"
+            # (arrived robots stop where they arrive); "settle" is the default since.
+            env["arrived"] = "park"
+        config = config_from_dict(data, str(path))
         return config, json.loads(payload["meta"]), payload["runner"]
     except (KeyError, ValueError, TypeError) as err:
         raise ValueError(f"{path}: not a readable sgjax training checkpoint ({err})") from err

@@ -79,10 +79,13 @@ class EnvSection:
             raise ConfigError(f"{where}: {err}") from None
 
     def to_dict(self) -> dict[str, Any]:
-        """The section as written in a config file (make options that differ from defaults)."""
+        """The section as written in a config file (make options that differ from defaults,
+        and always the world semantics ``arrived`` / ``ended``, so that a checkpoint keeps the
+        world it was trained in when a default changes)."""
         out = {"scenarios": list(self.scenarios), "curriculum": _plain(self.curriculum),
                "preset": self.preset}
-        return out | _plain(self.make.keywords(changed_only=True))
+        world = {"arrived": self.make.robots.arrived, "ended": self.make.robots.ended}
+        return out | world | _plain(self.make.keywords(changed_only=True))
 
     @property
     def action_mode(self) -> str:
