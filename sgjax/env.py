@@ -294,7 +294,7 @@ class SocialNavEnv:
                            steering=zeros),
             present=jnp.asarray(present, bool), succeeded=jnp.zeros(num_robots, bool),
             ended=jnp.zeros(num_robots, bool), parked=jnp.zeros(num_robots, bool),
-            settling=jnp.zeros(num_robots, bool), settle_steps=jnp.zeros(num_robots, jnp.int32),
+            settle_steps=jnp.zeros(num_robots, jnp.int32),
         )
         no = jnp.zeros(num_robots, bool)
         none = jnp.zeros(num_robots, jnp.int32)
@@ -465,15 +465,15 @@ class SocialNavEnv:
         ended = r.ended | (outcome.terminated & was_active & ~r.succeeded)
         arrived_now = was_active & r.succeeded
         newly = (arrived_now & (arrived == "park")) | (was_active & ended & park_ended)
-        settling, steps = r.settling, r.settle_steps
+        steps = r.settle_steps
         if arrived == "settle":
-            settling = settling | arrived_now
+            settling = r.settling | arrived_now
             steps = steps + settling.astype(jnp.int32)
             settled = settling & ((moved.route.goal_distance(r.x, r.y) < SETTLE_TOLERANCE)
                                   | (steps.astype(jnp.float32) * dt >= SETTLE_SECONDS))
-            newly, settling = newly | settled, settling & ~settled
+            newly = newly | settled
         return moved.replace(robots=r.replace(ended=ended, parked=r.parked | newly,
-                                              settling=settling, settle_steps=steps))
+                                              settle_steps=steps))
 
     def _checked(self, actions: Array) -> Array:
         """``actions`` as the step takes them (``[R]`` int32 GO/STOP or ``[R, A]`` float32), or
@@ -518,26 +518,17 @@ class SocialNavEnv:
                             jnp.where(robots.settling, 0.0, chosen.lateral),
                             jnp.where(robots.settling, turn, chosen.turn))
         carrot_x, carrot_y = carrot_point(params.planner, state.route, state.progress)
+        speed_limit = None
+        if settle:  # no faster than a settling robot can stop at its goal point
+            to_goal = jnp.maximum(state.route.goal_distance(robots.x, robots.y), 1e-12)
+            speed_limit = jnp.where(robots.settling, jnp.sqrt(2.0 * rp.max_decel * to_goal),
+                                    rp.max_speed)
         forward, turn = plan(
             cfg.planner, params.planner, rp, params.map, robots.x, robots.y, robots.heading,
             robots.kin.v_forward, params.dt, robots.in_world, carrot_x, carrot_y,
             velocity=robots.body_velocity, bodies=self._pedestrian_bodies(state, params),
+            speed_limit=speed_limit,
         )
-        if settle:
-            to_goal = state.route.goal_distance(robots.x, robots.y)
-            capped = jnp.minimum(forward, jnp.sqrt(2.0 * rp.max_decel
-                                                   * jnp.maximum(to_goal, 1e-12)))
-            # The planner's yaw rate is the speed it will reach x the arc's curvature: scale it
-            # with that speed so that the driven arc stays the one the planner checked.
-            v = robots.kin.v_forward
-            limit_down, limit_up = rp.max_decel * params.dt, rp.max_accel * params.dt
-            reach = v + jnp.clip(forward - v, -limit_down, limit_up)
-            reach_capped = v + jnp.clip(capped - v, -limit_down, limit_up)
-            scale = jnp.where(jnp.abs(reach) > 1e-6, reach_capped / jnp.where(
-                jnp.abs(reach) > 1e-6, reach, 1.0), 1.0)
-            arc = robots.settling & (rp.model != ACKERMANN) & (forward > 0.0)
-            turn = jnp.where(arc, turn * scale, turn)
-            forward = jnp.where(robots.settling, capped, forward)
         go = (actions == GO) | robots.settling
         # STOP: brake to rest; Ackermann robots hold their steering.
         turn = jnp.where(go, turn, jnp.where(rp.model == ACKERMANN, robots.kin.steering, 0.0))

@@ -139,9 +139,11 @@ def plan(
     carrot_y: Array,
     velocity: Array | None = None,
     bodies: tuple[Array, Array, Array, Array, Array, Array] | None = None,
+    speed_limit: Array | None = None,
 ) -> tuple[Array, Array]:
     """GO commands ``(forward m/s, turn)`` ``[R]`` toward the carrots, avoiding walls, robots and
-    other bodies.
+    other bodies; ``speed_limit [R]`` (m/s, optional) caps each robot's speed below its own
+    (the yaw rate follows, so the driven arc is the one checked).
 
     ``v_forward [R]`` is each robot's current forward speed (m/s) and ``dt`` the step (s).
 
@@ -152,9 +154,7 @@ def plan(
     """
     ackermann = robots.model == ACKERMANN
     cos_h, sin_h = jnp.cos(heading), jnp.sin(heading)
-    rel_x, rel_y = carrot_x - x, carrot_y - y
-    local_x = cos_h * rel_x + sin_h * rel_y
-    local_y = -sin_h * rel_x + cos_h * rel_y
+    local_x, local_y = _robot_frame(cos_h, sin_h, carrot_x - x, carrot_y - y)
     bearing = jnp.arctan2(local_y, local_x)
 
     # Arc samples: constants in the robot frame, flattened to S = K * M so that the innermost
@@ -234,6 +234,8 @@ def plan(
 
     stop_speed = jnp.sqrt(2.0 * robots.max_decel * jnp.maximum(best_free - pp.stop_margin, 0.0))
     speed = jnp.minimum(robots.max_speed, stop_speed)
+    if speed_limit is not None:
+        speed = jnp.minimum(speed, speed_limit)
     # Yaw rate for the speed the robot will actually reach this step (acceleration-limited), so
     # the driven curvature is the one that was checked.
     reached = v_forward + jnp.clip(speed - v_forward, -robots.max_decel * dt, robots.max_accel * dt)
@@ -242,9 +244,7 @@ def plan(
     # Turn in place (time-optimal: the fastest yaw rate that can still stop at the bearing),
     # after halting first, as SocialGym's TurnInPlace does: rotating while braking from speed
     # would swing the robot along an unchecked arc.
-    turn_rate = jnp.sign(bearing) * jnp.minimum(
-        robots.max_omega, jnp.sqrt(2.0 * robots.max_alpha * jnp.abs(bearing))
-    )
+    turn_rate = _turn_in_place_rate(robots, bearing)
     # While meeting a body a robot may drive on arcs up to a right angle off the carrot (it is
     # passing); otherwise it turns in place beyond ``turn_in_place_angle``.
     limit = jnp.where(meeting, jnp.maximum(pp.turn_in_place_angle, jnp.pi / 2),
@@ -284,10 +284,8 @@ def approach(
     for Ackermann robots. The cheap way to settle an arrived robot on its goal when :func:`plan`
     is not run (continuous actions)."""
     ackermann = robots.model == ACKERMANN
-    cos_h, sin_h = jnp.cos(heading), jnp.sin(heading)
-    rel_x, rel_y = target_x - x, target_y - y
-    local_x = cos_h * rel_x + sin_h * rel_y
-    local_y = -sin_h * rel_x + cos_h * rel_y
+    local_x, local_y = _robot_frame(jnp.cos(heading), jnp.sin(heading), target_x - x,
+                                    target_y - y)
     dist_sq = jnp.maximum(jnp.square(local_x) + jnp.square(local_y), 1e-12)
     dist = jnp.sqrt(dist_sq)
     curvature = 2.0 * local_y / dist_sq
@@ -300,13 +298,24 @@ def approach(
     # 2 sin(|bearing| / 2); floored so that its gradient stays finite when facing the target
     # (a NaN there would leak through the caller's jnp.where into every gradient).
     chord = jnp.sqrt(jnp.maximum(2.0 - 2.0 * local_x / dist, 1e-12))
-    turn_rate = jnp.sign(local_y) * jnp.minimum(robots.max_omega,
-                                                jnp.sqrt(2.0 * robots.max_alpha * chord))
+    turn_rate = _turn_in_place_rate(robots, jnp.sign(local_y) * chord)
     rotate = ~ackermann & (local_x < jnp.cos(pp.turn_in_place_angle) * dist)
     halted = jnp.abs(v_forward) <= pp.halt_speed
     forward = jnp.where(rotate, 0.0, speed)
     turn = jnp.where(rotate, jnp.where(halted, turn_rate, 0.0), arc_turn)
     return forward, turn
+
+
+def _robot_frame(cos_h: Array, sin_h: Array, dx: Array, dy: Array) -> tuple[Array, Array]:
+    """World offsets ``(dx, dy)`` (m) in the frame of robots heading ``(cos_h, sin_h)``."""
+    return cos_h * dx + sin_h * dy, -sin_h * dx + cos_h * dy
+
+
+def _turn_in_place_rate(robots: RobotParams, bearing: Array) -> Array:
+    """Time-optimal yaw rate (rad/s) toward a ``bearing`` (rad): the fastest that can still
+    stop at it under ``max_alpha``, capped at ``max_omega``."""
+    return jnp.sign(bearing) * jnp.minimum(
+        robots.max_omega, jnp.sqrt(2.0 * robots.max_alpha * jnp.abs(bearing)))
 
 
 def carrot_point(pp: PlannerParams, route: Route, progress: Array) -> tuple[Array, Array]:

@@ -37,8 +37,7 @@ class Bodies:
     goal_x: Array  # m, world: a robot's goal; 0 for a pedestrian
     goal_y: Array
     is_human: Array  # float 0/1
-    in_world: Array  # bool: the body is there (an active, settling or parked robot; an active
-    # pedestrian)
+    in_world: Array  # bool: there (a robot active, settling or parked; an active pedestrian)
 
 
 def gather_bodies(state: EnvState, params: EnvParams, robots: bool = True,

@@ -86,8 +86,7 @@ class RobotState:
     succeeded: Array  # bool: reached its goal (absorbing)
     ended: Array  # bool: terminated by an ender without success, e.g. a collision (absorbing)
     parked: Array  # bool: finished and kept in the world at rest as a static body
-    settling: Array  # bool: arrived, and driven on to its goal point by the planner (a body)
-    settle_steps: Array  # int32: steps spent settling so far
+    settle_steps: Array  # int32: steps an arrived robot spent settling on its goal point
 
     @property
     def position(self) -> Array:
@@ -122,6 +121,12 @@ class RobotState:
     def active(self) -> Array:
         """``[R]`` bool: present and not finished."""
         return self.present & ~self.finished
+
+    @property
+    def settling(self) -> Array:
+        """``[R]`` bool: arrived and still driven on to its goal point by its planner (only
+        ``arrived="settle"`` counts settling steps), not yet parked."""
+        return (self.settle_steps > 0) & ~self.parked
 
     @property
     def moving(self) -> Array:
