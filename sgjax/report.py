@@ -170,7 +170,7 @@ def _plot(ax: Axes, results: Sequence[ConfigResult], metric: str) -> None:
 
 
 def plot_success(results: Sequence[ConfigResult], path: Path) -> Path:
-    fig = _new_figure(9, 3.6)
+    fig = new_figure(9, 3.6)
     axes = fig.subplots(1, 2)
     for ax, metric in zip(axes, ("team_success", "success"), strict=True):
         _plot(ax, results, metric)
@@ -184,7 +184,7 @@ def plot_success(results: Sequence[ConfigResult], path: Path) -> Path:
 def plot_metrics(results: Sequence[ConfigResult], path: Path) -> Path:
     cols = 3
     rows = math.ceil(len(CHARTED) / cols)
-    fig = _new_figure(11, 3.0 * rows)
+    fig = new_figure(11, 3.0 * rows)
     axes = fig.subplots(rows, cols, squeeze=False)
     for ax, metric in zip(axes.flat, CHARTED, strict=False):
         _plot(ax, results, metric)
@@ -194,9 +194,10 @@ def plot_metrics(results: Sequence[ConfigResult], path: Path) -> Path:
     return path
 
 
-def _new_figure(width: float, height: float) -> Figure:
-    """A figure drawn by its own Agg canvas: matplotlib's global backend and pyplot's figure
-    list are left alone (importing sgjax never changes a notebook's plotting)."""
+def new_figure(width: float, height: float) -> Figure:
+    """A figure of ``width`` x ``height`` inches at 100 dpi, drawn by its own Agg canvas:
+    matplotlib's global backend and pyplot's figure list are left alone (importing sgjax never
+    changes a notebook's plotting)."""
     fig = Figure(figsize=(width, height), dpi=100)
     FigureCanvasAgg(fig)
     return fig

@@ -69,6 +69,8 @@ def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
     assert rows[0].startswith("steps,") and len(rows) == 4  # header + 3 updates
     with Image.open(run / "eval" / "episode.gif") as gif:
         assert gif.n_frames > 1
+    with Image.open(run / "learning_curve.png") as curve:
+        assert curve.format == "PNG" and curve.size[0] > 600
     assert (run / "checkpoints" / "best.msgpack").is_file()
     from sgjax.cli import main as sgjax_main
 

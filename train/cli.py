@@ -2,8 +2,9 @@
 progress, evaluate periodically, keep the best checkpoint, and finish with the metrics table
 beside the baseline and a GIF of an evaluation episode.
 
-Writes into ``logging.out`` (or ``--out``): ``config.yaml``, ``progress.csv``, TensorBoard events
-under ``tb/``, ``checkpoints/{latest,best}.msgpack``, and ``eval/`` (``metrics.json``,
+Writes into ``logging.out`` (or ``--out``): ``config.yaml``, ``progress.csv`` and its
+``learning_curve.png`` (``train.curves``), TensorBoard events under ``tb/``,
+``checkpoints/{latest,best}.msgpack``, and ``eval/`` (``metrics.json``,
 ``metrics.csv``, ``table.md``, charts, ``episode.gif``). ``--resume`` continues from
 ``checkpoints/latest.msgpack``.
 """
@@ -33,6 +34,7 @@ from sgjax.version import __version__
 from train import checkpoint
 from train.actor import ActorWeights, lane_evaluator
 from train.config import TrainConfig, apply_overrides, config_from_dict, load_config
+from train.curves import plot_learning_curves
 from train.ppo import Trainer, seed_keys
 from train.sharding import device_mesh, shard_runner
 from train.socialgym_config import convert, is_socialgym_config, read_socialgym_config, table
@@ -218,6 +220,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
             checkpoint.save(latest, config, runner, meta, trainer.actor)
     progress.close()
     logger.close()
+    print(f"wrote {plot_learning_curves([out], out / 'learning_curve.png')}")
     print(f"trained {meta['steps']:,} env steps in {wall:.0f} s "
           f"({meta['steps'] * trainer.slots / max(wall, 1e-9):,.0f} agent-steps/s, "
           f"periodic evaluation apart); best evaluation team success "
