@@ -24,6 +24,11 @@ NEEDED = ("steps", "team_success", "robot_success", "mean_return", "entropy",
           "eval_team_success")
 
 
+def progress_file(run: Path) -> Path:
+    """The ``progress.csv`` of a run folder, or ``run`` itself when it names the file."""
+    return run / "progress.csv" if run.is_dir() else run
+
+
 def read_progress(path: Path) -> dict[str, list[float]]:
     """The columns of a ``progress.csv`` as floats (NaN where a row left a value empty, as the
     evaluation columns are between evaluations). ValueError naming the file when it has no rows
@@ -55,8 +60,10 @@ def plot_learning_curves(runs: Sequence[Path], path: Path,
     ``path``; each run in its own colour, labelled by ``labels`` (default: folder names)."""
     if not runs:
         raise ValueError("plot_learning_curves: no runs given")
-    files = [run / "progress.csv" if run.is_dir() else run for run in runs]
+    files = [progress_file(run) for run in runs]
     labels = list(labels) if labels is not None else [f.parent.name for f in files]
+    if len(labels) != len(files):
+        raise ValueError(f"plot_learning_curves: {len(labels)} labels for {len(files)} runs")
     fig = new_figure(13, 3.6)
     ax_success, ax_return, ax_entropy = fig.subplots(1, 3)
     several = len(files) > 1
@@ -104,8 +111,7 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     if args.out is None and len(args.runs) > 1:
         parser.error("--out: required when drawing several runs")
-    out = args.out or (args.runs[0] if args.runs[0].is_dir()
-                       else args.runs[0].parent) / "learning_curve.png"
+    out = args.out or progress_file(args.runs[0]).parent / "learning_curve.png"
     try:
         print(f"wrote {plot_learning_curves(args.runs, out)}")
     except ValueError as error:
