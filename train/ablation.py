@@ -42,7 +42,6 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import numpy as np
-import yaml
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluate import params_by_count
@@ -51,7 +50,7 @@ from sgjax.report import format_summary, markdown_table
 from sgjax.statistics import summarize
 from sgjax.terms import ConfigError, suggest
 from train.actor import ActorWeights, lane_evaluator
-from train.config import TrainConfig, config_from_dict, load_config
+from train.config import TrainConfig, config_from_dict, load_config, read_yaml
 from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
 from train.ppo import Trainer
 
@@ -195,7 +194,7 @@ def load_variants(path: str | Path) -> dict[str, Variant]:
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"{path}: no such variants file")
-    data = yaml.safe_load(path.read_text()) or {}
+    data = read_yaml(path.read_text()) or {}
     if not isinstance(data, Mapping) or not data:
         raise ConfigError(f"{path}: expected a mapping of variant names to settings")
     fields = ("rewards_off", "hide", "network", "set")

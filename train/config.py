@@ -10,6 +10,7 @@ command line overrides one key (the value is read as YAML).
 from __future__ import annotations
 
 import dataclasses
+import re
 import types
 import typing
 from collections.abc import Mapping
@@ -66,6 +67,7 @@ class EnvSection:
                 raise ConfigError(f"{where}: unknown key {key!r}{suggest(str(key), valid)}; "
                                   f"valid keys are: {', '.join(valid)}")
         hints = typing.get_type_hints(cls)
+        values = {k: _integral(v, hints[k]) if k in own else v for k, v in values.items()}
         for key in own:
             if key in values:
                 _check_type(f"{where}.{key}", values[key], hints[key])
@@ -257,12 +259,28 @@ SECTIONS = {"env": EnvSection, "algorithm": AlgorithmConfig, "network": NetworkC
 TOP_LEVEL = ("seed", "num_seeds")
 
 
+class _ConfigLoader(yaml.SafeLoader):
+    """PyYAML's safe loader, plus YAML 1.2's exponent floats without a dot (``2e6``, ``1E-3``),
+    which YAML 1.1 (PyYAML) reads as strings."""
+
+
+_ConfigLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"))
+
+
+def read_yaml(text: str) -> Any:
+    """A config file's or ``--set`` value's YAML; numbers may be written ``2e6``."""
+    return yaml.load(text, Loader=_ConfigLoader)  # noqa: S506 (a SafeLoader subclass)
+
+
 def load_config(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -> TrainConfig:
     """Read and validate a YAML config; ``overrides`` are ``"section.key=value"`` strings."""
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"{path}: no such config file")
-    data = yaml.safe_load(path.read_text()) or {}
+    data = read_yaml(path.read_text()) or {}
     if not isinstance(data, Mapping):
         raise ConfigError(f"{path}: expected a mapping of sections, got {type(data).__name__}")
     return config_from_dict(apply_overrides(data, overrides), str(path))
@@ -281,9 +299,9 @@ def apply_overrides(data: Mapping[str, Any], overrides: list[str] | tuple[str, .
             data.setdefault(section, {})
             if not isinstance(data[section], dict):
                 raise ConfigError(f"--set {item!r}: {section} is not a section")
-            data[section][field] = yaml.safe_load(value)
+            data[section][field] = read_yaml(value)
         else:
-            data[section] = yaml.safe_load(value)
+            data[section] = read_yaml(value)
     return data
 
 
@@ -295,6 +313,7 @@ def config_from_dict(data: Mapping[str, Any], source: str = "config") -> TrainCo
             raise ConfigError(f"{source}: unknown key {key!r}{suggest(str(key), valid)}; "
                               f"valid keys are: {', '.join(valid)}")
         if key in TOP_LEVEL:
+            value = _integral(value, int)
             _check_type(f"{source}: {key}", value, int)
             sections[key] = value
             continue
@@ -311,6 +330,7 @@ def config_from_dict(data: Mapping[str, Any], source: str = "config") -> TrainCo
 def _build(where: str, values: Mapping[str, Any], cls: type) -> Any:
     hints = typing.get_type_hints(cls)
     names = [f.name for f in dataclasses.fields(cls)]
+    values = {k: _integral(v, hints[k]) if k in hints else v for k, v in values.items()}
     for key, value in values.items():
         if key not in names:
             raise ConfigError(f"{where}: unknown key {key!r}{suggest(str(key), names)}; "
@@ -320,6 +340,26 @@ def _build(where: str, values: Mapping[str, Any], cls: type) -> Any:
         return cls(**{k: _freeze(v) for k, v in values.items()})
     except ValueError as err:
         raise ConfigError(f"{where}: {err}") from None
+
+
+def _integral(value: Any, hint: Any) -> Any:
+    """``value`` with each float that is a whole number made an int where ``hint`` wants an int
+    and not a float (``total_steps: 2e6`` reads as 2000000); anything else as it was, for
+    :func:`_check_type` to judge (``2.5`` for an int still fails there)."""
+    origin = typing.get_origin(hint)
+    if origin in (typing.Union, types.UnionType):
+        options = typing.get_args(hint)
+        return _integral(value, int) if int in options and float not in options else value
+    if origin is tuple and isinstance(value, list | tuple):
+        args = typing.get_args(hint)
+        if len(args) == 2 and args[1] is Ellipsis:
+            return [_integral(v, args[0]) for v in value]
+        if len(args) == len(value):
+            return [_integral(v, a) for v, a in zip(value, args, strict=True)]
+        return value
+    if hint is int and isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value
 
 
 def _check_type(where: str, value: Any, hint: Any) -> None:
