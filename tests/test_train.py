@@ -99,10 +99,9 @@ def test_command_line_overrides_and_shipped_configs():
             Trainer(_variant_config(config, variant, 2))
 
 
-
 def test_numbers_in_exponent_form_read_as_numbers(tmp_path):
     # PyYAML reads "2e6" as a string (YAML 1.1); the config reader takes it as YAML 1.2 does,
-    # and a whole number written as a float is an int where an int is expected
+    # a whole mantissa with a non-negative exponent as an int
     config = load_config(ROOT / "train/configs/doorway.yaml",
                          ["algorithm.total_steps=2e6", "seed=3e0", "algorithm.learning_rate=3E-4",
                           "env.curriculum=[[0, 3], [1e5, 5]]", "evaluation.every=5e5"])
@@ -119,6 +118,8 @@ def test_numbers_in_exponent_form_read_as_numbers(tmp_path):
     variants = tmp_path / "variants.yaml"
     variants.write_text("baseline: {}\nlonger:\n  set: {algorithm.total_steps: 4e6}\n")
     assert dict(load_variants(variants)["longer"].settings) == {"algorithm.total_steps": 4e6}
+
+
 def test_env_section_takes_every_make_option_and_round_trips():
     config = config_from_dict({"env": {"num_arcs": 7, "human_model": "helbing", "num_humans": 2,
                                        "max_agents": 6, "curriculum": [[0, 3]]}})

@@ -67,7 +67,6 @@ class EnvSection:
                 raise ConfigError(f"{where}: unknown key {key!r}{suggest(str(key), valid)}; "
                                   f"valid keys are: {', '.join(valid)}")
         hints = typing.get_type_hints(cls)
-        values = {k: _integral(v, hints[k]) if k in own else v for k, v in values.items()}
         for key in own:
             if key in values:
                 _check_type(f"{where}.{key}", values[key], hints[key])
@@ -260,10 +259,20 @@ TOP_LEVEL = ("seed", "num_seeds")
 
 
 class _ConfigLoader(yaml.SafeLoader):
-    """PyYAML's safe loader, plus YAML 1.2's exponent floats without a dot (``2e6``, ``1E-3``),
-    which YAML 1.1 (PyYAML) reads as strings."""
+    """PyYAML's safe loader, reading numbers in exponent form without a dot as YAML 1.2 does
+    (PyYAML, YAML 1.1, reads ``2e6`` as text): a whole mantissa with a non-negative exponent
+    is an int (``2e6`` is 2000000, as ``2_000_000``), any other (``3e-4``, ``2.5e6``) a float."""
 
 
+def _exponent_int(loader: _ConfigLoader, node: yaml.ScalarNode) -> int:
+    mantissa, _, exponent = loader.construct_scalar(node).replace("_", "").lower().partition("e")
+    return int(mantissa) * 10 ** int(exponent)
+
+
+_EXPONENT_INT = "tag:sgjax,2026:exponent-int"
+_ConfigLoader.add_implicit_resolver(  # before the float rule: the first match wins
+    _EXPONENT_INT, re.compile(r"^[-+]?[0-9][0-9_]*[eE]\+?[0-9]+$"), list("-+0123456789"))
+_ConfigLoader.add_constructor(_EXPONENT_INT, _exponent_int)
 _ConfigLoader.add_implicit_resolver(
     "tag:yaml.org,2002:float",
     re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
@@ -313,7 +322,6 @@ def config_from_dict(data: Mapping[str, Any], source: str = "config") -> TrainCo
             raise ConfigError(f"{source}: unknown key {key!r}{suggest(str(key), valid)}; "
                               f"valid keys are: {', '.join(valid)}")
         if key in TOP_LEVEL:
-            value = _integral(value, int)
             _check_type(f"{source}: {key}", value, int)
             sections[key] = value
             continue
@@ -330,7 +338,6 @@ def config_from_dict(data: Mapping[str, Any], source: str = "config") -> TrainCo
 def _build(where: str, values: Mapping[str, Any], cls: type) -> Any:
     hints = typing.get_type_hints(cls)
     names = [f.name for f in dataclasses.fields(cls)]
-    values = {k: _integral(v, hints[k]) if k in hints else v for k, v in values.items()}
     for key, value in values.items():
         if key not in names:
             raise ConfigError(f"{where}: unknown key {key!r}{suggest(str(key), names)}; "
@@ -340,26 +347,6 @@ def _build(where: str, values: Mapping[str, Any], cls: type) -> Any:
         return cls(**{k: _freeze(v) for k, v in values.items()})
     except ValueError as err:
         raise ConfigError(f"{where}: {err}") from None
-
-
-def _integral(value: Any, hint: Any) -> Any:
-    """``value`` with each float that is a whole number made an int where ``hint`` wants an int
-    and not a float (``total_steps: 2e6`` reads as 2000000); anything else as it was, for
-    :func:`_check_type` to judge (``2.5`` for an int still fails there)."""
-    origin = typing.get_origin(hint)
-    if origin in (typing.Union, types.UnionType):
-        options = typing.get_args(hint)
-        return _integral(value, int) if int in options and float not in options else value
-    if origin is tuple and isinstance(value, list | tuple):
-        args = typing.get_args(hint)
-        if len(args) == 2 and args[1] is Ellipsis:
-            return [_integral(v, args[0]) for v in value]
-        if len(args) == len(value):
-            return [_integral(v, a) for v, a in zip(value, args, strict=True)]
-        return value
-    if hint is int and isinstance(value, float) and value.is_integer():
-        return int(value)
-    return value
 
 
 def _check_type(where: str, value: Any, hint: Any) -> None:
