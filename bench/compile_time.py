@@ -27,7 +27,7 @@ import jax
 
 import sgjax
 from sgjax.compilation_cache import disable_compilation_cache
-from sgjax.policies import random_policy
+from sgjax.evaluation.policies import random_policy
 
 ORDERS = ("scan(vmap)", "vmap(scan)")
 MODES = ("go_stop", "continuous")

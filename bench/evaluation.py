@@ -1,11 +1,14 @@
 """Throughput of the evaluation runner: with the counterfactual lanes, with the metrics, and
 without the metric accumulators.
 
-``sgjax.evaluate`` plays a batch of episodes as ``jit(scan(vmap(step_env)))``, freezing ended
-episodes and updating ``sgjax.metrics`` every step. This prints agent-steps/s over the whole
+``sgjax.evaluation.evaluate`` plays a batch of episodes as ``jit(scan(vmap(step_env)))``, freezing
+ended
+episodes and updating ``sgjax.evaluation.metrics`` every step. This prints agent-steps/s over the
+whole
 time limit (of the evaluated episodes themselves), compile time and peak memory (XLA's memory
 analysis) for: the runner with the counterfactual lanes on (each robot alone and the episode
-without each robot: ``1 + 2R`` lanes per episode, ``sgjax.counterfactual``), the plain runner,
+without each robot: ``1 + 2R`` lanes per episode, ``sgjax.evaluation.counterfactual``), the plain
+runner,
 the same loop with no metrics, all three stepping through the whole time limit; and the plain
 runner as ``sgjax evaluate`` runs it, stopping once every episode has ended ("early stop": its
 rate is time-limit agent-steps per second of the same evaluation, so it shows the saving).
@@ -22,9 +25,9 @@ import jax
 from compiled import compile_measured
 
 import sgjax
-from sgjax import metrics
-from sgjax.evaluate import episode_runner
-from sgjax.policies import only_local
+from sgjax.evaluation import metrics
+from sgjax.evaluation.evaluate import episode_runner
+from sgjax.evaluation.policies import only_local
 
 
 def without_metrics(env, params, policy, num_episodes: int):

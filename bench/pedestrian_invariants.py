@@ -19,7 +19,7 @@ import jax.numpy as jnp
 
 import sgjax
 from sgjax.compilation_cache import fast_cpu_compile
-from sgjax.geometry import point_segment_distance
+from sgjax.kernels.geometry import point_segment_distance
 
 MODELS = ("moussaid", "helbing", "orca", "hsfm")
 

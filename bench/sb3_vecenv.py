@@ -15,7 +15,7 @@ import time
 import numpy as np
 import torch
 
-from sgjax.sb3 import SgjaxVecEnv, supersuit_vec_env
+from sgjax.adapters.sb3 import SgjaxVecEnv, supersuit_vec_env
 
 
 def vec_steps_per_second(venv, steps: int) -> float:

@@ -23,9 +23,9 @@ import jax.numpy as jnp
 import numpy as np
 
 import sgjax
+from sgjax.environment.registry import robots_that_fit
 from sgjax.maps.schema import point_segment_distances
 from sgjax.maps.socialgym import import_socialgym
-from sgjax.registry import robots_that_fit
 
 # The folders of ../shared/sg2maps whose map SocialGym ran with one of its own scenarios.
 FOLDER_SCENARIOS = {

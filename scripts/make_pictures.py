@@ -1,14 +1,14 @@
 """Write the README's pictures of every shipped scenario to ``docs/img/<name>.png``: the
 trajectories of one episode of 4 robots under the ``only_local`` baseline (seed 0), drawn by
-``sgjax.render.plot_trajectories`` (the same picture ``sgjax render`` writes)."""
+``sgjax.evaluation.render.plot_trajectories`` (the same picture ``sgjax render`` writes)."""
 
 from pathlib import Path
 
 import jax
 
 import sgjax
-from sgjax.evaluate import run_episodes
-from sgjax.render import plot_trajectories, save_png
+from sgjax.evaluation.evaluate import run_episodes
+from sgjax.evaluation.render import plot_trajectories, save_png
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "img"
 

@@ -15,7 +15,7 @@ import numpy as np
 import torch
 from stable_baselines3 import PPO
 
-from sgjax.sb3 import SgjaxVecEnv, supersuit_vec_env
+from sgjax.adapters.sb3 import SgjaxVecEnv, supersuit_vec_env
 
 
 def success_count(model: PPO, venv, steps: int = 300) -> tuple[int, int]:

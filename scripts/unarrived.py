@@ -18,8 +18,8 @@ import argparse
 import jax
 import numpy as np
 
-from sgjax.evaluate import policy_environment, run_episodes
-from sgjax.policies import load_policy
+from sgjax.evaluation.evaluate import policy_environment, run_episodes
+from sgjax.evaluation.policies import load_policy
 
 CHUNK = 64  # episodes recorded per batched call (each keeps every step's state)
 

@@ -2,8 +2,9 @@
 
 from sgjax import maps
 from sgjax.dynamics import PRESETS, RobotPreset
-from sgjax.env import EnvParams, EnvState, SocialNavEnv
-from sgjax.registry import make, registered
+from sgjax.environment.env import SocialNavEnv
+from sgjax.environment.registry import make, registered
+from sgjax.types import EnvParams, EnvState
 from sgjax.version import __version__
 
 __all__ = [

@@ -20,7 +20,7 @@ Robot slots, one vocabulary everywhere:
 * **active** (``RobotState.active``): present and not finished: it moves, is rewarded and can end;
 * **settling** (``RobotState.settling``): arrived, and driven on to its goal point by its local
   planner (``make(arrived="settle")``, the default): a moving body that reads no actions and earns
-  nothing, until it parks within ``sgjax.env.SETTLE_TOLERANCE`` of the goal;
+  nothing, until it parks within ``sgjax.environment.env.SETTLE_TOLERANCE`` of the goal;
 * **moving** (``RobotState.moving``): active or settling: what the physics moves;
 * **parked** (``RobotState.parked``): finished and kept in the world at rest, a static body that
   the others plan around, collide with and observe (an arrived robot once it has settled, or at
@@ -42,11 +42,11 @@ from jax import Array
 
 from sgjax.dynamics.limits import RobotParams
 from sgjax.dynamics.models import Kinematics
-from sgjax.humans.crowd import HumanParams, HumanState
+from sgjax.humans.pedestrians import HumanParams, HumanState
+from sgjax.kernels.planner import PlannerParams
+from sgjax.kernels.zone_books import ZoneState
 from sgjax.maps.arrays import MapArrays
 from sgjax.maps.sampling import Route
-from sgjax.planner import PlannerParams
-from sgjax.zones import ZoneState
 
 ACTION_MODES = ("go_stop", "continuous")
 # What becomes of a finished robot: it stays at rest where it finished as a static body ("park")

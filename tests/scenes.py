@@ -5,9 +5,9 @@ import jax
 import jax.numpy as jnp
 
 import sgjax
-from sgjax.env import History
+from sgjax.kernels.zone_books import start_zones
 from sgjax.maps import parse_map
-from sgjax.zones import start_zones
+from sgjax.types import History
 
 ROOM = {
     "name": "room",

@@ -44,11 +44,11 @@ import jax.numpy as jnp
 import numpy as np
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
-from sgjax.evaluate import params_by_count
+from sgjax.evaluation.evaluate import params_by_count
+from sgjax.evaluation.report import format_summary, markdown_table
+from sgjax.evaluation.statistics import summarize
 from sgjax.observations.others import FEATURES
-from sgjax.report import format_summary, markdown_table
-from sgjax.statistics import summarize
-from sgjax.terms import ConfigError, suggest
+from sgjax.terms.base import ConfigError, suggest
 from train.actor import ActorWeights, lane_evaluator
 from train.config import TrainConfig, config_from_dict, load_config, read_yaml
 from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share

@@ -18,8 +18,8 @@ import numpy as np
 from flax import struct
 from jax import Array
 
-from sgjax.evaluate import check_steps, episode_runner
-from sgjax.policies import RecurrentPolicy
+from sgjax.evaluation.evaluate import check_steps, episode_runner
+from sgjax.evaluation.policies import RecurrentPolicy
 from train.config import NetworkConfig
 from train.networks import ActorCritic, OthersLayout, greedy, initial_carry, sample
 from train.normalize import RunningStats
@@ -98,7 +98,8 @@ def actor_features(network: NetworkConfig, layout: ActorLayout, obs_stats: Runni
 
 def acting_policy(network: NetworkConfig, layout: ActorLayout, weights: ActorWeights,
                   deterministic: bool = False) -> RecurrentPolicy:
-    """The actor as an ``sgjax.evaluate`` policy (any robot count; with ``agent_id`` at most
+    """The actor as an ``sgjax.evaluation.evaluate`` policy (any robot count; with ``agent_id`` at
+    most
     ``layout.slots``): actions sampled from it, or its most likely ones with
     ``deterministic``; continuous actions clipped to [-1, 1]."""
     model = ActorCritic(network, layout.action_dim, layout.discrete, layout.others)

@@ -7,12 +7,13 @@ exactly where it stopped. Files are written to a temporary name and renamed into
 run killed mid-write loses at most one checkpoint interval.
 
 The meta also holds the actor's layout (``train.actor.ActorLayout``: observation size, action
-head, where the ``others`` block sits), so :func:`load_policy` rebuilds the acting policy from
+head, where the ``others`` block sits), so :func:`load_checkpoint_policy` rebuilds the acting
+policy from
 the file alone, without a ``Trainer`` or the training environments.
 
 A run folder ``out/`` holds ``checkpoints/latest.msgpack`` and ``checkpoints/best.msgpack``;
 ``sgjax evaluate --policy out/`` (or a ``.msgpack`` path) evaluates the best one: :data:`LOADER`
-is registered with ``sgjax.policies`` when this module is imported, and through the
+is registered with ``sgjax.evaluation.policies`` when this module is imported, and through the
 ``sgjax.policy_loaders`` entry point group (pyproject.toml) when only ``sgjax`` is.
 """
 
@@ -29,8 +30,8 @@ import numpy as np
 import yaml
 from flax import serialization
 
-from sgjax.policies import register_loader
-from sgjax.registry import make
+from sgjax.environment.registry import make
+from sgjax.evaluation.policies import register_loader
 from train.actor import ActorLayout, ActorWeights, acting_policy
 from train.config import TrainConfig, config_from_dict
 from train.networks import others_layout
@@ -138,7 +139,7 @@ def actor_layout(path: str | Path, config: TrainConfig, meta: dict[str, Any],
                     f"{resolve(path)}: this checkpoint predates saved actor layouts, and its "
                     f"others encoder needs the observation layout of its training scenario "
                     f"{config.env.scenarios[0]!r}, which cannot be built here ({err}); pass "
-                    "the environment to load_policy(path, env)") from err
+                    "the environment to load_checkpoint_policy(path, env)") from err
         others = others_layout(env)
     return ActorLayout(
         obs_size=int(np.shape(raw["obs_stats"]["mean"])[-1]), slots=config.env.slots,
@@ -158,7 +159,7 @@ def stored_weights(raw: dict[str, Any]) -> ActorWeights:
         obs_mask=None if mask is None else as_array(mask))
 
 
-def load_policy(path: str | Path, env: Any = None, seed_index: int | None = None,
+def load_checkpoint_policy(path: str | Path, env: Any = None, seed_index: int | None = None,
                 deterministic: bool | None = None):
     """The trained actor of a checkpoint as an ``sgjax`` policy: actions sampled from it, or
     greedy with ``deterministic`` (default: the run's ``evaluation.deterministic``). The seed
@@ -183,5 +184,5 @@ def load_policy(path: str | Path, env: Any = None, seed_index: int | None = None
 
 LOADER = register_loader(
     "checkpoint", matches=is_checkpoint, make_kwargs=make_kwargs, greedy=True,
-    load=lambda spec, env, deterministic=None: load_policy(spec, env,
+    load=lambda spec, env, deterministic=None: load_checkpoint_policy(spec, env,
                                                            deterministic=deterministic))

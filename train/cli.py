@@ -23,13 +23,13 @@ import numpy as np
 import yaml
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
-from sgjax.evaluate import evaluate, params_by_count, run_episodes
+from sgjax.environment.registry import make
+from sgjax.evaluation.evaluate import evaluate, params_by_count, run_episodes
+from sgjax.evaluation.metrics import DEFAULT_CONSTANTS
+from sgjax.evaluation.render import episode_frames, save_gif
+from sgjax.evaluation.report import summary_tables, write_all
 from sgjax.maps.io import load as load_map
-from sgjax.metrics import DEFAULT_CONSTANTS
-from sgjax.registry import make
-from sgjax.render import episode_frames, save_gif
-from sgjax.report import summary_tables, write_all
-from sgjax.terms import ConfigError
+from sgjax.terms.base import ConfigError
 from sgjax.version import __version__
 from train import checkpoint
 from train.actor import ActorWeights, lane_evaluator
@@ -264,7 +264,7 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
     tables, write them and a GIF of one episode."""
     e = config.evaluation
     t0 = time.perf_counter()
-    policy = checkpoint.load_policy(path, deterministic=e.deterministic)
+    policy = checkpoint.load_checkpoint_policy(path, deterministic=e.deterministic)
     print(f"\nfinal evaluation of {path} ({e.episodes} episodes per configuration)")
     kwargs = config.env.make_kwargs()
     results = evaluate(config.env.scenarios, [policy], num_agents=e.num_agents,

@@ -20,8 +20,8 @@ from typing import Any
 
 import yaml
 
-from sgjax.options import KEYWORDS, MakeOptions
-from sgjax.terms import ConfigError, suggest
+from sgjax.environment.options import KEYWORDS, MakeOptions
+from sgjax.terms.base import ConfigError, suggest
 
 TRAINER_OBSERVATIONS = "navigation"  # the trainer's default observation preset
 
@@ -29,7 +29,7 @@ TRAINER_OBSERVATIONS = "navigation"  # the trainer's default observation preset
 @dataclasses.dataclass(frozen=True)
 class EnvSection:
     """What to train on: the scenarios, the robot-count curriculum, and any option of
-    ``sgjax.make`` (``sgjax.options``: ``action_mode``, ``robots``, ``observations``,
+    ``sgjax.make`` (``sgjax.environment.options``: ``action_mode``, ``robots``, ``observations``,
     ``rewards``, ``num_humans``, ``dt``, ``num_arcs``, ...) as a key of the same name, validated
     by the same code. ``curriculum`` is ``[[env_step, num_agents], ...]``: from each total
     environment step on, episodes have that many robots (SocialGym's ``agents_settings``), so

@@ -18,7 +18,7 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
-from sgjax.report import new_figure
+from sgjax.evaluation.report import new_figure
 
 NEEDED = ("steps", "team_success", "robot_success", "mean_return", "entropy",
           "eval_team_success")

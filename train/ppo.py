@@ -31,11 +31,11 @@ import optax
 from flax import struct
 from jax import Array
 
-from sgjax.env import SocialNavEnv
-from sgjax.metrics import team_success
-from sgjax.policies import RecurrentPolicy
-from sgjax.registry import make
-from sgjax.terms import ConfigError
+from sgjax.environment.env import SocialNavEnv
+from sgjax.environment.registry import make
+from sgjax.evaluation.metrics import team_success
+from sgjax.evaluation.policies import RecurrentPolicy
+from sgjax.terms.base import ConfigError
 from train.actor import (
     ActorLayout,
     ActorWeights,
@@ -527,7 +527,7 @@ class Trainer:
     # ------------------------------------------------------------------ acting
     def policy(self, params: Any, obs_stats: RunningStats, deterministic: bool = False,
                obs_mask: Array | None = None) -> RecurrentPolicy:
-        """The trained actor as an ``sgjax.evaluate`` policy (any robot count; with
+        """The trained actor as an ``sgjax.evaluation.evaluate`` policy (any robot count; with
         ``agent_id`` at most the trained number of slots). ``obs_mask`` as in training."""
         return acting_policy(self.config.network, self.actor,
                              ActorWeights(params, obs_stats, obs_mask), deterministic)

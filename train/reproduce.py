@@ -8,7 +8,8 @@ Baselines (the paper's section V): ``cadrl`` (the CADRL reward preset, MLP), ``c
 (the same with the LSTM-over-others encoder, the paper's CADRL(L)), ``any_order`` and
 ``enforced_order`` (its conflict-zone rewards with the zone observations), and ``only_local``
 (always GO, not trained); ``--baselines`` may add the classical controllers ``orca``, ``dwa``
-and ``social_force`` (``sgjax.controllers``, continuous actions, not trained) as extra rows
+and ``social_force`` (``sgjax.evaluation.controllers``, continuous actions, not trained) as extra
+rows
 in the same world. Training follows the paper's setting where sgjax can: PPO, GO/STOP
 over the local planner, observation and reward normalisation, 3 robots, then 3 or 4 drawn per
 episode from a tenth of the steps on (the paper's "trained with up to 4 agents"; a policy that
@@ -50,11 +51,11 @@ import jax
 import numpy as np
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
-from sgjax.evaluate import episode_runner, params_by_count
-from sgjax.policies import load_policy, policy_make_kwargs
-from sgjax.presets import REWARD_PRESETS
-from sgjax.report import format_summary, markdown_table
-from sgjax.statistics import summarize
+from sgjax.evaluation.evaluate import episode_runner, params_by_count
+from sgjax.evaluation.policies import load_policy, policy_make_kwargs
+from sgjax.evaluation.report import format_summary, markdown_table
+from sgjax.evaluation.statistics import summarize
+from sgjax.terms.presets import REWARD_PRESETS
 from train.actor import ActorWeights, lane_evaluator
 from train.config import TrainConfig, config_from_dict
 from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
@@ -69,7 +70,7 @@ BASELINES = {
     "any_order": {"env": {"preset": "any_order"}, "network": {}},
     "enforced_order": {"env": {"preset": "enforced_order"}, "network": {}},
     "only_local": None,
-    # Classical baselines (sgjax.controllers), not trained: extra rows, not in the paper.
+    # Classical baselines (sgjax.evaluation.controllers), not trained: extra rows, not in the paper.
     "orca": None,
     "dwa": None,
     "social_force": None,

@@ -21,7 +21,7 @@ import jax
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
-from sgjax.terms import ConfigError
+from sgjax.terms.base import ConfigError
 
 PER_ENV_FIELDS = ("env_states", "obs", "returns", "episode_return", "starts")
 PER_AGENT_FIELDS = ("carry",)

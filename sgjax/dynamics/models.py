@@ -25,7 +25,7 @@ from flax import struct
 from jax import Array
 
 from sgjax.dynamics.limits import ACKERMANN, OMNIDIRECTIONAL, RobotParams
-from sgjax.geometry import safe_norm, wrap_angle
+from sgjax.kernels.geometry import safe_norm, wrap_angle
 
 
 @struct.dataclass

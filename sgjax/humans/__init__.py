@@ -1,6 +1,7 @@
-"""Pedestrians driven by social forces (see :mod:`sgjax.humans.crowd`)."""
+"""Pedestrians driven by social forces (see :mod:`sgjax.humans.pedestrians`)."""
 
-from sgjax.humans.crowd import (
+from sgjax.humans.forces import SocialForceParams
+from sgjax.humans.pedestrians import (
     FORCE_MODELS,
     GOAL_MODES,
     WALL_MODELS,
@@ -8,7 +9,6 @@ from sgjax.humans.crowd import (
     HumanParams,
     HumanState,
 )
-from sgjax.humans.forces import SocialForceParams
 
 __all__ = [
     "FORCE_MODELS",

@@ -23,7 +23,7 @@ import jax.numpy as jnp
 from flax import struct
 from jax import Array
 
-from sgjax.geometry import polynomial_atan2, safe_norm
+from sgjax.kernels.geometry import polynomial_atan2, safe_norm
 
 _TINY = 1e-9
 

@@ -32,7 +32,7 @@ import numpy as np
 from flax import struct
 from jax import Array
 
-from sgjax.geometry import safe_norm
+from sgjax.kernels.geometry import safe_norm
 
 
 @struct.dataclass

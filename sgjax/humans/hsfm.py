@@ -19,7 +19,7 @@ mass ``m`` and inertia ``I = m r^2 / 2``, with ``r_f = (cos theta, sin theta)``,
   ``k_omega = I (1 + alpha) sqrt(k_lambda |f0| / alpha)`` (critically damped for ``alpha``);
 * ``m dv_f/dt = u_f``, ``m dv_o/dt = u_o``, ``d theta/dt = omega``, ``I d omega/dt = u_theta``,
   integrated by explicit Euler over each sub-step; the world velocity ``R(theta) (v_f, v_o)``
-  then enters the shared integrator (:func:`sgjax.humans.crowd.move_humans`: the speed cap and
+  then enters the shared integrator (:func:`sgjax.humans.pedestrians.move_humans`: the speed cap and
   the swept wall clamp) as the force that reaches it.
 
 Constants (:class:`HsfmParams`) are those of the authors' launcher (MATLAB, github
@@ -37,8 +37,8 @@ import jax.numpy as jnp
 from flax import struct
 from jax import Array
 
-from sgjax.geometry import point_segment_offset, polynomial_atan2, safe_norm, wrap_angle
 from sgjax.humans.groups import group_forces
+from sgjax.kernels.geometry import point_segment_offset, polynomial_atan2, safe_norm, wrap_angle
 from sgjax.maps.arrays import MapArrays
 
 MAX_SUBSTEP = 0.02  # s: the longest stable sub-step for the contact terms

@@ -1,5 +1,5 @@
 """ORCA pedestrians (``make(..., human_model="orca")``): each pedestrian takes the ORCA velocity
-(:mod:`sgjax.orca`) toward its next waypoint among its nearest neighbours, as CrowdNav's,
+(:mod:`sgjax.kernels.orca`) toward its next waypoint among its nearest neighbours, as CrowdNav's,
 CrowdNav++'s and SocNavGym's simulated humans do.
 
 Per pedestrian and sub-step of ``dt`` s:
@@ -13,10 +13,11 @@ Per pedestrian and sub-step of ``dt`` s:
   share 1; none at all when ``robot_share`` is 0, humans that do not see robots), with
   ``OrcaParams.time_horizon``;
 * walls: the ``HumanConfig.orca_walls`` nearest segments with
-  ``OrcaParams.obstacle_time_horizon`` (:func:`sgjax.orca.wall_lines`: a straight wall beside
+  ``OrcaParams.obstacle_time_horizon`` (:func:`sgjax.kernels.orca.wall_lines`: a straight wall
+  beside
   the pedestrian is the exact half-plane of its velocity obstacle, a wall's end a static point;
   RVO2 builds its lines from polygon obstacles instead), and the swept wall clamp of
-  :func:`sgjax.humans.crowd.move_humans` keeps every pedestrian out of every wall whatever
+  :func:`sgjax.humans.pedestrians.move_humans` keeps every pedestrian out of every wall whatever
   ORCA asks.
 
 The velocity is returned as the force per unit mass that reaches it in one sub-step,
@@ -32,9 +33,9 @@ import jax.numpy as jnp
 from flax import struct
 from jax import Array
 
-from sgjax.geometry import safe_norm
+from sgjax.kernels.geometry import safe_norm
+from sgjax.kernels.orca import nearest_bodies, nearest_walls, orca_velocity, wall_lines
 from sgjax.maps.arrays import MapArrays
-from sgjax.orca import nearest_bodies, nearest_walls, orca_velocity, wall_lines
 
 
 @struct.dataclass
@@ -53,7 +54,8 @@ def orca_forces(
     dt: Array, neighbors: int, walls: int,
 ) -> tuple[Array, Array]:
     """``(fx, fy)`` ``[H]`` (m/s^2): the change to each pedestrian's ORCA velocity over ``dt``
-    s. ``hp``: :class:`~sgjax.humans.crowd.HumanParams`; ``humans``: ``HumanState``; robots are
+    s. ``hp``: :class:`~sgjax.humans.pedestrians.HumanParams`; ``humans``: ``HumanState``; robots
+    are
     ``[R]`` arrays; ``neighbors`` and ``walls`` (static) bound the lines per pedestrian."""
     h, p = humans, hp.orca
     num = h.x.shape[0]

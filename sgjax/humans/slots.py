@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sgjax.geometry import segments_intersect
+from sgjax.kernels.geometry import segments_intersect
 from sgjax.maps.schema import MapSpec, point_segment_distances
 
 SPAWN_JITTER = 0.05  # m: each pedestrian starts up to this far (per axis) from its slot

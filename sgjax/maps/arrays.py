@@ -9,7 +9,7 @@ from jax import Array
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
-from sgjax.geometry import segments_intersect
+from sgjax.kernels.geometry import segments_intersect
 from sgjax.maps.routing import all_pairs_shortest_paths, path_nodes
 from sgjax.maps.schema import MapSpec, point_segment_distances
 

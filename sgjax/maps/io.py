@@ -6,7 +6,7 @@ import json
 from importlib import resources
 from pathlib import Path
 
-from sgjax.maps.crowd import CROWD_SCENARIOS
+from sgjax.maps.crowd_scenarios import CROWD_SCENARIOS
 from sgjax.maps.schema import DEFAULT_CLEARANCE, MapError, MapSpec, parse_map
 
 _PACKAGE = "sgjax.shipped_maps"
@@ -27,7 +27,7 @@ def save(spec: MapSpec, path: str | Path) -> Path:
 
 def load(name_or_path: str | Path, clearance: float = DEFAULT_CLEARANCE) -> MapSpec:
     """Load and validate a map: a shipped name (``"doorway"``), a generated crowd scenario
-    (``"circle_crossing"``, :mod:`sgjax.maps.crowd`) or a path to a JSON file.
+    (``"circle_crossing"``, :mod:`sgjax.maps.crowd_scenarios`) or a path to a JSON file.
 
     ``clearance`` (m) is the largest robot radius the map must accommodate.
     Raises :class:`MapError` naming the file, the JSON path and the problem.

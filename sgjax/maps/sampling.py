@@ -7,7 +7,7 @@ import jax.numpy as jnp
 from flax import struct
 from jax import Array
 
-from sgjax.geometry import safe_norm
+from sgjax.kernels.geometry import safe_norm
 from sgjax.maps.arrays import MapArrays
 
 START_MARGIN = 0.02  # m of free space between the bodies of two robots placed at their starts

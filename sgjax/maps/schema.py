@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from sgjax.geometry import segments_intersect
+from sgjax.kernels.geometry import segments_intersect
 
 TOP_LEVEL_REQUIRED = ("name", "description", "bounds", "walls", "nodes", "edges")
 TOP_LEVEL_OPTIONAL = ("groups", "routes", "zones", "pedestrian_groups")

@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from sgjax.geometry import segments_intersect
+from sgjax.kernels.geometry import segments_intersect
 from sgjax.maps.routing import connected_components
 from sgjax.maps.schema import (
     DEFAULT_CLEARANCE,

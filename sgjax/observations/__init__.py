@@ -1,6 +1,6 @@
 """Observation terms and the Observer (``sgjax.observations.OBSERVATIONS`` lists them by name)."""
 
-from sgjax.observations import lidar, others, own, zones  # noqa: F401  (registers the terms)
+from sgjax.observations import conflict_zones, lidar, others, own  # noqa: F401  (registers the terms)
 from sgjax.observations.base import OBSERVATIONS, ObservationTerm, Observer, parse_observations
 from sgjax.observations.lidar import Lidar
 from sgjax.observations.others import FEATURES, Others

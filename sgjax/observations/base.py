@@ -15,7 +15,7 @@ import jax
 import jax.numpy as jnp
 from jax import Array
 
-from sgjax.terms import ConfigError, Registry, TermSet
+from sgjax.terms.base import ConfigError, Registry, TermSet
 
 if TYPE_CHECKING:
     from sgjax.types import EnvParams, EnvState, Layout

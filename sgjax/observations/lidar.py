@@ -11,8 +11,8 @@ import jax.numpy as jnp
 from jax import Array
 
 from sgjax.observations.base import OBSERVATIONS, ObservationTerm
-from sgjax.queries import gather_bodies
-from sgjax.terms import check_bool, check_int, check_positive
+from sgjax.terms.base import check_bool, check_int, check_positive
+from sgjax.terms.queries import gather_bodies
 
 if TYPE_CHECKING:
     from sgjax.types import EnvParams, EnvState, Layout

@@ -9,10 +9,10 @@ import jax
 import jax.numpy as jnp
 from jax import Array
 
-from sgjax.geometry import safe_norm
+from sgjax.kernels.geometry import safe_norm
 from sgjax.observations.base import OBSERVATIONS, ObservationTerm
-from sgjax.queries import gather_bodies, line_of_sight, to_robot_frame
-from sgjax.terms import check_bool, check_int, check_positive
+from sgjax.terms.base import check_bool, check_int, check_positive
+from sgjax.terms.queries import gather_bodies, line_of_sight, to_robot_frame
 
 if TYPE_CHECKING:
     from sgjax.types import EnvParams, EnvState, Layout

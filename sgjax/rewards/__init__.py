@@ -1,6 +1,6 @@
 """Reward terms, weight schedules and the Rewarder (``sgjax.rewards.REWARDS`` lists terms)."""
 
-from sgjax.rewards import navigation, social, zones  # noqa: F401  (registers the terms)
+from sgjax.rewards import navigation, social, zone_order  # noqa: F401  (registers the terms)
 from sgjax.rewards.base import REWARDS, Rewarder, RewardParams, RewardTerm, parse_rewards
 from sgjax.rewards.schedules import Schedule, constant, linear, parse_schedule, piecewise
 

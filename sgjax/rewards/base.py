@@ -17,7 +17,7 @@ import jax.numpy as jnp
 from jax import Array
 
 from sgjax.rewards.schedules import parse_schedule
-from sgjax.terms import ConfigError, Registry, TermSet
+from sgjax.terms.base import ConfigError, Registry, TermSet
 from sgjax.types import RewardParams
 
 if TYPE_CHECKING:

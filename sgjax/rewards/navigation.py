@@ -9,10 +9,10 @@ from typing import TYPE_CHECKING
 import jax.numpy as jnp
 from jax import Array
 
-from sgjax.geometry import safe_norm
-from sgjax.queries import collided
+from sgjax.kernels.geometry import safe_norm
 from sgjax.rewards.base import REWARDS, RewardTerm
-from sgjax.terms import check_bool, check_choice, check_positive
+from sgjax.terms.base import check_bool, check_choice, check_positive
+from sgjax.terms.queries import collided
 
 if TYPE_CHECKING:
     from sgjax.types import EnvParams, EnvState, Layout

@@ -17,7 +17,7 @@ import jax.numpy as jnp
 from flax import struct
 from jax import Array
 
-from sgjax.terms import ConfigError
+from sgjax.terms.base import ConfigError
 
 INTERPOLATIONS = ("linear", "step")
 

@@ -15,10 +15,10 @@ from typing import TYPE_CHECKING
 import jax.numpy as jnp
 from jax import Array
 
-from sgjax.geometry import polynomial_atan2, safe_norm
-from sgjax.queries import body_gaps, gather_bodies, to_robot_frame
+from sgjax.kernels.geometry import polynomial_atan2, safe_norm
 from sgjax.rewards.base import REWARDS, RewardTerm
-from sgjax.terms import check_bool, check_positive
+from sgjax.terms.base import check_bool, check_positive
+from sgjax.terms.queries import body_gaps, gather_bodies, to_robot_frame
 
 if TYPE_CHECKING:
     from sgjax.types import EnvParams, EnvState, Layout

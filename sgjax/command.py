@@ -1,0 +1,276 @@
+"""The ``sgjax`` command: ``sgjax evaluate ...``, ``sgjax render ...`` and ``sgjax maps show ...``.
+
+Examples::
+
+    sgjax evaluate --scenario doorway --policy only_local --num-agents 3 4 --episodes 8 \\
+        --out runs/eval
+    sgjax render --scenario doorway --policy only_local --out episode.gif
+    sgjax maps show doorway --out doorway.png
+    sgjax maps show path/to/SocialGym2/door --socialgym-scenario envs_door
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+import jax
+
+from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
+from sgjax.environment.registry import registered
+from sgjax.evaluation.evaluate import (
+    DEFAULT_EPISODES,
+    DEFAULT_NUM_AGENTS,
+    evaluate,
+    policy_environment,
+    run_episodes,
+)
+from sgjax.evaluation.policies import BASELINES, load_policy
+from sgjax.evaluation.protocols import PROTOCOLS, load_protocol
+from sgjax.maps.io import load as load_map
+from sgjax.types import ACTION_MODES, ARRIVED_SEMANTICS
+from sgjax.version import __version__
+
+MINI_GAMES = ("open", "doorway", "hallway", "intersection", "roundabout")
+
+
+def _add_environment_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--num-humans", type=int, default=None,
+                        help="pedestrians per episode (default: the scenario's)")
+    parser.add_argument("--time-limit", type=float, default=None,
+                        help="seconds before truncation (default 75)")
+    parser.add_argument("--action-mode", default=None, choices=ACTION_MODES)
+    parser.add_argument("--arrived", default=None, choices=ARRIVED_SEMANTICS,
+                        help="what an arrived robot does: drive on to its goal point and park "
+                        "(settle), park where it arrived, or leave the world (default: the "
+                        "checkpoint's, else settle)")
+    parser.add_argument("--observation-preset", default=None,
+                        help="observation preset the policy expects (docs/terms.md)")
+    add_cache_arguments(parser)
+
+
+def _add_action_choice(parser: argparse.ArgumentParser) -> None:
+    actions = parser.add_mutually_exclusive_group()
+    actions.add_argument("--greedy", dest="deterministic", action="store_const", const=True,
+                         default=None, help="trained checkpoints take their most likely action "
+                         "every step (default: as their run's evaluation.deterministic says)")
+    actions.add_argument("--sampled", dest="deterministic", action="store_const", const=False,
+                         help="trained checkpoints sample their actions")
+
+
+def _make_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    names = {"num_humans": "num_humans", "time_limit": "time_limit",
+             "action_mode": "action_mode", "arrived": "arrived",
+             "observation_preset": "observation_preset"}
+    return {key: getattr(args, attr) for attr, key in names.items()
+            if getattr(args, attr) is not None}
+
+
+def _policy_help() -> str:
+    return (f"a baseline ({', '.join(BASELINES)}), 'package.module:function' naming a "
+            "jittable function (obs [R, D], key) -> actions, or a trainer checkpoint (a "
+            ".msgpack file or a run folder; built with the settings it was trained with)")
+
+
+PROTOCOL_FIXED = {"scenario": "scenarios", "num_agents": "num_agents", "episodes": "episodes",
+                  "seed": "seed", "counterfactual": "counterfactual", "time_limit": "time_limit"}
+EVALUATE_DEFAULTS = {"scenario": list(MINI_GAMES), "num_agents": list(DEFAULT_NUM_AGENTS),
+                     "episodes": DEFAULT_EPISODES, "seed": 0, "counterfactual": False}
+
+
+def _apply_protocol(args: argparse.Namespace) -> None:
+    """Fill in what ``--protocol`` fixes (an error if the command line sets it too), else the
+    defaults."""
+    if args.protocol is None:
+        for name, value in EVALUATE_DEFAULTS.items():
+            if getattr(args, name) is None:
+                setattr(args, name, value)
+        return
+    protocol = load_protocol(args.protocol)
+    clash = [f"--{name.replace('_', '-')}" for name in PROTOCOL_FIXED
+             if getattr(args, name) not in (None, False)]
+    if clash:
+        raise ValueError(f"--protocol {protocol.name} fixes {', '.join(clash)}; leave "
+                         f"{'it' if len(clash) == 1 else 'them'} out (or write a protocol file)")
+    for name, field in PROTOCOL_FIXED.items():
+        value = getattr(protocol, field)
+        setattr(args, name, list(value) if isinstance(value, tuple) else value)
+
+
+def run_evaluate(args: argparse.Namespace) -> None:
+    _apply_protocol(args)
+    print(f"sgjax {__version__}, jax {jax.__version__} on {jax.devices()[0].platform}: "
+          f"{len(args.scenario)} scenario(s) x {len(args.policy)} policy(ies) x robot counts "
+          f"{args.num_agents} x {args.episodes} episodes, seed {args.seed}"
+          + (f", protocol {args.protocol}" if args.protocol else "")
+          + (", counterfactual lanes on" if args.counterfactual else ""))
+    evaluate(args.scenario, args.policy, num_agents=args.num_agents, episodes=args.episodes,
+             seed=args.seed, out=args.out, make_kwargs=_make_kwargs(args),
+             counterfactual=args.counterfactual, deterministic=args.deterministic)
+    print(f"table: {Path(args.out) / 'table.md'}")
+
+
+def run_render(args: argparse.Namespace) -> None:
+    from sgjax.evaluation.render import episode_frames, plot_trajectories, save_animation, save_png
+
+    out = Path(args.out)
+    if out.suffix.lower() not in (".gif", ".mp4"):
+        raise SystemExit(f"sgjax render: --out {args.out!r} must end in .gif or .mp4")
+    # exactly --num-agents robots in the settings the policy needs, as sgjax evaluate plays
+    env, by_count = policy_environment(args.scenario, [args.num_agents], args.policy,
+                                       _make_kwargs(args))
+    params = by_count[args.num_agents]
+    policy = load_policy(args.policy, env, args.deterministic)
+    batch = run_episodes(env, params, policy, jax.random.key(args.seed), 1, record=True)
+    states = jax.tree.map(lambda leaf: leaf[:, 0], batch.states)
+    length = int(batch.values["episode_length"][0])
+    spec = load_map(args.scenario)
+    title = f"{spec.name} / {args.policy}"
+    frames, stride = episode_frames(spec, states, params, length, title=title,
+                                    width_px=args.width, max_frames=args.max_frames)
+    fps = max(1, round(1.0 / (float(params.dt) * stride)))
+    save_animation(frames, out, fps=fps)
+    trajectory = Path(args.trajectory) if args.trajectory else out.with_suffix(".png")
+    save_png(plot_trajectories(spec, states, params, length, title=title,
+                               width_px=args.width), trajectory)
+    arrived = int(batch.robot["success"][0].sum())
+    print(f"{spec.name}, {args.num_agents} robots, policy {args.policy}: {arrived} of "
+          f"{args.num_agents} arrived in {length} steps ({length * float(params.dt):.1f} s)")
+    print(f"wrote {out} ({len(frames)} frames at {fps} fps) and {trajectory}")
+
+
+def _map_summary(spec: Any, robots: str) -> list[str]:
+    """Lines describing a map: its parts, groups, zones and how many robots fit."""
+    import numpy as np
+
+    from sgjax.environment.registry import robots_that_fit
+    from sgjax.maps.arrays import spawn_groups
+    from sgjax.maps.routing import connected_components
+
+    parts = connected_components(spec.num_nodes, spec.edges)
+    sizes = sorted(np.bincount(parts)[np.unique(parts)].tolist(), reverse=True)
+    groups = spawn_groups(spec)
+    xmin, ymin, xmax, ymax = spec.bounds
+    lines = [
+        f"{spec.name}: {spec.description}",
+        f"  source      {spec.source}",
+        f"  bounds      x {xmin:.2f} .. {xmax:.2f} m, y {ymin:.2f} .. {ymax:.2f} m",
+        f"  walls       {len(spec.walls)}",
+        f"  graph       {spec.num_nodes} nodes, {len(spec.edges)} edges, {len(sizes)} connected "
+        f"part(s) of {', '.join(str(s) for s in sizes[:8])}{' ...' if len(sizes) > 8 else ''} "
+        "nodes",
+        f"  placement   {len(spec.groups)} group(s) and {len(spec.routes)} route(s) -> "
+        f"{len(groups)} spawn group(s): " + "; ".join(
+            f"{len(starts)} starts x {len(goals)} goals" for starts, goals in groups[:6])
+        + (" ..." if len(groups) > 6 else ""),
+    ]
+    for zone in spec.zones:
+        x0, y0, x1, y1 = zone.rect
+        lines.append(f"  zone        {zone.name}: x {x0:.2f} .. {x1:.2f} m, y {y0:.2f} .. "
+                     f"{y1:.2f} m")
+    lines.append(f"  robots fit  {robots_that_fit(spec, robots)} {robots} robots in every "
+                 "draw (distinct starts and goals, bodies apart)")
+    return lines
+
+
+def run_maps_show(args: argparse.Namespace) -> None:
+    from sgjax.dynamics.limits import resolve_robots
+    from sgjax.maps.socialgym import import_socialgym
+
+    target = Path(args.map)
+    if target.is_dir():
+        reports: list = []
+        radius = max(preset.radius for _, preset in resolve_robots(args.robots, 1))
+        spec = import_socialgym(target, scenario=args.socialgym_scenario, clearance=radius,
+                                report=reports.append)
+        for report in reports:
+            print(report)
+    else:
+        if args.socialgym_scenario:
+            raise ValueError("--socialgym-scenario needs a SocialGym map folder, got "
+                             f"{args.map!r}")
+        spec = load_map(args.map)
+    print("\n".join(_map_summary(spec, args.robots)))
+    if args.out:
+        from sgjax.evaluation.render import draw_scenario, save_png
+
+        print(f"wrote {save_png(draw_scenario(spec, width_px=args.width), Path(args.out))}")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="sgjax", description=__doc__.split("\n\n")[0])
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    ev = commands.add_parser("evaluate", help="metrics of policies x scenarios x robot counts",
+                             description="Evaluate policies; writes metrics.json, metrics.csv, "
+                                         "table.md and PNG charts")
+    ev.add_argument("--scenario", nargs="+", default=None,
+                    help=f"scenario ids or map files (default: the five mini-games); "
+                         f"shipped: {', '.join(registered())}")
+    ev.add_argument("--policy", nargs="+", default=["only_local"], help=_policy_help())
+    ev.add_argument("--num-agents", nargs="+", type=int, default=None,
+                    help=f"robot counts (default: {' '.join(map(str, DEFAULT_NUM_AGENTS))})")
+    ev.add_argument("--episodes", type=int, default=None,
+                    help=f"episodes per configuration (default {DEFAULT_EPISODES})")
+    ev.add_argument("--seed", type=int, default=None, help="evaluation seed (default 0)")
+    ev.add_argument("--counterfactual", action="store_true",
+                    help="also play each episode with each robot alone and without each robot "
+                         "(1 + 2R times the work) for path deviation, Hausdorff distance, "
+                         "makespan ratio and invasiveness")
+    ev.add_argument("--protocol", default=None,
+                    help=f"a built-in protocol ({', '.join(PROTOCOLS)}) or a protocol YAML "
+                         "file fixing scenarios, robot counts, episodes, seed, time limit and "
+                         "counterfactual lanes (sgjax.evaluation.protocols)")
+    _add_action_choice(ev)
+    ev.add_argument("--out", default="runs/eval", help="output folder")
+    _add_environment_options(ev)
+    ev.set_defaults(run=run_evaluate)
+
+    rd = commands.add_parser("render", help="animate one episode (GIF or MP4) and plot its "
+                                            "trajectories")
+    rd.add_argument("--scenario", default="doorway")
+    rd.add_argument("--policy", default="only_local", help=_policy_help())
+    rd.add_argument("--num-agents", type=int, default=4)
+    rd.add_argument("--seed", type=int, default=0)
+    rd.add_argument("--out", default="episode.gif", help=".gif (pillow) or .mp4 (ffmpeg)")
+    rd.add_argument("--trajectory", default=None,
+                    help="trajectory plot PNG (default: --out with .png)")
+    rd.add_argument("--width", type=int, default=480, help="frame width in pixels")
+    rd.add_argument("--max-frames", type=int, default=300)
+    _add_action_choice(rd)
+    _add_environment_options(rd)
+    rd.set_defaults(run=run_render)
+
+    maps = commands.add_parser("maps", help="inspect maps").add_subparsers(
+        dest="maps_command", required=True)
+    show = maps.add_parser(
+        "show", help="what a map offers (walls, graph, groups, zones, robots that fit), drawn",
+        description="Describe a shipped map, a map .json file or a SocialGym 2.0 map folder "
+                    "(imported as sgjax.maps.import_socialgym does, with its import report)")
+    show.add_argument("map", help=f"a shipped id ({', '.join(registered())}), a .json map or "
+                                  "a SocialGym 2.0 folder")
+    show.add_argument("--socialgym-scenario", default=None,
+                      help="for a SocialGym folder: one of its own scenarios (e.g. envs_door) "
+                           "whose robot paths and zone to use (default: one group per "
+                           "connected part)")
+    show.add_argument("--robots", default="socialgym",
+                      help="robot preset for the clearance and capacity count")
+    show.add_argument("--out", default=None, help="PNG picture of the map")
+    show.add_argument("--width", type=int, default=640, help="picture width in pixels")
+    add_cache_arguments(show)
+    show.set_defaults(run=run_maps_show)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> None:
+    args = build_parser().parse_args(argv)
+    try:
+        cache_from_arguments(args)
+        args.run(args)
+    except (ValueError, KeyError, TypeError, RuntimeError, FileNotFoundError) as err:
+        raise SystemExit(f"sgjax {args.command}: {err}") from err
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,285 @@
+"""``sgjax.make``: build an environment and its default params from a scenario id."""
+
+from __future__ import annotations
+
+import functools
+import math
+from pathlib import Path
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax import Array
+
+from sgjax.dynamics.limits import RobotPreset, resolve_robots, robot_params
+from sgjax.environment.env import EnvConfig, SocialNavEnv
+from sgjax.environment.options import MakeOptions
+from sgjax.humans.forces import SocialForceParams
+from sgjax.humans.groups import GroupParams, leaders
+from sgjax.humans.hsfm import MAX_SUBSTEP as HSFM_MAX_SUBSTEP
+from sgjax.humans.hsfm import HsfmParams
+from sgjax.humans.orca_model import OrcaParams
+from sgjax.humans.pedestrians import HumanConfig, HumanParams, spawn_humans
+from sgjax.humans.slots import spawn_slots, wall_sample_points
+from sgjax.kernels.planner import PlannerConfig, PlannerParams
+from sgjax.maps.arrays import MapArrays, compile_map, spawn_groups
+from sgjax.maps.crowd_scenarios import CROWD_SCENARIOS
+from sgjax.maps.io import load, shipped_map_names
+from sgjax.maps.sampling import sample_starts_goals
+from sgjax.maps.schema import MapSpec, parse_map
+from sgjax.terms.base import suggest
+from sgjax.terms.presets import resolve_terms
+from sgjax.types import EnvParams
+
+CAPACITY_TRIALS = 64
+HUMAN_TOP_SPEED = 2.6  # m/s: fastest pedestrian (desired speed 2.0 m/s x the 1.3 cap)
+# Robots repel pedestrians twice as strongly as a pedestrian does: the Moussaid law ignores body
+# sizes, and at weight 1 pedestrians graze a standing robot (tests/test_humans.py). pedsim gets
+# the same effect by scaling a robot's distance by robotPosDiffScalingFactor = 1.5.
+ROBOT_WEIGHT = 2.0
+WALL_RESOLUTION = 10.0  # wall points per metre for human_walls="points" (PySocialForce's)
+PLANNER_SLACK = 0.2  # m: how much obstacle_margin may grow after make() with walls still seen
+
+
+def registered() -> list[str]:
+    """Scenario ids accepted by :func:`make`: the shipped map names, then the generated crowd
+    scenarios (``sgjax.maps.crowd_scenarios``)."""
+    return shipped_map_names() + list(CROWD_SCENARIOS)
+
+
+def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
+         **keywords: Any) -> tuple[SocialNavEnv, EnvParams]:
+    """Build the environment for ``scenario``: a shipped id, a path to a map JSON file, or a
+    ``MapSpec`` (for example from ``sgjax.maps.import_socialgym``). Returns ``(env, params)``.
+
+    Options (``sgjax.environment.options``: defaults, units and groups) come as flat keywords, on
+    top of
+    ``options`` when given: for robots ``num_agents``, ``max_agents``, ``robots``,
+    ``action_mode``, ``goal_tolerance``; for pedestrians ``num_humans``, ``max_humans``,
+    ``human_model``, ``human_walls``, ``human_goals``, ``human_radius``; for the observation /
+    reward / ender terms ``observations``, ``rewards``, ``enders``, ``terms``,
+    ``observation_preset``, ``reward_preset`` (``docs/terms.md``); for physics ``dt``,
+    ``substeps``, ``time_limit``, ``num_arcs``, ``contact_passes``.
+    """
+    label = scenario if isinstance(scenario, str | Path) else getattr(scenario, "name", "map")
+    if isinstance(scenario, str) and scenario in CROWD_SCENARIOS:
+        scenario = CROWD_SCENARIOS[scenario]()
+    crowd = isinstance(scenario, MapSpec) and scenario.source.startswith(
+        "sgjax.maps.crowd_scenarios.")
+    if crowd and "human_goals" not in keywords and (
+            options is None or options.humans.human_goals == "random"):
+        keywords["human_goals"] = "routes"  # pedestrians walk the scenario's routes
+    opts = (options or MakeOptions()).replace(where=f"make({str(label)!r})", **keywords)
+    robot_opts, human_opts, term_opts, physics = opts.robots, opts.humans, opts.terms, opts.physics
+    is_spec = isinstance(scenario, MapSpec)
+    is_path = not is_spec and (str(scenario).endswith(".json") or Path(str(scenario)).exists())
+    if not is_spec and not is_path and scenario not in registered():
+        raise KeyError(f"unknown scenario {scenario!r}{suggest(str(scenario), registered())}; "
+                       f"registered scenarios are: {', '.join(registered())} (or pass a path "
+                       "to a map .json file)")
+
+    max_agents = robot_opts.slots
+    slots = resolve_robots(robot_opts.robots, max_agents)
+    presets: list[RobotPreset] = [p for _, p in slots]
+    human_config = human_opts.config()
+    observer, rewarder, reward_params, enders = resolve_terms(
+        observations=term_opts.resolved_observations, rewards=term_opts.resolved_rewards,
+        enders=term_opts.enders, terms=term_opts.terms,
+    )
+    substeps = _substeps(physics.substeps, presets, physics.dt,
+                         (HUMAN_TOP_SPEED, human_opts.human_radius) if human_config.max_humans
+                         else None,
+                         HSFM_MAX_SUBSTEP if human_config.max_humans
+                         and human_config.force_model == "hsfm" else None)
+
+    largest = max(p.radius for p in presets)
+    if is_spec:  # re-validate against the robots that will drive it
+        spec = parse_map(scenario.to_json(), source=scenario.source, clearance=largest)
+    else:
+        spec = load(scenario, clearance=largest)
+    planner_config = PlannerConfig(num_arcs=physics.num_arcs)
+    planner_params = PlannerParams()
+    reach = (max(planner_config.arc_lengths) + largest + planner_params.obstacle_margin
+             + PLANNER_SLACK)
+    map_arrays = compile_map(spec, reach=reach)
+    action_dim = 3 if any(p.model == "omnidirectional" for p in presets) else 2
+    config = EnvConfig(
+        scenario=spec.name, max_agents=max_agents, action_mode=robot_opts.action_mode,
+        action_dim=action_dim, substeps=substeps, planner=planner_config,
+        contact_passes=physics.contact_passes, humans=human_config, observer=observer,
+        rewarder=rewarder, enders=enders, num_zones=len(spec.zones),
+        arrived=robot_opts.arrived, ended=robot_opts.ended,
+        decision_period=robot_opts.decision_period,
+    )
+    params = EnvParams(
+        robots=robot_params(presets),
+        map=map_arrays,
+        planner=planner_params,
+        reward=reward_params,
+        humans=human_params(spec, human_config, human_opts.num_humans, human_opts.human_radius,
+                            human_opts.humans_see_robots, human_opts.human_groups),
+        num_agents=jnp.asarray(robot_opts.num_agents, jnp.int32),
+        dt=jnp.asarray(physics.dt, jnp.float32),
+        max_steps=jnp.asarray(physics.max_steps, jnp.int32),
+        goal_tolerance=jnp.asarray(robot_opts.goal_tolerance, jnp.float32),
+        min_agents=jnp.asarray(robot_opts.min_agents or 0, jnp.int32),
+    )
+    _check_capacity(spec.source, params, max_agents, human_config)
+    return SocialNavEnv(config, params), params
+
+
+def human_params(
+    spec: MapSpec, config: HumanConfig, num_humans: int, radius: float,
+    see_robots: bool = True, groups: tuple[int, ...] = (),
+) -> HumanParams:
+    """Default pedestrian params for a map: spawn slots for ``radius`` (m), desired speeds
+    N(1.34, 0.26) m/s clipped to [0.5, 2.0], a 1.3x speed cap (``socialnav.md`` B1).
+    ``see_robots`` False zeroes the robots' weight in the force laws and in ORCA
+    (``robot_weight``, ``orca.robot_share``): pedestrians that do not see robots. ``groups``:
+    sizes of the groups the first pedestrians walk in (``sgjax.humans.groups``)."""
+    slots, slot_nodes = spawn_slots(spec, radius) if config.max_humans else (
+        np.zeros((0, 2)), np.zeros((0, 2), np.int64))
+    points = (wall_sample_points(spec.walls, WALL_RESOLUTION) if config.wall_model == "points"
+              else np.zeros((0, 2)))
+    f32 = jnp.float32
+    groups_of_routes = spec.pedestrian_groups or tuple(spawn_groups(spec))
+    routes = np.asarray([(a, b) for starts, goals in groups_of_routes for a in starts
+                         for b in goals if a != b] or [(0, 0)], np.int64)
+    return HumanParams(
+        num_humans=jnp.asarray(num_humans, jnp.int32),
+        radius=jnp.asarray(radius, f32),
+        speed_mean=jnp.asarray(1.34, f32),
+        speed_std=jnp.asarray(0.26, f32),
+        speed_min=jnp.asarray(0.5, f32),
+        speed_max=jnp.asarray(HUMAN_TOP_SPEED / 1.3, f32),
+        max_speed_factor=jnp.asarray(1.3, f32),
+        waypoint_radius=jnp.asarray(0.75, f32),
+        robot_weight=jnp.asarray(ROBOT_WEIGHT if see_robots else 0.0, f32),
+        forces=SocialForceParams(),
+        spawn_x=jnp.asarray(slots[:, 0], f32),
+        spawn_y=jnp.asarray(slots[:, 1], f32),
+        spawn_nodes=jnp.asarray(slot_nodes, jnp.int32),
+        wall_points_x=jnp.asarray(points[:, 0], f32),
+        wall_points_y=jnp.asarray(points[:, 1], f32),
+        hsfm=jax.tree.map(lambda v: jnp.asarray(v, f32), HsfmParams()),
+        route_start=jnp.asarray(routes[:, 0], jnp.int32),
+        route_goal=jnp.asarray(routes[:, 1], jnp.int32),
+        groups=jax.tree.map(lambda v: jnp.asarray(v), GroupParams(
+            leader=leaders(groups, config.max_humans), coherence=np.float32(3.0),
+            repulsion=np.float32(1.0), threshold=np.float32(0.55), gaze=np.float32(4.0),
+            fov=np.float32(np.pi / 2))) if groups else None,
+        orca=OrcaParams(time_horizon=jnp.asarray(5.0, f32),
+                        obstacle_time_horizon=jnp.asarray(5.0, f32),
+                        robot_share=jnp.asarray(1.0 if see_robots else 0.0, f32)),
+    )
+
+
+def _substeps(
+    value: Any, presets: list[RobotPreset], dt: float, human: tuple[float, float] | None,
+    longest: float | None = None,
+) -> int:
+    """Sub-steps such that two robots closing head-on at full speed never cross centres, nor a
+    robot and a pedestrian (``human = (top speed m/s, radius m)``) when there are any, and,
+    when ``longest`` (s) is given (the HSFM pedestrians' stiff contact terms), no sub-step is
+    longer than it."""
+    fastest = max(max(p.max_speed, p.max_reverse_speed) for p in presets)
+    smallest = min(p.radius for p in presets)
+    needed = max(1, math.floor(fastest * dt / smallest) + 1)
+    if human is not None:
+        closing, reach = fastest + human[0], smallest + human[1]
+        needed = max(needed, math.floor(closing * dt / reach) + 1)
+    if longest is not None:
+        needed = max(needed, math.ceil(dt / longest - 1e-9))
+    if value is None:
+        return needed
+    substeps = int(value)
+    if substeps < needed:
+        raise ValueError(
+            f"substeps={substeps} is too few for dt={dt} s: robots at {fastest} m/s with radius "
+            f"{smallest} m could pass through each other or a pedestrian"
+            + (f", or HSFM pedestrians' sub-steps exceed {longest} s" if longest else "")
+            + f"; use substeps >= {needed}"
+        )
+    return substeps
+
+
+def _content_key(*trees: Any) -> tuple:
+    """A hashable key for the values of some pytrees of arrays (shapes, dtypes and bytes)."""
+    leaves = [np.asarray(leaf) for tree in trees for leaf in jax.tree.leaves(tree)]
+    return tuple((leaf.shape, leaf.dtype.str, leaf.tobytes()) for leaf in leaves)
+
+
+@functools.partial(jax.jit, static_argnames=("max_agents", "human_config"))
+def _placements(keys: Array, m: MapArrays, robot_radius: Array, hp: HumanParams,
+                max_agents: int, human_config: HumanConfig) -> tuple[Array, Array]:
+    """For each key of ``keys [T]``: how many robots were placed (all ``max_agents`` wanted) and
+    how many pedestrians found a spawn slot beside them (``hp.num_humans`` wanted), as ``reset``
+    places them (without routes or observations). Returns two ``[T]`` int counts."""
+
+    def one(key: Array) -> tuple[Array, Array]:
+        key_robots, key_humans = jax.random.split(key)
+        start, _, placed = sample_starts_goals(key_robots, m, robot_radius,
+                                               jnp.ones(max_agents, bool))
+        if not human_config.max_humans:
+            return jnp.sum(placed), jnp.zeros((), jnp.int32)
+        humans = spawn_humans(key_humans, human_config, hp, m, m.node_x[start], m.node_y[start],
+                              robot_radius, placed)
+        return jnp.sum(placed), jnp.sum(humans.active)
+
+    return jax.vmap(one)(keys)
+
+
+# (map, radii and counts by value, max_agents, HumanConfig) -> fewest robots, pedestrians placed:
+# a second ``make`` of the same world checks nothing again.
+_FEWEST_PLACED: dict[tuple, tuple[int, int]] = {}
+
+
+def _check_capacity(source: str, params: EnvParams, max_agents: int,
+                    human_config: HumanConfig) -> None:
+    """Fail early if the map cannot place ``max_agents`` robots with distinct starts and goals,
+    or ``max_humans`` pedestrians on free spawn slots beside them."""
+    wanted = human_config.max_humans
+    slots = int(params.humans.spawn_x.shape[0])
+    radius = float(params.humans.radius)
+    if slots < wanted:
+        raise ValueError(
+            f"{source}: cannot place max_humans={wanted} pedestrians of radius "
+            f"{radius} m: the map has only {slots} spawn slots"
+        )
+    hp = params.humans.replace(num_humans=jnp.asarray(wanted, jnp.int32))
+    trees = (params.map, params.robots.radius, hp)
+    key = (_content_key(*trees), max_agents, human_config)
+    if key not in _FEWEST_PLACED:
+        counts = _placements(jax.random.split(jax.random.key(0), CAPACITY_TRIALS), *trees,
+                             max_agents=max_agents, human_config=human_config)
+        _FEWEST_PLACED[key] = tuple(int(jnp.min(c)) for c in counts)
+    robots, humans = _FEWEST_PLACED[key]
+    if robots < max_agents:
+        raise ValueError(
+            f"{source}: cannot place max_agents={max_agents} robots with distinct starts and goals "
+            f"and non-overlapping bodies (managed only {robots} in some of {CAPACITY_TRIALS} "
+            "draws); use fewer robots or smaller ones"
+        )
+    if humans < wanted:
+        raise ValueError(
+            f"{source}: cannot place max_humans={wanted} pedestrians of radius "
+            f"{radius} m beside {max_agents} robots (the map has {slots} spawn slots; managed "
+            f"only {humans} in some draws); use fewer pedestrians"
+        )
+
+
+def robots_that_fit(scenario: str | Path | MapSpec, robots: str = "socialgym",
+                    trials: int = CAPACITY_TRIALS) -> int:
+    """How many ``robots`` (a preset name, ``docs/robots.md``) ``reset`` places on the map in
+    every one of ``trials`` draws: distinct starts and goals, bodies apart (the check ``make``
+    runs for ``max_agents``)."""
+    spec = scenario if isinstance(scenario, MapSpec) else load(scenario)
+    env, params = make(spec, num_agents=1, max_agents=1, robots=robots)
+    starts = {s for group, _ in spawn_groups(spec) for s in group}
+    most = max(1, len(starts))
+    radius = jnp.full(most, params.robots.radius[0])
+    hp = params.humans.replace(num_humans=jnp.asarray(0, jnp.int32))
+    placed, _ = _placements(jax.random.split(jax.random.key(0), trials), params.map, radius, hp,
+                            max_agents=most, human_config=HumanConfig(max_humans=0))
+    return int(jnp.min(placed))

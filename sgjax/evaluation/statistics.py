@@ -1,0 +1,118 @@
+"""Statistics over evaluation episodes, and the result record of one configuration.
+
+Every metric is summarised over the episodes that have a value: the mean, a 95% confidence
+interval (Wilson score for yes/no episode metrics, Student t of the mean for the rest, clipped
+to the metric's range), the standard deviation and the count. :class:`ConfigResult` holds the
+summaries of one scenario x policy x robot count; :mod:`sgjax.evaluation.evaluate` produces them and
+:mod:`sgjax.evaluation.report` writes them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from scipy import stats as scipy_stats
+
+from sgjax.evaluation.metrics import METRICS
+
+CONFIDENCE = 0.95
+
+
+@dataclasses.dataclass(frozen=True)
+class Summary:
+    """Mean of a metric over the episodes that have a value, with its 95% interval."""
+
+    mean: float
+    ci_low: float
+    ci_high: float
+    std: float
+    n: int
+
+    def as_dict(self) -> dict[str, float | int | None]:
+        def clean(v: float) -> float | None:
+            return None if math.isnan(v) else float(v)
+        return {"mean": clean(self.mean), "ci_low": clean(self.ci_low),
+                "ci_high": clean(self.ci_high), "std": clean(self.std), "n": self.n}
+
+
+def wilson_interval(successes: float, n: int, confidence: float = CONFIDENCE
+                    ) -> tuple[float, float]:
+    """Wilson score interval of a proportion ``successes / n``."""
+    if n == 0:
+        return math.nan, math.nan
+    z = float(scipy_stats.norm.ppf(0.5 + confidence / 2))
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def t_interval(values: np.ndarray, confidence: float = CONFIDENCE) -> tuple[float, float]:
+    """Student-t interval of the mean of ``values`` (NaN with fewer than two)."""
+    n = len(values)
+    if n < 2:
+        return math.nan, math.nan
+    mean = float(np.mean(values))
+    half = float(scipy_stats.t.ppf(0.5 + confidence / 2, n - 1)) * float(
+        np.std(values, ddof=1)) / math.sqrt(n)
+    return mean - half, mean + half
+
+
+def summarize(values: np.ndarray, binary: bool, fraction: bool = False) -> Summary:
+    """Summary over episodes of one metric's per-episode values (NaNs are left out). Every
+    metric is non-negative, so the interval is clipped at 0, and at 1 for ``fraction``s."""
+    x = np.asarray(values, np.float64)
+    x = x[np.isfinite(x)]
+    n = len(x)
+    if n == 0:
+        return Summary(math.nan, math.nan, math.nan, math.nan, 0)
+    low, high = wilson_interval(float(np.sum(x)), n) if binary else t_interval(x)
+    low, high = max(low, 0.0), (min(high, 1.0) if fraction else high)
+    std = float(np.std(x, ddof=1)) if n > 1 else math.nan
+    return Summary(float(np.mean(x)), low, high, std, n)
+
+
+def summarize_metrics(values: Mapping[str, np.ndarray]) -> dict[str, Summary]:
+    """:func:`summarize` of every metric's per-episode values ``{name: [E]}``, in
+    :data:`sgjax.evaluation.metrics.METRICS` order, with each metric's interval kind and range."""
+    return {info.name: summarize(values[info.name], info.binary, info.unit == "fraction")
+            for info in METRICS}
+
+
+@dataclasses.dataclass
+class ConfigResult:
+    """One configuration's summaries (``metrics`` in :data:`sgjax.evaluation.metrics.METRICS`
+    order)."""
+
+    scenario: str
+    policy: str
+    num_agents: int
+    episodes: int
+    seed: int
+    dt: float
+    max_steps: int
+    metrics: dict[str, Summary]
+    seconds: float  # wall time, compile included
+    compile_seconds: float | None = None  # compiling the batched run
+    run_seconds: float | None = None  # running it, once compiled
+    counterfactual: bool = False  # the counterfactual lanes ran (their metrics are filled in)
+    steps_played: int | None = None  # steps the batch ran before every episode had ended
+
+    def as_dict(self) -> dict[str, Any]:
+        out = {k: v for k, v in dataclasses.asdict(self).items() if k != "metrics"}
+        out["metrics"] = {name: s.as_dict() for name, s in self.metrics.items()}
+        return out
+
+    @property
+    def agent_steps_per_second(self) -> float | None:
+        """Robot-steps simulated per second once compiled, when timed: every episode of the
+        batch steps (frozen after its end) until the last one has ended, ``steps_played``
+        (the time limit when not given); counterfactual lanes are not counted."""
+        if not self.run_seconds:
+            return None
+        steps = self.max_steps if self.steps_played is None else self.steps_played
+        return self.episodes * steps * self.num_agents / self.run_seconds

@@ -1,0 +1,223 @@
+"""The layer map of docs/architecture.md, checked on the import graph.
+
+Every import counts: module level, under ``TYPE_CHECKING`` and inside functions. A module may
+import its own layer or a lower one; ``sgjax`` never imports ``train``; there is no import
+circle inside ``sgjax/``.
+"""
+
+from __future__ import annotations
+
+import ast
+import functools
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+# Lowest first: each layer is a list of packages (and the few leaf modules) that make it up; a
+# module belongs to the layer of the longest prefix that contains it. A module under no prefix
+# fails the test (place every new module in a layer's package).
+LAYERS: dict[str, tuple[str, ...]] = {
+    "kernels": ("sgjax.version", "sgjax.kernels", "sgjax.maps", "sgjax.dynamics", "sgjax.humans"),
+    "types": ("sgjax.types",),
+    "terms": ("sgjax.terms", "sgjax.observations", "sgjax.rewards"),
+    "environment": ("sgjax.environment", "sgjax"),
+    "evaluation": ("sgjax.evaluation",),
+    "applications": ("sgjax.adapters", "sgjax.command", "sgjax.compilation_cache"),
+}
+# Modules that sit directly in sgjax/ (the rest live in the layer packages).
+TOP_LEVEL_MODULES = {"sgjax.version", "sgjax.types", "sgjax.command", "sgjax.compilation_cache"}
+# The longest function allowed in sgjax/ (lines from ``def`` to its last line), and the ones
+# allowed to be longer, with the reason.
+MAX_FUNCTION_LINES = 80
+LONG_FUNCTIONS: dict[str, str] = {}
+
+
+def modules(package: str) -> dict[str, Path]:
+    """Dotted module name -> file, for every module of ``package``."""
+    out = {}
+    for path in sorted((ROOT / package).rglob("*.py")):
+        parts = path.relative_to(ROOT).with_suffix("").parts
+        name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        out[name] = path
+    return out
+
+
+def imported(name: str, path: Path, known: set[str]) -> set[str]:
+    """Project modules that ``name`` imports anywhere in its file (``from a import b`` counts
+    module ``a.b`` when it is one, else ``a``)."""
+    targets = set()
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            candidates = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.split(".")[: len(package.split(".")) - (node.level - 1)]
+                base = ".".join(anchor + ([base] if base else []))
+            candidates = [f"{base}.{alias.name}" for alias in node.names] + [base]
+        else:
+            continue
+        for candidate in candidates:
+            while candidate and candidate not in known:
+                candidate = candidate.rpartition(".")[0]
+            if candidate and candidate != name:
+                targets.add(candidate)
+                break
+    return targets
+
+
+@functools.cache
+def import_graph() -> dict[str, set[str]]:
+    found = modules("sgjax") | modules("train")
+    return {name: imported(name, path, set(found)) for name, path in found.items()}
+
+
+def layer_of(name: str) -> int:
+    best, index = "", -1
+    for i, prefixes in enumerate(LAYERS.values()):
+        for prefix in prefixes:
+            inside = name == prefix or (prefix != "sgjax" and name.startswith(prefix + "."))
+            if inside and len(prefix) > len(best):
+                best, index = prefix, i
+    return index
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components with more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_cycle_finder_sees_a_circle():
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_import_finder_reads_local_and_type_checking_imports(tmp_path):
+    source = ("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from p.b import X\n"
+              "def f():\n    from p import c\n    import p.d.e\n")
+    path = tmp_path / "a.py"
+    path.write_text(source)
+    assert imported("p.a", path, {"p", "p.a", "p.b", "p.c", "p.d"}) == {"p.b", "p.c", "p.d"}
+
+
+def test_no_import_circle_inside_sgjax():
+    graph = {m: {t for t in ts if t.split(".")[0] == "sgjax"}
+             for m, ts in import_graph().items() if m.split(".")[0] == "sgjax"}
+    assert cycles(graph) == []
+
+
+def test_sgjax_never_imports_train():
+    edges = [(m, t) for m, ts in import_graph().items() if m.split(".")[0] == "sgjax"
+             for t in ts if t.split(".")[0] == "train"]
+    assert edges == []
+    statement = re.compile(r"^\s*(import train\b|from train\b)", re.MULTILINE)
+    dynamic = re.compile(r"import_module\(\s*[\"']train\b")
+    text = [p.name for p in sorted((ROOT / "sgjax").rglob("*.py"))
+            if statement.search(p.read_text()) or dynamic.search(p.read_text())]
+    assert text == []
+
+
+@pytest.mark.parametrize("name", sorted(modules("sgjax")))
+def test_module_imports_only_its_layer_or_lower(name):
+    assert layer_of(name) >= 0, f"{name} is in no layer: add it to LAYERS and the docs"
+    graph = import_graph()
+    upward = [t for t in sorted(graph[name]) if t.startswith("sgjax")
+              and layer_of(t) > layer_of(name)]
+    names = list(LAYERS)
+    assert upward == [], (f"{name} ({names[layer_of(name)]}) imports a higher layer: "
+                          + ", ".join(f"{t} ({names[layer_of(t)]})" for t in upward))
+
+
+def test_architecture_doc_names_every_layer_module():
+    text = (ROOT / "docs" / "architecture.md").read_text()
+    missing = [m for m in sorted(modules("sgjax")) if m != "sgjax" and "." in m
+               and m.count(".") == 1 and f"{m.split('.')[1]}" not in text]
+    assert missing == []
+
+
+def test_layers_are_package_prefixes():
+    """Every prefix in LAYERS is a package (a folder with ``__init__.py``) or one of the few
+    top-level modules; the top level of ``sgjax/`` holds no other module."""
+    for prefix in (p for prefixes in LAYERS.values() for p in prefixes):
+        folder = ROOT / Path(*prefix.split("."))
+        assert (folder / "__init__.py").exists() or prefix in TOP_LEVEL_MODULES, prefix
+    top = {m for m, path in modules("sgjax").items()
+           if path.parent == ROOT / "sgjax" and path.name != "__init__.py"}
+    assert top == TOP_LEVEL_MODULES
+
+
+def test_no_two_modules_share_a_file_name():
+    by_name: dict[str, list[str]] = {}
+    for path in sorted((ROOT / "sgjax").rglob("*.py")):
+        if path.name not in ("__init__.py", "base.py"):
+            by_name.setdefault(path.name, []).append(str(path.relative_to(ROOT)))
+    assert {n: ps for n, ps in by_name.items() if len(ps) > 1} == {}
+
+
+def long_functions(path: Path, limit: int) -> dict[str, int]:
+    """``module:qualname`` -> lines, for every function or method in ``path`` over ``limit``."""
+    inside = path.is_relative_to(ROOT)
+    module = ".".join((path.relative_to(ROOT) if inside else Path(path.name)).with_suffix("").parts)
+    found = {}
+
+    def visit(node: ast.AST, prefix: str) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef):
+                name = f"{prefix}{child.name}"
+                lines = child.end_lineno - child.lineno + 1
+                if lines > limit:
+                    found[f"{module}:{name}"] = lines
+                visit(child, f"{name}.")
+            elif isinstance(child, ast.ClassDef):
+                visit(child, f"{prefix}{child.name}.")
+
+    visit(ast.parse(path.read_text(), str(path)), "")
+    return found
+
+
+def test_long_function_finder_counts_lines(tmp_path):
+    path = tmp_path / "m.py"
+    path.write_text("class A:\n    def f(self):\n" + "        x = 1\n" * 5 + "def g():\n    pass\n")
+    found = long_functions(path, 4)
+    assert list(found.values()) == [6] and next(iter(found)).endswith(":A.f")
+
+
+def test_no_function_in_sgjax_is_over_the_limit():
+    found = {}
+    for path in sorted((ROOT / "sgjax").rglob("*.py")):
+        found |= long_functions(path, MAX_FUNCTION_LINES)
+    assert {name: n for name, n in found.items() if name not in LONG_FUNCTIONS} == {}

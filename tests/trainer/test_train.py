@@ -1,0 +1,372 @@
+"""The trainer: it learns, checkpoints round-trip and resume the same run, configs are
+validated, a vmap over sixteen seeds equals separate seeds and never hangs (the commands end to
+end: tests/test_train_commands.py)."""
+
+import json
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+import yaml
+from flax import serialization
+
+from sgjax.evaluation.policies import load_policy, policy_make_kwargs
+from sgjax.terms.base import ConfigError
+from train import checkpoint, ppo
+from train.actor import ActorWeights
+from train.config import config_from_dict, load_config
+from train.networks import ResetGRU
+from train.ppo import Trainer, seed_keys
+
+ROOT = Path(__file__).resolve().parents[2]
+
+TINY = {
+    "env": {"scenarios": ["open"], "curriculum": [[0, 2]], "observations": "default"},
+    "algorithm": {"num_envs": 8, "num_steps": 8, "total_steps": 8 * 8 * 3, "update_epochs": 2,
+                  "num_minibatches": 2},
+    "network": {"hidden": [32]},
+}
+
+
+def tiny(**sections):
+    data = {k: dict(v) for k, v in TINY.items()}
+    for section, values in sections.items():
+        if isinstance(values, dict):
+            data.setdefault(section, {}).update(values)
+        else:
+            data[section] = values
+    return config_from_dict(data, "test")
+
+
+def leaves_close(a, b, **tol):
+    return all(np.allclose(x, y, **tol) for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b),
+                                                          strict=True))
+
+
+@pytest.mark.slow
+def test_a_tiny_run_learns_to_reach_the_goal():
+    """One robot in the open with continuous actions: success rises from near zero."""
+    config = tiny(env={"curriculum": [[0, 1]], "action_mode": "continuous", "time_limit": 20.0,
+                       "observations": "default"},
+                  algorithm={"num_envs": 64, "num_steps": 32, "total_steps": 64 * 32 * 60,
+                             "learning_rate": 1e-3, "ent_coef": 0.0, "update_epochs": 4,
+                             "num_minibatches": 4})
+    trainer = Trainer(config)
+    chunk = jax.jit(lambda r: trainer.update_chunk(r, 15))
+    runner = trainer.init(jax.random.PRNGKey(0))
+    rates = []
+    for _ in range(4):
+        runner, logs = chunk(runner)
+        rates.append(float(logs["robot_successes"].sum() / max(logs["robots"].sum(), 1)))
+    assert rates[0] < 0.35 and rates[-1] > 0.85, rates
+
+
+@pytest.mark.parametrize("data, message", [
+    ({"algorithm": {"totl_steps": 5}}, "did you mean 'total_steps'"),
+    ({"algorthm": {}}, "did you mean 'algorithm'"),
+    ({"algorithm": {"num_envs": "many"}}, "algorithm.num_envs: expected int"),
+    ({"env": {"curriculum": [[5, 2]]}}, "curriculum must be"),
+    ({"network": {"kind": "transformer"}}, "kind must be one of"),
+    ({"env": {"num_arcz": 5}}, "env: unknown key 'num_arcz' \\(did you mean 'num_arcs'\\?\\)"),
+    ({"env": {"num_agents": 5}}, "unknown key 'num_agents'.*valid keys are: scenarios"),
+    ({"env": {"human_model": "orka"}}, "env: human_model must be one of"),
+    ({"env": {"dt": -1}}, "env: dt must be a positive number"),
+    ({"algorithm": {"lanes": "parallel"}}, "algorithm: lanes must be one of auto, batched"),
+])
+def test_the_config_validator_rejects_bad_keys(data, message):
+    with pytest.raises(ConfigError, match=message):
+        config_from_dict(data, "bad.yaml")
+
+
+def test_command_line_overrides_and_shipped_configs():
+    config = load_config(ROOT / "train/configs/doorway.yaml",
+                         ["algorithm.total_steps=1000", "env.curriculum=[[0, 3], [500, 5]]"])
+    assert config.algorithm.total_steps == 1000 and config.env.slots == 5
+    assert config.env.num_agents_at(499) == 3 and config.env.num_agents_at(500) == 5
+    for path in sorted((ROOT / "train/configs").glob("*.yaml")):
+        loaded = load_config(path)
+        Trainer(loaded)  # builds every scenario and checks the shapes fit
+    with pytest.raises(ConfigError, match="no such config"):
+        load_config(ROOT / "train/configs/nope.yaml")
+    from train.ablation import _variant_config, load_variants
+
+    for path in sorted((ROOT / "train/configs/variants").glob("*.yaml")):
+        # the config it varies: doorway.yaml, intersection-hold.yaml -> intersection.yaml
+        config = load_config(ROOT / "train/configs" / f"{path.stem.split('-')[0]}.yaml")
+        for variant in load_variants(path).values():  # every variant is a valid config
+            Trainer(_variant_config(config, variant, 2))
+
+
+def test_numbers_in_exponent_form_read_as_numbers(tmp_path):
+    # PyYAML reads "2e6" as a string (YAML 1.1); the config reader takes it as YAML 1.2 does,
+    # a whole mantissa with a non-negative exponent as an int
+    config = load_config(ROOT / "train/configs/doorway.yaml",
+                         ["algorithm.total_steps=2e6", "seed=3e0", "algorithm.learning_rate=3E-4",
+                          "env.curriculum=[[0, 3], [1e5, 5]]", "evaluation.every=5e5"])
+    assert config.algorithm.total_steps == 2_000_000
+    assert type(config.algorithm.total_steps) is int and type(config.seed) is int
+    assert config.seed == 3 and config.algorithm.learning_rate == pytest.approx(3e-4)
+    assert config.env.curriculum == ((0, 3), (100_000, 5))
+    assert type(config.env.curriculum[1][0]) is int and config.evaluation.every == 500_000
+    for bad, shown in (("2.5", "2.5"), ("2e6x", "'2e6x'"), ("1e-3", "0.001")):
+        with pytest.raises(ConfigError, match=f"algorithm.total_steps: expected int, got {shown}"):
+            load_config(ROOT / "train/configs/doorway.yaml", [f"algorithm.total_steps={bad}"])
+    from train.ablation import load_variants
+
+    variants = tmp_path / "variants.yaml"
+    variants.write_text("baseline: {}\nlonger:\n  set: {algorithm.total_steps: 4e6}\n")
+    assert dict(load_variants(variants)["longer"].settings) == {"algorithm.total_steps": 4e6}
+
+
+def test_env_section_takes_every_make_option_and_round_trips():
+    config = config_from_dict({"env": {"num_arcs": 7, "human_model": "helbing", "num_humans": 2,
+                                       "max_agents": 6, "curriculum": [[0, 3]]}})
+    assert config.env.slots == 6
+    assert config.env.make_kwargs() == {"num_arcs": 7, "human_model": "helbing",
+                                        "num_humans": 2, "observations": "navigation"}
+    assert config_from_dict(config.to_dict()) == config
+    preset = config_from_dict({"env": {"preset": "cadrl"}}).env.make_kwargs()
+    assert preset["observations"] == preset["rewards"] == "cadrl"
+
+
+def test_checkpoints_keep_their_world_when_the_default_changes(tmp_path):
+    """A saved config states ``arrived``/``ended`` even at their defaults; a checkpoint written
+    before it did (no ``arrived``) was trained when the default was ``park`` and loads so."""
+    config = config_from_dict({"env": {"curriculum": [[0, 2]]}})
+    assert config.to_dict()["env"]["arrived"] == "settle"
+    assert config.to_dict()["env"]["ended"] == "leave"
+    old = config.to_dict()
+    del old["env"]["arrived"]
+    payload = {"config": yaml.safe_dump(old), "meta": json.dumps({}), "runner": {}}
+    path = tmp_path / "old.msgpack"
+    path.write_bytes(serialization.msgpack_serialize(payload))
+    loaded, _, _ = checkpoint.read(path)
+    assert loaded.env.make.robots.arrived == "park"
+    assert loaded.env.make_kwargs()["arrived"] == "park"
+
+
+@pytest.fixture(scope="module")
+def two_seeds():
+    """Sixteen seeds (lanes) of a GRU + attention network, and one update of all of them as
+    lanes of one function (compiled once for the tests below). Sixteen lanes in one call used
+    to hang XLA:CPU (docs/xla-cpu-deadlock.md)."""
+    config = tiny(num_seeds=16, env={"observations": "navigation"},
+                  network={"kind": "gru", "recurrent_size": 16, "hidden": [16],
+                           "others_encoder": "attention", "encoder_size": 8})
+    trainer = Trainer(config)
+    step = lambda r: trainer.update_chunk(r, 1)  # noqa: E731
+    return config, trainer, step, jax.jit(lambda r: trainer.update_chunk_lanes(r, 1))
+
+
+@pytest.mark.slow
+def test_multi_seed_vmap_matches_separate_seeds(two_seeds):
+    config, trainer, step, vstep = two_seeds
+    keys = seed_keys(config)
+    together, _ = vstep(jax.vmap(trainer.init)(keys))
+    single = jax.jit(step)
+    for i in range(2):
+        alone, _ = single(trainer.init(keys[i]))
+        mine = jax.tree.map(lambda x, i=i: x[i], together.params)
+        # Adam divides each gradient by its own size (eps 1e-5): a near-zero gradient that the
+        # batched and the single program round differently moves its weight by a visible part
+        # of a step (lr 3e-4). 3e-5 is a tenth of a step; a wrong lane is off by whole steps.
+        assert leaves_close(mine, alone.params, rtol=1e-4, atol=3e-5)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("network", [{"hidden": [32, 32]},
+                                     {"kind": "gru", "recurrent_size": 16, "hidden": [16]},
+                                     {"others_encoder": "lstm", "encoder_size": 8}])
+def test_sequential_and_batched_lanes_train_the_same_seeds(network):
+    """``algorithm.lanes``: the learning phases one lane after another (each a batch of one)
+    give every lane what one vmap gives it, up to float rounding; the lanes differ."""
+    runs = {}
+    for mode in ("batched", "sequential"):
+        config = tiny(num_seeds=3, env={"observations": "navigation"}, network=network,
+                      algorithm={"lanes": mode})
+        trainer = Trainer(config)
+        assert trainer.sequential_lanes == (mode == "sequential")
+        runner, logs = jax.jit(lambda r, t=trainer: t.update_chunk_lanes(r, 2))(
+            jax.vmap(trainer.init)(seed_keys(config)))
+        assert logs["policy_loss"].shape == (3, 2)
+        runs[mode] = runner, logs
+    (batched, b_logs), (sequential, s_logs) = runs["batched"], runs["sequential"]
+    assert leaves_close(batched.params, sequential.params, rtol=1e-4, atol=3e-5)
+    np.testing.assert_allclose(b_logs["value_loss"], s_logs["value_loss"], rtol=1e-4)
+    np.testing.assert_array_equal(b_logs["episodes"], s_logs["episodes"])
+    first = jax.tree.leaves(sequential.params)[0]
+    assert not np.allclose(first[0], first[1])
+
+
+def _equations(jaxpr):
+    """Every equation of a jaxpr and of the jaxprs inside it (scan, cond, custom rules...)."""
+    for eqn in jaxpr.eqns:
+        yield eqn
+        for param in eqn.params.values():
+            for sub in param if isinstance(param, (list, tuple)) else [param]:
+                inner = getattr(sub, "jaxpr", sub)
+                if hasattr(inner, "eqns"):
+                    yield from _equations(inner)
+
+
+def test_vmapped_network_init_runs_no_batched_qr(two_seeds):
+    """Batched QRs side by side deadlock XLA:CPU (docs/xla-cpu-deadlock.md): a vmapped init
+    factorises one matrix at a time."""
+    config, trainer, _, _ = two_seeds
+    jaxpr = jax.make_jaxpr(jax.vmap(trainer.init))(seed_keys(config)).jaxpr
+    qrs = [eqn for eqn in _equations(jaxpr) if eqn.primitive.name in ("qr", "geqrf", "geqp3")]
+    assert qrs, "expected orthogonal initialisers"
+    assert all(v.aval.ndim == 2 for eqn in qrs for v in eqn.invars), [
+        [v.aval.shape for v in eqn.invars] for eqn in qrs]
+
+
+@pytest.mark.slow
+def test_checkpoint_round_trip_and_resume_continue_the_same_run(two_seeds, tmp_path):
+    config, trainer, _, one = two_seeds
+    start = jax.vmap(trainer.init)(seed_keys(config))
+    straight, _ = one(one(start)[0])
+    half, _ = one(start)
+    path = checkpoint.save(tmp_path / "c.msgpack", config, half, {"steps": 1, "updates": 1})
+    restored, meta = checkpoint.restore(path, trainer)
+    assert meta["updates"] == 1 and leaves_close(restored, half, rtol=0, atol=0)
+    resumed, _ = one(restored)
+    assert leaves_close(resumed.params, straight.params, rtol=0, atol=0)
+    assert not list(tmp_path.glob("*.tmp"))  # written atomically
+
+
+@pytest.mark.slow
+def test_a_checkpoint_policy_loads_from_the_file_alone(two_seeds, tmp_path, monkeypatch):
+    """The saved actor acts as Trainer.policy does, without building a Trainer; a checkpoint
+    saved before the actor layout was kept in its meta still loads (one environment built)."""
+    config, trainer, _, one = two_seeds
+    runner, _ = one(jax.vmap(trainer.init)(seed_keys(config)))
+    path = checkpoint.save(tmp_path / "c.msgpack", config, runner, {"best_seed": 1},
+                           trainer.actor)
+    old = checkpoint.save(tmp_path / "old.msgpack", config, runner, {"best_seed": 1})
+    env, params = trainer.batch.env, trainer.batch.params[0]
+    weights = ActorWeights.of(runner).seed(1)
+    expected = trainer.policy(weights.params, weights.obs_stats, True, weights.obs_mask)
+
+    def no_trainer(*args, **kwargs):
+        raise AssertionError("loading a checkpoint built a Trainer")
+
+    made = []
+    real_make = checkpoint.make
+    monkeypatch.setattr(ppo.Trainer, "__init__", no_trainer)
+    monkeypatch.setattr(checkpoint, "make", lambda *a, **k: made.append(a) or real_make(*a, **k))
+    loaded = checkpoint.load_checkpoint_policy(path, env, deterministic=True)
+    through_sgjax = load_policy(str(path), env)  # through the registered loader
+    assert made == []
+    from_old = checkpoint.load_checkpoint_policy(old, deterministic=True)
+    assert len(made) == 1  # the others encoder's layout, from one training environment
+    assert checkpoint.actor_layout(old, *checkpoint.read(old)) == trainer.actor
+    assert policy_make_kwargs(str(path)) == config.env.make_kwargs()
+    with pytest.raises(ValueError, match="seed index 16 out of range"):
+        checkpoint.load_checkpoint_policy(path, env, seed_index=16)
+
+    obs, state = env.reset(jax.random.PRNGKey(3), params)
+    key = jax.random.PRNGKey(4)
+    reference = expected.step(expected.init(2), obs, key, state, params)
+    for policy in (loaded, from_old):
+        carry, action = policy.step(policy.init(2), obs, key, state, params)
+        assert action.tolist() == reference[1].tolist()
+        assert np.allclose(carry, reference[0], atol=1e-6)
+    assert through_sgjax.step(through_sgjax.init(2), obs, key, state, params)[1].shape == (2,)
+    greedy = load_policy(str(path), env, deterministic=True)  # sgjax evaluate --greedy
+    assert greedy.step(greedy.init(2), obs, key, state, params)[1].tolist() == (
+        reference[1].tolist())
+
+
+@pytest.mark.slow
+def test_mappo_with_lstm_encoder_and_continuous_actions_updates():
+    config = tiny(algorithm={"name": "mappo"},
+                  network={"others_encoder": "lstm", "encoder_size": 8, "agent_id": True},
+                  env={"action_mode": "continuous", "observations": "navigation"})
+    trainer = Trainer(config)
+    runner = trainer.init(jax.random.PRNGKey(1))
+    after, logs = jax.jit(lambda r: trainer.update_chunk(r, 2))(runner)
+    assert all(np.isfinite(np.asarray(v)).all() for v in logs.values())
+    assert not leaves_close(after.params, runner.params)
+    kernel = after.params["params"]["critic"]["Dense_0"]["kernel"]
+    assert kernel.shape[0] == trainer.slots * (trainer.batch.obs_size + 1)  # global state + id
+
+
+def test_others_encoders_learn_shared_or_separate():
+    """``network.shared_encoder``: one others encoder (parameters ``encoder``) feeds both
+    towers and learns; separate encoders learn as well."""
+    config = tiny(network={"others_encoder": "lstm", "encoder_size": 8,
+                           "shared_encoder": True}, env={"observations": "navigation"})
+    trainer = Trainer(config)
+    runner = trainer.init(jax.random.PRNGKey(1))
+    params = runner.params["params"]
+    assert "encoder" in params
+    assert not any("OthersEncoder" in name for name in (*params["actor"], *params["critic"]))
+    after, logs = jax.jit(lambda r: trainer.update_chunk(r, 1))(runner)
+    assert all(np.isfinite(np.asarray(v)).all() for v in logs.values())
+    assert not leaves_close(after.params["params"]["encoder"], params["encoder"])
+    separate = Trainer(tiny(network={"others_encoder": "lstm", "encoder_size": 8},
+                            env={"observations": "navigation"}))
+    count = lambda tree: sum(v.size for v in jax.tree.leaves(tree))  # noqa: E731
+    fresh = separate.init(jax.random.PRNGKey(1))
+    assert count(fresh.params) - count(runner.params) == count(params["encoder"])
+    # Separate encoders learn too: the others' 0/1 mask reaches them unnormalised (normalised,
+    # the other robot's always-1 flag became 0 and the encoders saw nobody, never learning).
+    moved, _ = jax.jit(lambda r: separate.update_chunk(r, 1))(fresh)
+    for tower in ("actor", "critic"):
+        assert not leaves_close(moved.params["params"][tower]["OthersEncoder_0"],
+                                fresh.params["params"][tower]["OthersEncoder_0"]), tower
+
+
+def test_lstm_encoder_skips_the_slots_that_are_always_empty_in_training():
+    """The trainer's LSTM reads only the slots that can hold a body in its environments (one
+    other robot here, of k = 4 slots): outputs and gradients equal, bit for bit, those of the
+    network reading every slot, which the saved actor keeps for other robot counts."""
+    from train.networks import ActorCritic, initial_carry
+
+    trainer = Trainer(tiny(network={"others_encoder": "lstm", "encoder_size": 8,
+                                    "shared_encoder": True}, env={"observations": "navigation"}))
+    assert trainer.actor.others.k == 4 and trainer.network.bodies == 1
+    every = ActorCritic(trainer.config.network, trainer.actor.action_dim, trainer.actor.discrete,
+                        trainer.actor.others)
+    runner = trainer.init(jax.random.PRNGKey(3))
+    runner, _ = jax.jit(lambda r: jax.lax.scan(trainer._env_step, r, None, 5))(runner)
+    actor, critic = trainer.inputs(runner.obs_stats, runner.obs)
+    assert float(jnp.abs(actor).sum()) > 0
+    carry = initial_carry(trainer.config.network, trainer.num_agents)
+    starts = jnp.zeros((1, trainer.num_agents), bool)
+
+    def loss(params, model):
+        _, out, value = model.apply(params, carry, actor[None], critic[None], starts)
+        return jnp.sum(out ** 2) + jnp.sum(value ** 2)
+
+    for fn in (loss, jax.grad(loss)):
+        quick = jax.jit(fn, static_argnums=1)(runner.params, trainer.network)
+        full = jax.jit(fn, static_argnums=1)(runner.params, every)
+        for a, b in zip(jax.tree.leaves(quick), jax.tree.leaves(full), strict=True):
+            np.testing.assert_array_equal(a, b)
+
+
+def test_gru_state_resets_at_episode_starts():
+    gru = ResetGRU(4)
+    x = jax.random.normal(jax.random.PRNGKey(0), (3, 2, 5))
+    params = gru.init(jax.random.PRNGKey(1), jnp.zeros((2, 4)), (x, jnp.zeros((3, 2), bool)))
+    carry = jnp.ones((2, 4))
+    starts = jnp.asarray([[True, False], [False, False], [False, False]])
+    _, ys = gru.apply(params, carry, (x, starts))
+    _, fresh = gru.apply(params, jnp.zeros((2, 4)), (x, starts))
+    assert np.allclose(ys[:, 0], fresh[:, 0])  # robot 0 was reset at step 0
+    assert not np.allclose(ys[:, 1], fresh[:, 1])  # robot 1 kept its memory
+
+
+def test_team_reward_shares_the_mean_of_the_robots_that_acted():
+    from train.ppo import share_rewards
+
+    reward = jnp.array([[1.0, 3.0, 100.0], [2.0, 0.0, 0.0]])
+    acted = jnp.array([[True, True, False], [True, False, False]])
+    np.testing.assert_allclose(share_rewards(reward, acted, 0.0), [[1, 3, 0], [2, 0, 0]])
+    np.testing.assert_allclose(share_rewards(reward, acted, 1.0), [[2, 2, 0], [2, 0, 0]])
+    np.testing.assert_allclose(share_rewards(reward, acted, 0.5), [[1.5, 2.5, 0], [2, 0, 0]])
+    with pytest.raises(ValueError, match="team_reward"):
+        config_from_dict({"algorithm": {"team_reward": 1.5}})

@@ -1,0 +1,275 @@
+"""The training commands end to end: ``python -m train`` then ``sgjax evaluate`` and a resume,
+``train.reproduce`` writing the paper's tables, and a sharded run agreeing with an unsharded one
+(separate from tests/test_train.py so that the two files run on different workers)."""
+
+import json
+import os
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+from PIL import Image
+from test_train import TINY
+
+from train.cli import main as train_main
+
+ROOT = Path(__file__).resolve().parents[2]
+
+SHARDED = """
+import jax, numpy as np
+from train.config import config_from_dict
+from train.ppo import Trainer, seed_keys
+from train.sharding import device_mesh, shard_runner
+assert jax.device_count() == 2, jax.devices()
+config = config_from_dict({"env": {"scenarios": ["open"], "curriculum": [[0, 2]]},
+    "algorithm": {"num_envs": 8, "num_steps": 4, "total_steps": 32, "update_epochs": 1,
+                  "num_minibatches": 2}, "network": {"hidden": [16]}})
+trainer = Trainer(config)
+step = jax.jit(lambda r: trainer.update_chunk_lanes(r, 1))
+runner = jax.vmap(trainer.init)(seed_keys(config))
+plain, _ = step(runner)
+sharded_in = shard_runner(runner, device_mesh(), trainer.num_envs)
+assert len(sharded_in.obs.sharding.device_set) == 2
+sharded, _ = step(sharded_in)
+diff = max(float(np.max(np.abs(np.asarray(a) - np.asarray(b))))
+           for a, b in zip(jax.tree.leaves(plain.params), jax.tree.leaves(sharded.params)))
+print("max difference", diff)
+assert diff < 1e-5, diff
+"""
+
+
+@pytest.mark.slow
+def test_sharded_and_unsharded_runs_agree_on_one_step():
+    flags = f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count=2"
+    env = {**os.environ, "XLA_FLAGS": flags.strip(),
+           "JAX_PLATFORMS": "cpu", "PYTHONPATH": str(ROOT)}
+    result = subprocess.run([sys.executable, "-c", SHARDED], env=env, capture_output=True,
+                            text=True, timeout=600)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert "max difference" in result.stdout
+
+
+@pytest.mark.slow
+def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
+    config = tmp_path / "tiny.yaml"
+    config.write_text(yaml.safe_dump({
+        **TINY, "evaluation": {"every": 64, "episodes": 2, "num_agents": [2]},
+        "logging": {"out": str(tmp_path / "run"), "checkpoint_every": 64,
+                    "tensorboard": False, "progress": False},
+        "env": {**TINY["env"], "time_limit": 10.0}}))
+    train_main(["--config", str(config)])
+    out = capsys.readouterr().out
+    assert "trained (ippo)" in out and "only_local" in out and "team success" in out
+    assert "time: compile" in out and "final evaluation" in out and "; total" in out
+    run = tmp_path / "run"
+    rows = (run / "progress.csv").read_text().splitlines()
+    assert rows[0].startswith("steps,") and len(rows) == 4  # header + 3 updates
+    with Image.open(run / "eval" / "episode.gif") as gif:
+        assert gif.n_frames > 1
+    with Image.open(run / "learning_curve.png") as curve:
+        assert curve.format == "PNG" and curve.size[0] > 600
+    assert (run / "checkpoints" / "best.msgpack").is_file()
+    from sgjax.command import main as sgjax_main
+
+    sgjax_main(["evaluate", "--scenario", "open", "--policy", str(run), "--num-agents", "2",
+                "--episodes", "2", "--out", str(tmp_path / "eval")])
+    assert "team success" in capsys.readouterr().out
+    # Resume with a larger budget: continues from update 3.
+    train_main(["--config", str(config), "--resume", "--set", "algorithm.total_steps=320",
+                "--set", "evaluation.baseline=null", "--set", "evaluation.gif=false"])
+    out = capsys.readouterr().out
+    assert "resumed from" in out and "update 3" in out
+    assert len((run / "progress.csv").read_text().splitlines()) == 6
+
+
+@pytest.mark.slow
+def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
+    from train.reproduce import reproduce
+
+    reproduce(["open"], ["cadrl", "only_local", "dwa"], seeds=2, total_steps=8 * 8 * 2,
+              num_envs=8, counts=[2, 3], episodes=2, table_robots=2, out=tmp_path,
+              time_limit=10.0)
+    metrics_table = (tmp_path / "metrics_table.md").read_text()
+    success_table = (tmp_path / "success_table.md").read_text()
+    assert "| open | cadrl |" in metrics_table and "| open | only_local |" in metrics_table
+    assert "| open | dwa |" in metrics_table  # a classical controller as an extra row
+    assert "| 2A | 3A | Avg. |" in success_table
+    results = json.loads((tmp_path / "results.json").read_text())["results"]
+    assert len(results["open"]["cadrl"]["2"]["team_success"]) == 2  # one value per seed
+    from train.reproduce import tables_from_results
+
+    again = tables_from_results(tmp_path / "results.json", tmp_path / "again", table_robots=2)
+    assert again["success_table.md"] == success_table  # the tables come from results.json
+    assert (tmp_path / "again" / "paper_comparison.md").is_file()
+    # --resume keeps the finished cells and runs only the missing one; other settings refuse.
+    kept = dict(results["open"])
+    run = dict(seeds=2, total_steps=8 * 8 * 2, num_envs=8, counts=[2, 3], episodes=2,
+               table_robots=2, out=tmp_path, time_limit=10.0, resume=True)
+    reproduce(["open"], ["cadrl", "only_local", "social_force"], **run)
+    assert "kept from" in capsys.readouterr().out
+    document = json.loads((tmp_path / "results.json").read_text())
+    assert list(document["results"]["open"]) == ["cadrl", "only_local", "dwa", "social_force"]
+    assert {b: document["results"]["open"][b] for b in kept} == kept
+    assert document["runs"] == 2 and "open/social_force" in document["cell_seconds"]
+    assert "| open | social_force |" in (tmp_path / "metrics_table.md").read_text()
+    with pytest.raises(ValueError, match="results.json: ran with episodes = 2"):
+        reproduce(["open"], ["cadrl"], **{**run, "episodes": 3})
+
+
+@pytest.mark.slow
+def test_ablation_command_prints_the_table(tmp_path, capsys):
+    from sgjax.terms.base import ConfigError
+    from train.ablation import load_variants
+    from train.ablation import main as ablation_main
+
+    variants = tmp_path / "variants.yaml"
+    variants.write_text("baseline: {}\nno collision penalty: {rewards_off: [collision]}\n"
+                        "no headings: {hide: [pose.heading, others.heading]}\n"
+                        "team reward: {set: {algorithm.team_reward: 1.0}}\n")
+    ablation_main(["--config", str(ROOT / "train/configs/ablation.yaml"),
+                   "--set", "algorithm.total_steps=64", "--set", "algorithm.num_envs=8",
+                   "--set", "algorithm.num_steps=8", "--set", "env.time_limit=3",
+                   "--set", "env.scenarios=[open]", "--variants", str(variants),
+                   "--seeds", "2", "--lanes-per-run", "4", "--episodes", "2",
+                   "--robots", "2", "3", "--out", str(tmp_path / "out")])
+    out = capsys.readouterr().out
+    assert "| no headings |" in out and "Seeds beating the baseline" in out
+    assert "with 2 robots" in out and "with 3 robots" in out  # a table per count
+    assert "network mlp)" in out and out.count("trained and evaluated") == 2  # set: own group
+    saved = json.loads((tmp_path / "out" / "ablation.json").read_text())
+    assert {k: len(v) for k, v in saved["team_success"].items()} == {
+        "baseline": 2, "no collision penalty": 2, "no headings": 2, "team reward": 2}
+    assert set(saved["team_success_by_robots"]) == {"2", "3"}
+    assert saved["variants"]["team reward"]["settings"] == [["algorithm.team_reward", 1.0]]
+    assert "compile and train" in saved["seconds"]
+    variants.write_text("baseline: {}\nwrong: {set: {team_reward: 1.0}}\n")
+    with pytest.raises(ConfigError, match="wrong.set: expected a mapping of section.key"):
+        load_variants(variants)
+    variants.write_text("baseline: {}\nwrong: {set: {algorithm.team_rewards: 1.0}}\n")
+    with pytest.raises(SystemExit, match="team_rewards"):
+        ablation_main(["--config", str(ROOT / "train/configs/ablation.yaml"),
+                       "--variants", str(variants), "--set", "algorithm.total_steps=64"])
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def _run_two_processes(command: list[str], cwd: Path) -> list[str]:
+    """``command`` as processes 0 and 1 of a localhost jax.distributed run; their outputs."""
+    command = [*command, "--coordinator", f"127.0.0.1:{_free_port()}", "--num-processes", "2"]
+    env = {**os.environ, "JAX_PLATFORMS": "cpu", "PYTHONPATH": str(ROOT)}
+    runs = [subprocess.Popen([*command, "--process-id", str(i)], env=env, text=True,
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, cwd=cwd)
+            for i in range(2)]
+    try:
+        outputs = [run.communicate(timeout=400)[0] for run in runs]
+    finally:
+        for run in runs:
+            run.kill()
+    for run, out in zip(runs, outputs, strict=True):
+        assert run.returncode == 0, out[-3000:]
+    return outputs
+
+
+@pytest.mark.slow
+def test_two_processes_train_two_halves_of_one_sweep_and_gather(tmp_path):
+    """jax.distributed on localhost: each process trains its half of the 2 x 2 ablation lanes
+    (and of reproduce's seeds); process 0 writes the whole table."""
+    variants = tmp_path / "variants.yaml"
+    variants.write_text("baseline: {}\nno collision penalty: {rewards_off: [collision]}\n")
+    outputs = _run_two_processes(
+        [sys.executable, "-m", "train.ablation", "--config",
+         str(ROOT / "train/configs/ablation.yaml"), "--set", "algorithm.total_steps=64",
+         "--set", "algorithm.num_envs=8", "--set", "algorithm.num_steps=8",
+         "--set", "env.time_limit=3", "--set", "env.scenarios=[open]",
+         "--variants", str(variants), "--seeds", "2", "--episodes", "2",
+         "--out", str(tmp_path / "ablation")], tmp_path)
+    assert "process 0 of 2: lanes [0, 1]" in outputs[0]
+    assert "process 1 of 2: lanes [2, 3]" in outputs[1]
+    assert "| no collision penalty |" in outputs[0] and "process 0 writes" in outputs[1]
+    saved = json.loads((tmp_path / "ablation" / "ablation.json").read_text())["team_success"]
+    assert {k: len(v) for k, v in saved.items()} == {"baseline": 2, "no collision penalty": 2}
+    assert all(0.0 <= x <= 1.0 for v in saved.values() for x in v), saved
+
+    outputs = _run_two_processes(
+        [sys.executable, "-m", "train.reproduce", "--scenarios", "open", "--baselines", "cadrl",
+         "--seeds", "2", "--total-steps", "128", "--num-envs", "8", "--robots", "2", "3",
+         "--episodes", "2", "--table-robots", "2", "--time-limit", "10",
+         "--out", str(tmp_path / "reproduce")], tmp_path)
+    assert "trained 1 seeds" in outputs[0] and "trained 1 seeds" in outputs[1]
+    results = json.loads((tmp_path / "reproduce" / "results.json").read_text())["results"]
+    per_seed = results["open"]["cadrl"]["3"]["team_success"]
+    assert len(per_seed) == 2 and all(0.0 <= x <= 1.0 for x in per_seed), per_seed
+
+
+def test_lane_shares_cover_every_lane_once():
+    from train.multiprocess import Processes, gather_lanes, lane_share
+
+    for count in (1, 4, 7):
+        for processes in (1, 2, 3):
+            shares = [lane_share(count, Processes(p, processes)).tolist()
+                      for p in range(processes)]
+            assert sum(shares, []) == list(range(count)), (count, processes, shares)
+    assert gather_lanes([0.5, 0.25], 2, Processes()).tolist() == [0.5, 0.25]
+    from train.multiprocess import initialize
+
+    with pytest.raises(ValueError, match="--process-id must be in"):
+        initialize("127.0.0.1:1", 2, 2)
+    with pytest.raises(ValueError, match="--coordinator must be HOST:PORT"):
+        initialize(None, 2, 0)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("baseline: {}\nx: {rewards_of: [collision]}\n", r"x: unknown key 'rewards_of' \(did you"),
+    ("baseline: {}\nx: {hide: velocity}\n", r"x\.hide: expected a list of names"),
+    ("x: {}\n", "no 'baseline' variant"),
+    ("[1, 2]\n", "expected a mapping of variant names"),
+])
+def test_ablation_variants_file_errors_name_the_file_and_key(tmp_path, text, message):
+    from sgjax.terms.base import ConfigError
+    from train.ablation import load_variants
+
+    path = tmp_path / "v.yaml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=f"v.yaml: {message}"):
+        load_variants(path)
+
+
+def test_ablation_command_rejects_an_unknown_reward_term(tmp_path):
+    from train.ablation import main as ablation_main
+
+    variants = tmp_path / "v.yaml"
+    variants.write_text("baseline: {}\nx: {rewards_off: [colision]}\n")
+    with pytest.raises(SystemExit, match="no reward term 'colision'"):
+        ablation_main(["--config", str(ROOT / "train/configs/ablation.yaml"),
+                       "--variants", str(variants)])
+
+
+def test_ablation_variant_sets_a_mapping_and_a_bad_one_fails_before_training(tmp_path,
+                                                                              monkeypatch):
+    import train.ablation as ablation
+    from train.config import load_config
+
+    variants = tmp_path / "v.yaml"
+    variants.write_text("baseline: {}\nexistence: {set: {env.rewards: "
+                        "{progress: 1.0, success: 100.0, existence: 0.1}}}\n")
+    config = load_config(ROOT / "train/configs/doorway.yaml", [])
+    changed = ablation._variant_config(config, ablation.load_variants(variants)["existence"], 2)
+    assert changed.env.make_kwargs()["rewards"] == {
+        "progress": 1.0, "success": 100.0, "existence": 0.1}
+    assert changed.num_seeds == 2 and config.env.make_kwargs()["rewards"] == "default"
+
+    def no_training(*args, **kwargs):
+        raise AssertionError("trained before every variant was checked")
+
+    monkeypatch.setattr(ablation, "train_variants", no_training)
+    variants.write_text("baseline: {}\nbad: {set: {env.rewards: {progres: 1.0}}}\n")
+    with pytest.raises(SystemExit, match="progres"):
+        ablation.main(["--config", str(ROOT / "train/configs/doorway.yaml"),
+                       "--variants", str(variants)])
