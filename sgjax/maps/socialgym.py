@@ -316,31 +316,19 @@ def import_socialgym(
     than this folder's is reported (SocialGym's ids repeat across maps, so it would load).
     """
     folder = Path(folder)
-    zone = None
+    map_files, zone = (), None
     if scenario is not None:
-        if scenario not in SOCIALGYM_SCENARIOS:
-            close = difflib.get_close_matches(scenario, list(SOCIALGYM_SCENARIOS), n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise ValueError(f"unknown SocialGym scenario {scenario!r}{hint}; known: "
-                             f"{', '.join(SOCIALGYM_SCENARIOS)}")
-        map_files, scenario_routes, zone = SOCIALGYM_SCENARIOS[scenario]
+        map_files, scenario_routes, zone = _socialgym_scenario(scenario)
         if routes is None and groups is None:
             routes = scenario_routes
     if name is None:
         found = sorted(folder.glob("*.navigation.json"))
         name = found[0].name[: -len(".navigation.json")] if len(found) == 1 else folder.name
-    txt, js = folder / f"{name}.vectormap.txt", folder / f"{name}.vectormap.json"
     nav = folder / f"{name}.navigation.json"
     if not nav.exists():
         raise FileNotFoundError(f"no {nav.name} in {folder}")
     nodes, edges, ignored = read_navigation_json(nav)
-    walls = []
-    if txt.exists():
-        walls = read_vectormap_txt(txt)
-    if not walls and js.exists():  # SocialGym's open map ships an empty .txt beside its .json
-        walls = read_vectormap_json(js)
-    if not txt.exists() and not js.exists():
-        raise FileNotFoundError(f"no {txt.name} or {js.name} in {folder}")
+    walls = _read_walls(folder, name)
     info = ImportReport(source=str(folder), ignored_attributes=ignored)
     if scenario is not None and name not in map_files:
         info.other_map = (f"scenario {scenario} was written for SocialGym's "
@@ -362,14 +350,7 @@ def import_socialgym(
         "edges": edges,
     }
     if zone is not None:
-        position = {n["id"]: n["position"] for n in nodes}
-        missing = [i for i in zone[:2] if i not in position]
-        if missing:
-            raise MapError(str(nav), "$.nodes", f"scenario {scenario}'s conflict zone needs "
-                           f"nodes {zone[0]} and {zone[1]}; this map has no node {missing[0]}")
-        (x0, y0), (x1, _), half = position[zone[0]], position[zone[1]], zone[2]
-        data["zones"] = [{"name": scenario, "rect": [min(x0, x1), y0 - half, max(x0, x1),
-                                                    y0 + half]}]
+        data["zones"] = [_zone_entry(scenario, zone, nodes, nav)]
     if routes is not None:
         data["routes"] = [list(route) for route in routes]
     if groups is not None:
@@ -387,6 +368,40 @@ def import_socialgym(
     if report is not None:
         report(info)
     return spec
+
+
+def _socialgym_scenario(scenario: str) -> tuple[tuple[str, ...], list[list[int]], tuple]:
+    """``(map files, robot paths, zone)`` of one of SocialGym's own scenarios, by name."""
+    if scenario not in SOCIALGYM_SCENARIOS:
+        close = difflib.get_close_matches(scenario, list(SOCIALGYM_SCENARIOS), n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise ValueError(f"unknown SocialGym scenario {scenario!r}{hint}; known: "
+                         f"{', '.join(SOCIALGYM_SCENARIOS)}")
+    return SOCIALGYM_SCENARIOS[scenario]
+
+
+def _read_walls(folder: Path, name: str) -> list[list[float]]:
+    """The wall segments of ``<name>.vectormap.txt``, or of the ``.json`` beside it when the text
+    file is empty or missing (SocialGym's open map ships an empty .txt beside its .json)."""
+    txt, js = folder / f"{name}.vectormap.txt", folder / f"{name}.vectormap.json"
+    if not txt.exists() and not js.exists():
+        raise FileNotFoundError(f"no {txt.name} or {js.name} in {folder}")
+    walls = read_vectormap_txt(txt) if txt.exists() else []
+    if not walls and js.exists():
+        walls = read_vectormap_json(js)
+    return walls
+
+
+def _zone_entry(scenario: str, zone: tuple, nodes: list[dict], nav: Path) -> dict[str, Any]:
+    """The map's conflict zone from a SocialGym scenario's ``build_zone``: x from the start hub
+    to the end hub, y within ``half`` (m) of the start hub."""
+    position = {n["id"]: n["position"] for n in nodes}
+    missing = [i for i in zone[:2] if i not in position]
+    if missing:
+        raise MapError(str(nav), "$.nodes", f"scenario {scenario}'s conflict zone needs "
+                       f"nodes {zone[0]} and {zone[1]}; this map has no node {missing[0]}")
+    (x0, y0), (x1, _), half = position[zone[0]], position[zone[1]], zone[2]
+    return {"name": scenario, "rect": [min(x0, x1), y0 - half, max(x0, x1), y0 + half]}
 
 
 def _product(starts: list[int], via: list[int], goals: list[int]) -> list[list[int]]:

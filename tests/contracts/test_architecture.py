@@ -32,7 +32,12 @@ TOP_LEVEL_MODULES = {"sgjax.version", "sgjax.types", "sgjax.command", "sgjax.com
 # The longest function allowed in sgjax/ (lines from ``def`` to its last line), and the ones
 # allowed to be longer, with the reason.
 MAX_FUNCTION_LINES = 80
-LONG_FUNCTIONS: dict[str, str] = {}
+LONG_FUNCTIONS: dict[str, str] = {
+    "sgjax.kernels.planner:plan": (
+        "the local planner's hot path: one straight data flow (arcs, clearances, scores, the "
+        "chosen command) whose intermediate [R, A] arrays XLA fuses; split into functions it "
+        "would read the same arrays through more names and no shorter"),
+}
 
 
 def modules(package: str) -> dict[str, Path]:
