@@ -47,7 +47,6 @@ from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.report import format_summary, markdown_table
 from sgjax.evaluation.statistics import summarize
-from sgjax.observations.others import FEATURES
 from sgjax.terms.base import ConfigError, suggest
 from train.actor import ActorWeights, lane_evaluator
 from train.config import TrainConfig, config_from_dict, load_config, read_yaml
@@ -58,8 +57,9 @@ from train.ppo import Trainer
 @dataclasses.dataclass(frozen=True)
 class Variant:
     """Reward terms to switch off, and observation features to hide: a term name
-    (``"velocity"``), ``"others.<feature>"`` (that feature of every body in the ``others``
-    block) or ``"pose.heading"`` (the pose term's cos/sin)."""
+    (``"velocity"``) or ``"<term>.<feature>"``, one feature of a term in every block (body,
+    step, beam) as its published column layout names it: ``"others.velocity"`` (every body's
+    velocity), ``"pose.heading"`` (the pose's cos/sin)."""
 
     rewards_off: tuple[str, ...] = ()
     hide: tuple[str, ...] = ()
@@ -68,34 +68,22 @@ class Variant:
 
 
 def observation_mask(env: Any, hide: Sequence[str]) -> np.ndarray:
-    """``[D]`` ones, with zeros on the hidden features of ``env``'s observation."""
+    """``[D]`` ones, with zeros on the hidden columns of ``env``'s observation, found in its
+    column layout (``env.config.observer.columns``)."""
     mask = np.ones(env.observation_size, np.float32)
-    slices = env.observation_slices()
-    terms = {t.name: t for t in env.config.observer.terms}
+    columns = env.config.observer.columns(env.config.layout)
     for item in hide:
         term, _, feature = item.partition(".")
-        if term not in slices:
+        if term not in columns:
             raise ConfigError(f"hide {item!r}: no observation term {term!r}; this "
-                              f"observation has {list(slices)}")
-        block = slices[term]
-        if not feature:
-            mask[block] = 0.0
-        elif term == "others" and feature in terms["others"].features:
-            others = terms["others"]
-            start = 0
-            for name in others.features:
-                if name == feature:
-                    break
-                start += FEATURES[name]
-            for body in range(others.k):
-                first = block.start + body * others.width + start
-                mask[first:first + FEATURES[feature]] = 0.0
-        elif term == "pose" and feature == "heading" and getattr(terms["pose"], "heading",
-                                                                  False):
-            mask[block.stop - 2:block.stop] = 0.0
-        else:
-            raise ConfigError(f"hide {item!r}: cannot hide {feature!r} of {term!r} (use a term, "
-                              "others.<feature> or pose.heading)")
+                              f"observation has {list(columns.slices)}")
+        try:
+            mask[columns.indices(item)] = 0.0
+        except ValueError:
+            raise ConfigError(
+                f"hide {item!r}: {term!r} has no feature {feature!r}; its features are "
+                f"{', '.join(columns[term].feature_names)} (hide a term, or <term>.<feature>)"
+            ) from None
     return mask
 
 

@@ -26,18 +26,33 @@ import jax
 import jax.numpy as jnp
 from jax import Array
 
+from sgjax.observations.columns import ObservationColumns
 from train.config import NetworkConfig
 from train.initializers import orthogonal
+
+OTHERS = "others"  # the observation term the others encoders read
 
 
 @dataclasses.dataclass(frozen=True)
 class OthersLayout:
-    """Where the ``others`` block sits in the observation vector."""
+    """Where the ``others`` block sits in the observation vector: ``k`` bodies x ``width``
+    features from column ``start``, read from the observation's published column layout
+    (:meth:`from_columns`); saved with a trained actor (``train.actor.ActorLayout``)."""
 
     start: int
     k: int
     width: int
-    mask_column: int | None  # column of the 0/1 mask feature, if observed
+    mask_column: int | None  # column of the 0/1 mask feature inside a body's block, if observed
+
+    @classmethod
+    def from_columns(cls, columns: ObservationColumns) -> OthersLayout | None:
+        """The layout of the ``others`` term in an observation's column layout
+        (``observer.columns(layout)``), or None without the term."""
+        if OTHERS not in columns:
+            return None
+        block = columns[OTHERS]
+        mask = block.offset("mask") if "mask" in block.feature_names else None
+        return cls(columns.span(OTHERS).start, block.repeat, block.width, mask)
 
     @property
     def stop(self) -> int:
@@ -46,28 +61,19 @@ class OthersLayout:
 
 def others_layout(env) -> OthersLayout | None:
     """The layout of ``env``'s ``others`` observation term, or None without one."""
-    terms = {t.name: t for t in env.config.observer.terms}
-    if "others" not in terms:
-        return None
-    term = terms["others"]
-    block = env.observation_slices()["others"]
-    from sgjax.observations.others import FEATURES
-
-    column, mask_column = 0, None
-    for name in term.features:
-        if name == "mask":
-            mask_column = column
-        column += FEATURES[name]
-    return OthersLayout(block.start, term.k, term.width, mask_column)
+    return OthersLayout.from_columns(env.config.observer.columns(env.config.layout))
 
 
 def most_seen(env) -> int | None:
-    """The most ``others`` slots that can hold a body in ``env`` (None without the term): a
-    network built for ``env`` alone may skip the slots past it, which are always empty. Not
-    part of the saved :class:`OthersLayout`: the same weights run in an environment with more
-    robots, where every slot counts."""
-    terms = {t.name: t for t in env.config.observer.terms}
-    return terms["others"].most_seen(env.config.layout) if "others" in terms else None
+    """The most ``others`` slots that can hold a body in ``env`` (None without the term; the
+    column layout's ``filled``): a network built for ``env`` alone may skip the slots past it,
+    which are always empty. Not part of the saved :class:`OthersLayout`: the same weights run
+    in an environment with more robots, where every slot counts."""
+    columns = env.config.observer.columns(env.config.layout)
+    if OTHERS not in columns:
+        return None
+    block = columns[OTHERS]
+    return block.repeat if block.filled is None else block.filled
 
 
 def _activation(name: str):

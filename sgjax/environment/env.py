@@ -54,9 +54,10 @@ from sgjax.kernels.geometry import safe_norm
 from sgjax.kernels.planner import PlannerConfig, approach, carrot_point, plan, route_progress
 from sgjax.kernels.zone_books import start_zones, update_zones
 from sgjax.maps.sampling import build_routes, sample_starts_goals
-from sgjax.observations import Observer, parse_observations
-from sgjax.rewards import Rewarder, parse_rewards
-from sgjax.terms.enders import Enders, Outcome, parse_enders
+from sgjax.observations import Observer
+from sgjax.rewards import Rewarder
+from sgjax.terms.contract import TermInput
+from sgjax.terms.enders import Enders, Outcome
 from sgjax.terms.presets import OBSERVATION_PRESETS, REWARD_PRESETS
 from sgjax.types import (
     ACTION_MODES,
@@ -97,11 +98,11 @@ class EnvConfig:
     planner: PlannerConfig = dataclasses.field(default_factory=PlannerConfig)
     humans: HumanConfig = dataclasses.field(default_factory=HumanConfig)
     observer: Observer = dataclasses.field(
-        default_factory=lambda: parse_observations(OBSERVATION_PRESETS["default"]))
+        default_factory=lambda: Observer.parse(OBSERVATION_PRESETS["default"]))
     rewarder: Rewarder = dataclasses.field(
-        default_factory=lambda: parse_rewards(REWARD_PRESETS["default"]["rewards"])[0])
+        default_factory=lambda: Rewarder.parse(REWARD_PRESETS["default"]["rewards"])[0])
     enders: Enders = dataclasses.field(
-        default_factory=lambda: parse_enders(REWARD_PRESETS["default"]["enders"]))
+        default_factory=lambda: Enders.parse(REWARD_PRESETS["default"]["enders"]))
     num_zones: int = 0  # conflict zones on the map (sizes the zone terms)
     track_zones: bool = False  # keep zone books even when no term reads them (for metrics)
     arrived: str = "settle"  # an arrived robot settles on its goal, parks where it is, or leaves
@@ -384,11 +385,15 @@ class SocialNavEnv:
         with jax.named_scope("bookkeeping"):
             moved = self._book(state, robots, humans, contacts, params)
         with jax.named_scope("enders"):
-            outcome, ender_rewards = cfg.enders(state, moved, params, layout)
+            # one term input for the step; terms that draw random numbers get their own keys
+            inputs = TermInput(prev=state, state=moved, actions=actions, params=params,
+                               key=jax.random.fold_in(key_obs, 1), layout=layout)
+            outcome, ender_rewards = cfg.enders(inputs)
             next_state = self._conclude(state, moved, outcome, cfg.arrived, cfg.ended == "park",
                                         params.dt).replace(held_action=actions)
         with jax.named_scope("rewards"):
-            reward, reward_terms = cfg.rewarder(state, next_state, actions, params, layout)
+            reward, reward_terms = cfg.rewarder(
+                inputs.replace(state=next_state, key=jax.random.fold_in(key_obs, 2)))
             was_active = state.robots.active
             reward = reward + jnp.where(was_active, outcome.reward, 0.0)
             reward_terms.update({k: jnp.where(was_active, v, 0.0)
@@ -544,7 +549,7 @@ class SocialNavEnv:
         """Observations ``[R, D]`` from the configured terms (zeros for robots not in the
         episode); ``key`` feeds noisy terms (lidar noise), default ``jax.random.key(0)``."""
         key = jax.random.key(0) if key is None else key
-        return self.config.observer(state, params, self.config.layout, key)
+        return self.config.observer(TermInput.observing(state, params, self.config.layout, key))
 
     # Compiled entry points: an eager call runs one compiled program instead of dispatching (and
     # compiling) thousands of primitives one by one; inside an outer jit, vmap, scan or grad

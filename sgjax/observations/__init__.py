@@ -1,7 +1,8 @@
 """Observation terms and the Observer (``sgjax.observations.OBSERVATIONS`` lists them by name)."""
 
 from sgjax.observations import conflict_zones, lidar, others, own  # noqa: F401  (registers the terms)
-from sgjax.observations.base import OBSERVATIONS, ObservationTerm, Observer, parse_observations
+from sgjax.observations.base import OBSERVATIONS, ObservationTerm, Observer
+from sgjax.observations.columns import Columns, ObservationColumns
 from sgjax.observations.lidar import Lidar
 from sgjax.observations.others import FEATURES, Others
 from sgjax.observations.own import (
@@ -20,9 +21,11 @@ __all__ = [
     "FEATURES",
     "OBSERVATIONS",
     "CollisionFlag",
+    "Columns",
     "Goal",
     "GoalDistance",
     "Lidar",
+    "ObservationColumns",
     "ObservationTerm",
     "Observer",
     "Others",
@@ -32,5 +35,4 @@ __all__ = [
     "TimeLeft",
     "Velocity",
     "Waypoint",
-    "parse_observations",
 ]

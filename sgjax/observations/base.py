@@ -1,43 +1,51 @@
 """Observation terms and the Observer that concatenates them.
 
-A term is a frozen dataclass (its fields are its options) with a ``name``, a ``size`` and a
-call ``term(state, params, layout, key) -> [R, size]`` for one episode's robots. The Observer
-stacks its terms into ``obs [R, D]`` in order and knows which slice belongs to which term.
+An observation term (:class:`ObservationTerm`) is called with the one term input,
+``term(inputs: TermInput) -> [R, size]``, for one episode's robots, and publishes its column
+layout (``columns(layout)``: what each of its ``size(layout)`` columns holds). The Observer
+stacks its terms into ``obs [R, D]`` in order and publishes the layout of the whole vector.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar
 
-import jax
 import jax.numpy as jnp
 from jax import Array
 
-from sgjax.terms.base import ConfigError, Registry, TermSet
+from sgjax.observations.columns import Columns, ObservationColumns
+from sgjax.terms.base import ConfigError, Registry, TermSet, parse_terms
+from sgjax.terms.contract import Term, TermInput
 
 if TYPE_CHECKING:
-    from sgjax.types import EnvParams, EnvState, Layout
-
-OBSERVATIONS = Registry("observation term")
+    from sgjax.types import Layout
 
 
 @dataclasses.dataclass(frozen=True)
-class ObservationTerm:
-    """Base class: subclasses set ``name`` and implement ``size`` and ``__call__``."""
+class ObservationTerm(Term):
+    """Base class of observation terms: subclasses set ``name`` and implement ``columns`` and
+    ``__call__(inputs) -> [R, size]`` (float or bool; the Observer casts to float32).
 
-    name: ClassVar[str] = ""
+    ``columns(layout)`` names the term's columns (:class:`~sgjax.observations.columns.Columns`);
+    ``size(layout)`` is their number. ``history``: steps of state history the term reads
+    (``state.history`` keeps the longest any term of the environment asks for).
+    """
+
     history: ClassVar[int] = 1  # steps of history the term reads (instances may override)
-    needs_key: ClassVar[bool] = False
-    uses_zones: ClassVar[bool] = False  # reads state.zones (conflict-zone bookkeeping)
+
+    def columns(self, layout: Layout) -> Columns:
+        raise NotImplementedError
 
     def size(self, layout: Layout) -> int:
+        """The number of columns, ``len(self.columns(layout))``."""
+        return self.columns(layout).size
+
+    def __call__(self, inputs: TermInput) -> Array:
         raise NotImplementedError
 
-    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
-                 ) -> Array:
-        raise NotImplementedError
+
+OBSERVATIONS = Registry("observation term", ObservationTerm)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -53,15 +61,23 @@ class Observer(TermSet):
             raise ConfigError("observations: at least one term is needed; valid terms are: "
                               + ", ".join(OBSERVATIONS.names()))
 
-    @property
-    def needs_key(self) -> bool:
-        """Whether any term draws random numbers (observation noise)."""
-        return any(t.needs_key for t in self.terms)
+    @classmethod
+    def parse(cls, spec: Any, where: str = "observations") -> Observer:
+        """From a list whose items are a term name or a one-key mapping
+        ``{name: {option: value}}``; a mapping ``{name: options}`` is taken in its order
+        (see :func:`sgjax.terms.base.parse_terms`). An Observer is returned as it is."""
+        if isinstance(spec, Observer):
+            return spec
+        return cls(tuple(term for term, _ in parse_terms(spec, OBSERVATIONS, where)))
 
     @property
     def history_length(self) -> int:
         """Steps of state history the terms need (at least 1: the current step)."""
         return max([1] + [int(t.history) for t in self.terms])
+
+    def columns(self, layout: Layout) -> ObservationColumns:
+        """The layout of the observation vector: each term's span and column names."""
+        return ObservationColumns.of([(t.name, t.columns(layout)) for t in self.terms])
 
     def sizes(self, layout: Layout) -> dict[str, int]:
         return {t.name: int(t.size(layout)) for t in self.terms}
@@ -79,52 +95,24 @@ class Observer(TermSet):
         return out
 
     def describe(self, layout: Layout) -> str:
-        """One line per term: ``name [start:stop] size``."""
-        return "\n".join(f"{name:<24} [{s.start}:{s.stop}] size {s.stop - s.start}"
-                         for name, s in self.slices(layout).items())
+        """One line per term: ``name [start:stop] size``, its blocks and its columns."""
+        return self.columns(layout).describe()
 
     def split(self, obs: Array, layout: Layout) -> dict[str, Array]:
         """Cut observations ``[..., D]`` into a dict of ``[..., size]`` by term name."""
         return {name: obs[..., s] for name, s in self.slices(layout).items()}
 
-    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
-                 ) -> Array:
-        """``obs [R, D]`` (float32); rows of robots not in the episode are zeros."""
-        keys = (jax.random.split(key, len(self.terms)) if self.needs_key
-                else [key] * len(self.terms))
+    def __call__(self, inputs: TermInput) -> Array:
+        """``obs [R, D]`` (float32) of ``inputs.state``; rows of robots not in the episode are
+        zeros. Terms that draw random numbers get keys split from ``inputs.key``."""
+        layout = inputs.layout
         parts = []
-        for term, term_key in zip(self.terms, keys, strict=True):
-            value = term(state, params, layout, term_key)
+        for term, term_inputs in self.each(inputs):
+            value = term(term_inputs)
             expected = (layout.max_agents, term.size(layout))
             if value.shape != expected:
                 raise RuntimeError(f"observation term {term.name!r} returned shape "
                                    f"{value.shape}, expected {expected}")
             parts.append(value.astype(jnp.float32))
         obs = jnp.concatenate(parts, axis=-1)
-        return jnp.where(state.robots.present[:, None], obs, 0.0)
-
-
-def parse_observations(spec: Any, where: str = "observations") -> Observer:
-    """Build an :class:`Observer` from a list whose items are a term name or a one-key mapping
-    ``{name: {option: value}}``; a mapping ``{name: options}`` is taken in its order."""
-    if isinstance(spec, Observer):
-        return spec
-    if isinstance(spec, Mapping):
-        items: Sequence[Any] = [{k: v} for k, v in spec.items()]
-    elif isinstance(spec, Sequence) and not isinstance(spec, str):
-        items = spec
-    else:
-        raise ConfigError(f"{where}: expected a list of terms, got {spec!r}")
-    terms = []
-    for i, item in enumerate(items):
-        if isinstance(item, ObservationTerm):
-            terms.append(item)
-        elif isinstance(item, str):
-            terms.append(OBSERVATIONS.build(f"{where}[{i}]", item, {}))
-        elif isinstance(item, Mapping) and len(item) == 1:
-            (name, options), = item.items()
-            terms.append(OBSERVATIONS.build(f"{where}[{i}]", name, options))
-        else:
-            raise ConfigError(f"{where}[{i}]: expected a term name or {{name: options}}, "
-                              f"got {item!r}")
-    return Observer(tuple(terms))
+        return jnp.where(inputs.state.robots.present[:, None], obs, 0.0)

@@ -1,30 +1,37 @@
 """Conflict-zone observation terms (SocialGym 2.0's zone observations), one value per zone of
-the map (size ``Z``; see :mod:`sgjax.kernels.zone_books` for the definitions)."""
+the map (size ``Z``, one block per zone; see :mod:`sgjax.kernels.zone_books` for the
+definitions)."""
 
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, ClassVar
 
 import jax.numpy as jnp
 from jax import Array
 
 from sgjax.kernels import zone_books as zn
 from sgjax.observations.base import OBSERVATIONS, ObservationTerm
+from sgjax.observations.columns import Columns
 
 if TYPE_CHECKING:
-    from sgjax.types import EnvParams, EnvState, Layout
+    from sgjax.terms.contract import TermInput
+    from sgjax.types import Layout
 
 
 @dataclasses.dataclass(frozen=True)
 class ZoneTerm(ObservationTerm):
+    """Base of the zone terms: ``value(zones, x, y, radius, rect) -> [R, Z]``, one column per
+    zone named ``column[z]``."""
+
     uses_zones = True
+    column: ClassVar[str] = "value"
 
-    def size(self, layout: Layout) -> int:
-        return layout.num_zones
+    def columns(self, layout: Layout) -> Columns:
+        return Columns.plain(self.column, repeat=layout.num_zones)
 
-    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
-                 ) -> Array:
+    def __call__(self, inputs: TermInput) -> Array:
+        state, params = inputs.state, inputs.params
         r = state.robots
         return self.value(state.zones, r.x, r.y, params.robots.radius,
                           params.map.zone_rect).astype(jnp.float32)
@@ -41,6 +48,7 @@ class ZonePriority(ZoneTerm):
     robots whose route avoids the zone."""
 
     name = "zone_priority"
+    column = "priority"
 
     def value(self, zones, x, y, radius, rect):  # noqa: ANN001, ANN201
         return zn.priority_rank(zones)
@@ -52,6 +60,7 @@ class ZoneOrder(ZoneTerm):
     """Place in the queue as it stands (inside by entry time, then by distance); -1 as above."""
 
     name = "zone_order"
+    column = "place"
 
     def value(self, zones, x, y, radius, rect):  # noqa: ANN001, ANN201
         return zn.current_rank(zones, x, y, rect)
@@ -63,6 +72,7 @@ class InZone(ZoneTerm):
     """1 while the robot's disc overlaps the zone."""
 
     name = "in_zone"
+    column = "inside"
 
     def value(self, zones, x, y, radius, rect):  # noqa: ANN001, ANN201
         return zones.phase == zn.INSIDE
@@ -74,6 +84,7 @@ class EnteringZone(ZoneTerm):
     """1 while the robot straddles the zone's edge on its way in."""
 
     name = "entering_zone"
+    column = "entering"
 
     def value(self, zones, x, y, radius, rect):  # noqa: ANN001, ANN201
         return zn.straddling(zones, x, y, radius, rect)[0]
@@ -85,6 +96,7 @@ class ExitingZone(ZoneTerm):
     """1 while the robot straddles the zone's edge on its way out."""
 
     name = "exiting_zone"
+    column = "exiting"
 
     def value(self, zones, x, y, radius, rect):  # noqa: ANN001, ANN201
         return zn.straddling(zones, x, y, radius, rect)[1]
@@ -96,6 +108,7 @@ class ZoneEnteringCount(ZoneTerm):
     """Number of robots straddling the zone's edge on their way in (the same for every robot)."""
 
     name = "zone_entering_count"
+    column = "entering_count"
 
     def value(self, zones, x, y, radius, rect):  # noqa: ANN001, ANN201
         entering = zn.straddling(zones, x, y, radius, rect)[0]
@@ -108,6 +121,7 @@ class ZoneExitingCount(ZoneTerm):
     """Number of robots straddling the zone's edge on their way out."""
 
     name = "zone_exiting_count"
+    column = "exiting_count"
 
     def value(self, zones, x, y, radius, rect):  # noqa: ANN001, ANN201
         exiting = zn.straddling(zones, x, y, radius, rect)[1]

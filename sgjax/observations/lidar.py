@@ -11,11 +11,13 @@ import jax.numpy as jnp
 from jax import Array
 
 from sgjax.observations.base import OBSERVATIONS, ObservationTerm
+from sgjax.observations.columns import Columns
 from sgjax.terms.base import check_bool, check_int, check_positive
 from sgjax.terms.queries import gather_bodies
 
 if TYPE_CHECKING:
-    from sgjax.types import EnvParams, EnvState, Layout
+    from sgjax.terms.contract import TermInput
+    from sgjax.types import Layout
 
 
 def beam_angles(beams: int, fov: float) -> Array:
@@ -84,11 +86,12 @@ class Lidar(ObservationTerm):
         check_bool("robots", self.robots)
         check_bool("humans", self.humans)
 
-    def size(self, layout: Layout) -> int:
-        return self.beams
+    def columns(self, layout: Layout) -> Columns:
+        """One block per beam: ``range[i]``."""
+        return Columns.plain("range", repeat=self.beams)
 
-    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
-                 ) -> Array:
+    def __call__(self, inputs: TermInput) -> Array:
+        state, params, layout = inputs.state, inputs.params, inputs.layout
         r, m = state.robots, params.map
         angle = r.heading[:, None] + beam_angles(self.beams, self.fov)[None, :]  # [R, N]
         ux, uy = jnp.cos(angle), jnp.sin(angle)
@@ -107,5 +110,5 @@ class Lidar(ObservationTerm):
             hits = jnp.where(seen[:, None, :], hits, jnp.inf)
             nearest = jnp.minimum(nearest, jnp.min(hits, axis=-1))
         if self.noise > 0.0:
-            nearest = nearest + self.noise * jax.random.normal(key, nearest.shape)
+            nearest = nearest + self.noise * jax.random.normal(inputs.key, nearest.shape)
         return jnp.clip(nearest, 0.0, self.range)

@@ -11,22 +11,24 @@ from jax import Array
 
 from sgjax.kernels.geometry import safe_norm
 from sgjax.observations.base import OBSERVATIONS, ObservationTerm
+from sgjax.observations.columns import Columns
 from sgjax.terms.base import check_bool, check_int, check_positive
 from sgjax.terms.queries import gather_bodies, line_of_sight, to_robot_frame
 
 if TYPE_CHECKING:
+    from sgjax.terms.contract import TermInput
     from sgjax.types import EnvParams, EnvState, Layout
 
-# Per-other feature groups and their widths.
-FEATURES = {
-    "position": 2,  # (dx, dy) m, robot frame
-    "distance": 1,  # body-to-body gap (m): centre distance minus both radii
-    "heading": 2,  # (cos, sin) of the other's heading relative to the robot's
-    "velocity": 2,  # the other's velocity (or relative velocity) in the robot frame, m/s
-    "radius": 1,  # m
-    "kind": 1,  # 1 = pedestrian, 0 = robot
-    "mask": 1,  # 1 = a real, visible body in this slot; 0 = padding
-    "goal": 2,  # (dx, dy) m, robot frame, from the robot to the other robot's goal; 0 for people
+# Per-other feature groups and the names of their columns (a feature's width is their number).
+FEATURES: dict[str, tuple[str, ...]] = {
+    "position": ("dx", "dy"),  # m, robot frame
+    "distance": ("gap",),  # body-to-body gap (m): centre distance minus both radii
+    "heading": ("cos_heading", "sin_heading"),  # of the other's heading relative to the robot's
+    "velocity": ("vx", "vy"),  # the other's velocity (or relative velocity), robot frame, m/s
+    "radius": ("radius",),  # m
+    "kind": ("is_human",),  # 1 = pedestrian, 0 = robot
+    "mask": ("mask",),  # 1 = a real, visible body in this slot; 0 = padding
+    "goal": ("goal_dx", "goal_dy"),  # m, robot frame, to the other robot's goal; 0 for people
 }
 # The features seen when none are named, in output order (every feature but "goal").
 DEFAULT_FEATURES = ("position", "distance", "heading", "velocity", "radius", "kind", "mask")
@@ -43,7 +45,8 @@ class Others(ObservationTerm):
     behind a wall (SocialGym's ``partially_observable``); ``max_range`` (m) hides farther ones;
     ``relative_velocity`` reports ``v_other - v_self`` instead of ``v_other``. ``features``
     defaults to ``DEFAULT_FEATURES``; ``goal`` (where another robot is going) is asked for by
-    name. Size ``k x sum(feature widths)``.
+    name. Size ``k x width``: ``columns(layout)`` has ``k`` blocks (bodies, nearest first) of
+    the ``features``' columns (``FEATURES``).
     """
 
     name = "others"
@@ -63,6 +66,8 @@ class Others(ObservationTerm):
         for f in self.features:
             if f not in FEATURES:
                 raise ValueError(f"features: unknown feature {f!r}; valid: {list(FEATURES)}")
+        if len(set(self.features)) != len(self.features):
+            raise ValueError(f"features: each feature may appear once, got {list(self.features)}")
         for field in ("robots", "humans", "line_of_sight", "relative_velocity"):
             check_bool(field, getattr(self, field))
         if self.max_range is not None:
@@ -70,7 +75,8 @@ class Others(ObservationTerm):
 
     @property
     def width(self) -> int:
-        return sum(FEATURES[f] for f in self.features)
+        """Columns per body."""
+        return sum(len(FEATURES[f]) for f in self.features)
 
     def most_seen(self, layout: Layout) -> int:
         """The most slots that can hold a body in an environment of ``layout``: the other robot
@@ -80,8 +86,11 @@ class Others(ObservationTerm):
             layout.max_humans if self.humans else 0)
         return min(self.k, max(count, 0))
 
-    def size(self, layout: Layout) -> int:
-        return self.k * self.width
+    def columns(self, layout: Layout) -> Columns:
+        """``k`` blocks (bodies, nearest first) of the chosen features' columns; ``filled`` is
+        :meth:`most_seen`."""
+        return Columns.grouped({f: FEATURES[f] for f in self.features}, repeat=self.k,
+                               filled=self.most_seen(layout))
 
     def nearest(self, state: EnvState, params: EnvParams, layout: Layout
                 ) -> tuple[Array, dict[str, Array]]:
@@ -145,8 +154,7 @@ class Others(ObservationTerm):
                  for name in self.features}
         return chosen, feats
 
-    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
-                 ) -> Array:
-        _, feats = self.nearest(state, params, layout)
+    def __call__(self, inputs: TermInput) -> Array:
+        _, feats = self.nearest(inputs.state, inputs.params, inputs.layout)
         stacked = jnp.concatenate([feats[name] for name in self.features], axis=-1)
-        return stacked.reshape(layout.max_agents, -1)
+        return stacked.reshape(inputs.layout.max_agents, -1)

@@ -9,11 +9,13 @@ import jax.numpy as jnp
 from jax import Array
 
 from sgjax.observations.base import OBSERVATIONS, ObservationTerm
+from sgjax.observations.columns import Columns
 from sgjax.terms.base import check_bool, check_choice, check_int, check_positive
 from sgjax.terms.queries import to_robot_frame
 
 if TYPE_CHECKING:
-    from sgjax.types import EnvParams, EnvState, Layout
+    from sgjax.terms.contract import TermInput
+    from sgjax.types import Layout
 
 
 def with_past(now: Array, past: Array, steps: int, term: str) -> Array:
@@ -38,12 +40,13 @@ class Pose(ObservationTerm):
     def __post_init__(self) -> None:
         check_bool("heading", self.heading)
 
-    def size(self, layout: Layout) -> int:
-        return 4 if self.heading else 2
+    def columns(self, layout: Layout) -> Columns:
+        position = {"position": ("x", "y")}
+        heading = {"heading": ("cos_heading", "sin_heading")} if self.heading else {}
+        return Columns.grouped({**position, **heading})
 
-    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
-                 ) -> Array:
-        r = state.robots
+    def __call__(self, inputs: TermInput) -> Array:
+        r = inputs.state.robots
         parts = [r.x, r.y] + ([jnp.cos(r.heading), jnp.sin(r.heading)] if self.heading else [])
         return jnp.stack(parts, axis=-1)
 
@@ -66,11 +69,13 @@ class Velocity(ObservationTerm):
         check_int("history", self.history)
         check_bool("turn_rate", self.turn_rate)
 
-    def size(self, layout: Layout) -> int:
-        return self.history * (3 if self.turn_rate else 2)
+    def columns(self, layout: Layout) -> Columns:
+        names = ("v_forward", "v_lateral") if self.frame == "body" else ("vx", "vy")
+        return Columns.plain(*names, *(("omega",) if self.turn_rate else ()),
+                             repeat=self.history)
 
-    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
-                 ) -> Array:
+    def __call__(self, inputs: TermInput) -> Array:
+        state = inputs.state
         h, k, kin = state.history, self.history, state.robots.kin
         if self.frame == "body":
             pairs = [(kin.v_forward, h.v_forward), (kin.v_lateral, h.v_lateral)]
@@ -95,12 +100,11 @@ class Goal(ObservationTerm):
     def __post_init__(self) -> None:
         check_choice("frame", self.frame, ("world", "robot"))
 
-    def size(self, layout: Layout) -> int:
-        return 2
+    def columns(self, layout: Layout) -> Columns:
+        return Columns.plain("x", "y") if self.frame == "world" else Columns.plain("dx", "dy")
 
-    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
-                 ) -> Array:
-        r, route = state.robots, state.route
+    def __call__(self, inputs: TermInput) -> Array:
+        r, route = inputs.state.robots, inputs.state.route
         if self.frame == "world":
             return jnp.stack([route.goal_x, route.goal_y], axis=-1)
         gx, gy = to_robot_frame(r.heading, route.goal_x - r.x, route.goal_y - r.y)
@@ -118,11 +122,11 @@ class GoalDistance(ObservationTerm):
     def __post_init__(self) -> None:
         check_int("history", self.history)
 
-    def size(self, layout: Layout) -> int:
-        return self.history
+    def columns(self, layout: Layout) -> Columns:
+        return Columns.plain("distance", repeat=self.history)
 
-    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
-                 ) -> Array:
+    def __call__(self, inputs: TermInput) -> Array:
+        state = inputs.state
         return with_past(state.goal_distance, state.history.goal_distance, self.history,
                          self.name).T
 
@@ -140,12 +144,11 @@ class PreferredSpeed(ObservationTerm):
         if self.speed is not None:
             check_positive("speed", self.speed)
 
-    def size(self, layout: Layout) -> int:
-        return 1
+    def columns(self, layout: Layout) -> Columns:
+        return Columns.plain("speed")
 
-    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
-                 ) -> Array:
-        top = params.robots.max_speed
+    def __call__(self, inputs: TermInput) -> Array:
+        top = inputs.params.robots.max_speed
         return (top if self.speed is None else jnp.full_like(top, self.speed))[:, None]
 
 
@@ -156,11 +159,11 @@ class CollisionFlag(ObservationTerm):
 
     name = "collision"
 
-    def size(self, layout: Layout) -> int:
-        return 1
+    def columns(self, layout: Layout) -> Columns:
+        return Columns.plain("collision")
 
-    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
-                 ) -> Array:
+    def __call__(self, inputs: TermInput) -> Array:
+        state = inputs.state
         touching = state.touching_robot | state.touching_wall | state.touching_human
         return touching.astype(jnp.float32)[:, None]
 
@@ -172,12 +175,11 @@ class SuccessFlag(ObservationTerm):
 
     name = "success"
 
-    def size(self, layout: Layout) -> int:
-        return 1
+    def columns(self, layout: Layout) -> Columns:
+        return Columns.plain("success")
 
-    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
-                 ) -> Array:
-        return state.robots.succeeded.astype(jnp.float32)[:, None]
+    def __call__(self, inputs: TermInput) -> Array:
+        return inputs.state.robots.succeeded.astype(jnp.float32)[:, None]
 
 
 @OBSERVATIONS.register
@@ -188,11 +190,11 @@ class Waypoint(ObservationTerm):
 
     name = "waypoint"
 
-    def size(self, layout: Layout) -> int:
-        return 2
+    def columns(self, layout: Layout) -> Columns:
+        return Columns.plain("dx", "dy")
 
-    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
-                 ) -> Array:
+    def __call__(self, inputs: TermInput) -> Array:
+        state = inputs.state
         r, route = state.robots, state.route
         ahead = route.cum_length > state.progress[:, None] + 1e-3  # [R, L], monotone
         before = jnp.concatenate([jnp.zeros_like(ahead[:, :1]), ahead[:, :-1]], axis=1)
@@ -212,10 +214,10 @@ class TimeLeft(ObservationTerm):
 
     name = "time_left"
 
-    def size(self, layout: Layout) -> int:
-        return 1
+    def columns(self, layout: Layout) -> Columns:
+        return Columns.plain("fraction")
 
-    def __call__(self, state: EnvState, params: EnvParams, layout: Layout, key: Array
-                 ) -> Array:
-        left = 1.0 - state.time.astype(jnp.float32) / params.max_steps.astype(jnp.float32)
-        return jnp.broadcast_to(jnp.clip(left, 0.0, 1.0), (layout.max_agents, 1))
+    def __call__(self, inputs: TermInput) -> Array:
+        time, steps = inputs.state.time, inputs.params.max_steps
+        left = 1.0 - time.astype(jnp.float32) / steps.astype(jnp.float32)
+        return jnp.broadcast_to(jnp.clip(left, 0.0, 1.0), (inputs.layout.max_agents, 1))

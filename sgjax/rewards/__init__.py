@@ -1,7 +1,7 @@
 """Reward terms, weight schedules and the Rewarder (``sgjax.rewards.REWARDS`` lists terms)."""
 
 from sgjax.rewards import navigation, social, zone_order  # noqa: F401  (registers the terms)
-from sgjax.rewards.base import REWARDS, Rewarder, RewardParams, RewardTerm, parse_rewards
+from sgjax.rewards.base import REWARDS, Rewarder, RewardParams, RewardTerm
 from sgjax.rewards.schedules import Schedule, constant, linear, parse_schedule, piecewise
 
 __all__ = [
@@ -12,7 +12,6 @@ __all__ = [
     "Schedule",
     "constant",
     "linear",
-    "parse_rewards",
     "parse_schedule",
     "piecewise",
 ]

@@ -15,7 +15,7 @@ from sgjax.terms.base import check_bool, check_choice, check_positive
 from sgjax.terms.queries import collided
 
 if TYPE_CHECKING:
-    from sgjax.types import EnvParams, EnvState, Layout
+    from sgjax.terms.contract import TermInput
 
 
 @REWARDS.register
@@ -25,8 +25,8 @@ class Existence(RewardTerm):
 
     name = "existence"
 
-    def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 layout: Layout) -> Array:
+    def __call__(self, inputs: TermInput) -> Array:
+        state = inputs.state
         return -(~state.robots.succeeded).astype(jnp.float32)
 
 
@@ -38,8 +38,8 @@ class Success(RewardTerm):
 
     name = "success"
 
-    def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 layout: Layout) -> Array:
+    def __call__(self, inputs: TermInput) -> Array:
+        prev, state = inputs.prev, inputs.state
         return (state.robots.succeeded & ~prev.robots.succeeded).astype(jnp.float32)
 
 
@@ -59,8 +59,8 @@ class Collision(RewardTerm):
         for field in ("per_step", "robots", "walls", "humans"):
             check_bool(field, getattr(self, field))
 
-    def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 layout: Layout) -> Array:
+    def __call__(self, inputs: TermInput) -> Array:
+        prev, state = inputs.prev, inputs.state
         hit = collided(prev, state, self.robots, self.walls, self.humans, self.per_step)
         return -hit.astype(jnp.float32)
 
@@ -85,8 +85,8 @@ class Progress(RewardTerm):
             if not ok:
                 raise ValueError(f"clip must be [low, high] with low <= high, got {self.clip!r}")
 
-    def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 layout: Layout) -> Array:
+    def __call__(self, inputs: TermInput) -> Array:
+        prev, state = inputs.prev, inputs.state
         if self.along_route:
             gain = state.progress - prev.progress
         else:
@@ -110,8 +110,8 @@ class GoalDistance(RewardTerm):
         check_choice("form", self.form, ("negative", "inverse"))
         check_positive("floor", self.floor)
 
-    def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 layout: Layout) -> Array:
+    def __call__(self, inputs: TermInput) -> Array:
+        state = inputs.state
         d = state.goal_distance
         return -d if self.form == "negative" else 1.0 / jnp.maximum(d, self.floor)
 
@@ -124,8 +124,8 @@ class VelocityChange(RewardTerm):
 
     name = "velocity_change"
 
-    def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 layout: Layout) -> Array:
+    def __call__(self, inputs: TermInput) -> Array:
+        prev, state = inputs.prev, inputs.state
         dv = state.robots.velocity - prev.robots.velocity
         return -(dv[:, 0] ** 2 + dv[:, 1] ** 2)
 
@@ -143,8 +143,8 @@ class PreferredVelocity(RewardTerm):
         if self.speed is not None:
             check_positive("speed", self.speed)
 
-    def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 layout: Layout) -> Array:
+    def __call__(self, inputs: TermInput) -> Array:
+        state, params = inputs.state, inputs.params
         v = state.robots.velocity
         preferred = params.robots.max_speed if self.speed is None else self.speed
         return -(safe_norm(v[:, 0], v[:, 1]) - preferred) ** 2

@@ -21,6 +21,7 @@ from sgjax.terms.base import check_bool, check_positive
 from sgjax.terms.queries import body_gaps, gather_bodies, to_robot_frame
 
 if TYPE_CHECKING:
+    from sgjax.terms.contract import TermInput
     from sgjax.types import EnvParams, EnvState, Layout
 
 @REWARDS.register
@@ -40,8 +41,8 @@ class Proximity(RewardTerm):
         check_bool("robots", self.robots)
         check_bool("humans", self.humans)
 
-    def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 layout: Layout) -> Array:
+    def __call__(self, inputs: TermInput) -> Array:
+        state, params, layout = inputs.state, inputs.params, inputs.layout
         gaps = body_gaps(state, params, layout, self.robots, self.humans)
         if gaps.shape[1] == 0:
             return jnp.zeros(layout.max_agents)
@@ -61,8 +62,8 @@ class PersonalSpace(RewardTerm):
     def __post_init__(self) -> None:
         check_positive("radius", self.radius)
 
-    def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 layout: Layout) -> Array:
+    def __call__(self, inputs: TermInput) -> Array:
+        state, params, layout = inputs.state, inputs.params, inputs.layout
         gaps = body_gaps(state, params, layout, robots=False, humans=True)
         intrusion = jnp.maximum(1.0 - jnp.maximum(gaps, 0.0) / self.radius, 0.0)
         return -jnp.sum(intrusion, axis=1)
@@ -98,8 +99,8 @@ class SocialNorm(RewardTerm):
                    other_speed: Array) -> Array:
         raise NotImplementedError
 
-    def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 layout: Layout) -> Array:
+    def __call__(self, inputs: TermInput) -> Array:
+        state, params, layout = inputs.state, inputs.params, inputs.layout
         px, py, dh, bearing, other_speed, there = _norm_geometry(state, params, layout)
         v = state.robots.velocity
         own_speed = safe_norm(v[:, 0], v[:, 1])[:, None]

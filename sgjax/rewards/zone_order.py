@@ -13,7 +13,7 @@ from sgjax.rewards.base import REWARDS, RewardTerm
 from sgjax.terms.base import check_bool
 
 if TYPE_CHECKING:
-    from sgjax.types import EnvParams, EnvState, Layout
+    from sgjax.terms.contract import TermInput
 
 
 @REWARDS.register
@@ -41,8 +41,8 @@ class ZoneOrder(RewardTerm):
         for field in ("any_order", "incorrect_penalty", "multiple_entry_penalty", "continuous"):
             check_bool(field, getattr(self, field))
 
-    def __call__(self, prev: EnvState, state: EnvState, actions: Array, params: EnvParams,
-                 layout: Layout) -> Array:
+    def __call__(self, inputs: TermInput) -> Array:
+        prev, state, params, layout = inputs.prev, inputs.state, inputs.params, inputs.layout
         if layout.num_zones == 0:
             return jnp.zeros(layout.max_agents)
         rect, radius = params.map.zone_rect, params.robots.radius

@@ -1,6 +1,8 @@
 """Episode enders: composable terminated / truncated terms.
 
-An ender maps ``(prev, state, params, layout)`` to an :class:`Outcome`: which robots it
+An ender is called with the one term input, ``ender(inputs: TermInput) -> Outcome``, on the
+state after the motion (``inputs.state``; arrivals are marked, absorbing robots not yet) and
+the state before the step (``inputs.prev``). Its :class:`Outcome` says which robots it
 terminates (they leave the world, or stay parked with ``make(ended="park")``; arrived robots
 settle on their goals by default), which it truncates (the episode ends for them without a
 terminal state) and a reward adjustment (for example the stuck penalty).
@@ -10,7 +12,6 @@ terminal state) and a reward adjustment (for example the stuck penalty).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import jax.numpy as jnp
@@ -25,31 +26,48 @@ from sgjax.terms.base import (
     check_choice,
     check_int,
     check_positive,
+    parse_terms,
 )
+from sgjax.terms.contract import Term, TermInput
 from sgjax.terms.queries import collided
 
 if TYPE_CHECKING:
-    from sgjax.types import EnvParams, EnvState, Layout
-
-ENDERS = Registry("episode ender")
+    from sgjax.types import EnvState
 
 
 @struct.dataclass
 class Outcome:
+    """What an ender (or all of them together) decides for one step, per robot slot ``[R]``:
+
+    * ``terminated`` (bool): the robot's episode ends in a terminal state (success, a fatal
+      collision); it is absorbing from the next state on (``state.robots.ended``);
+    * ``truncated`` (bool): its episode ends without a terminal state (time limit, stuck);
+    * ``reward`` (float32, natural sign): added to the step's reward of robots that were
+      active at ``prev`` (the stuck penalty), and reported under the ender's name in
+      ``info["reward_terms"]`` when the ender ``pays``.
+
+    Enders combine by ``or`` on the flags and ``+`` on the reward."""
+
     terminated: Array  # [R] bool
     truncated: Array  # [R] bool
-    reward: Array  # [R] float added to the step's reward
+    reward: Array  # [R] float32 added to the step's reward
 
 
 @dataclasses.dataclass(frozen=True)
-class Ender:
-    name: ClassVar[str] = ""
+class Ender(Term):
+    """Base class of episode enders: subclasses set ``name`` and implement
+    ``__call__(inputs) -> Outcome``. ``window``: steps of per-robot movement the ender reads
+    from ``state.moved`` (the environment keeps the longest any ender asks for); ``pays``: the
+    ender adjusts rewards (its ``Outcome.reward`` is reported in ``info["reward_terms"]``)."""
+
     window: ClassVar[int] = 0  # steps of movement history the ender reads
     pays: ClassVar[bool] = False  # adjusts rewards (reported in info["reward_terms"])
 
-    def __call__(self, prev: EnvState, state: EnvState, params: EnvParams, layout: Layout
-                 ) -> Outcome:
+    def __call__(self, inputs: TermInput) -> Outcome:
         raise NotImplementedError
+
+
+ENDERS = Registry("episode ender", Ender)
 
 
 def _nothing(state: EnvState) -> Outcome:
@@ -64,8 +82,8 @@ class SuccessEnder(Ender):
 
     name = "success"
 
-    def __call__(self, prev: EnvState, state: EnvState, params: EnvParams, layout: Layout
-                 ) -> Outcome:
+    def __call__(self, inputs: TermInput) -> Outcome:
+        prev, state = inputs.prev, inputs.state
         out = _nothing(state)
         return out.replace(terminated=state.robots.succeeded & ~prev.robots.succeeded)
 
@@ -78,8 +96,8 @@ class TimeLimit(Ender):
 
     name = "time_limit"
 
-    def __call__(self, prev: EnvState, state: EnvState, params: EnvParams, layout: Layout
-                 ) -> Outcome:
+    def __call__(self, inputs: TermInput) -> Outcome:
+        state, params = inputs.state, inputs.params
         out = _nothing(state)
         late = state.time >= params.max_steps
         return out.replace(truncated=jnp.broadcast_to(late, out.truncated.shape))
@@ -109,8 +127,8 @@ class Stuck(Ender):
     def window(self) -> int:  # type: ignore[override]
         return self.steps
 
-    def __call__(self, prev: EnvState, state: EnvState, params: EnvParams, layout: Layout
-                 ) -> Outcome:
+    def __call__(self, inputs: TermInput) -> Outcome:
+        prev, state = inputs.prev, inputs.state
         out = _nothing(state)
         travelled = jnp.sum(state.moved[: self.steps], axis=0)  # [R] over the window
         still_active = prev.robots.active & ~state.robots.succeeded
@@ -140,8 +158,8 @@ class CollisionEnder(Ender):
         for field in ("robots", "walls", "humans"):
             check_bool(field, getattr(self, field))
 
-    def __call__(self, prev: EnvState, state: EnvState, params: EnvParams, layout: Layout
-                 ) -> Outcome:
+    def __call__(self, inputs: TermInput) -> Outcome:
+        prev, state = inputs.prev, inputs.state
         out = _nothing(state)
         hit = collided(prev, state, self.robots, self.walls, self.humans, per_step=False)
         hit = hit & prev.robots.active
@@ -168,46 +186,27 @@ class Enders(TermSet):
         """Steps of per-robot movement the enders need to remember."""
         return max([0] + [int(t.window) for t in self.terms])
 
-    def __call__(self, prev: EnvState, state: EnvState, params: EnvParams, layout: Layout
-                 ) -> tuple[Outcome, dict[str, Array]]:
-        """Combined outcome and each ender's reward adjustment by name."""
-        total = _nothing(state)
+    @classmethod
+    def parse(cls, spec: Any, where: str = "enders") -> Enders:
+        """From a list of names / ``{name: options}`` items or a mapping ``{name: options}``
+        (see :func:`sgjax.terms.base.parse_terms`); ``success`` is added when missing. Enders
+        are returned as they are."""
+        if isinstance(spec, Enders):
+            return spec
+        terms = [term for term, _ in parse_terms(spec, ENDERS, where)]
+        if "success" not in [t.name for t in terms]:
+            terms.insert(0, SuccessEnder())
+        return cls(tuple(terms))
+
+    def __call__(self, inputs: TermInput) -> tuple[Outcome, dict[str, Array]]:
+        """Combined outcome and each paying ender's reward adjustment by name."""
+        total = _nothing(inputs.state)
         rewards = {}
-        for term in self.terms:
-            out = term(prev, state, params, layout)
+        for term, term_inputs in self.each(inputs):
+            out = term(term_inputs)
             total = Outcome(total.terminated | out.terminated, total.truncated | out.truncated,
                             total.reward + out.reward)
             if term.pays:
                 rewards[term.name] = out.reward
         return total, rewards
 
-
-def parse_enders(spec: Any, where: str = "enders") -> Enders:
-    """From a list of names / ``{name: options}`` items or a mapping ``{name: options}``;
-    ``success`` is added when missing."""
-    if isinstance(spec, Enders):
-        return spec
-    if isinstance(spec, Mapping):
-        items: Sequence[Any] = [{k: v} for k, v in spec.items()]
-    elif isinstance(spec, Sequence) and not isinstance(spec, str):
-        items = spec
-    else:
-        raise ConfigError(f"{where}: expected a list or mapping of enders, got {spec!r}; valid "
-                          f"enders are: {', '.join(ENDERS.names())}")
-    terms: list[Ender] = []
-    for i, item in enumerate(items):
-        if isinstance(item, Ender):
-            terms.append(item)
-        elif isinstance(item, str):
-            terms.append(ENDERS.build(f"{where}[{i}]", item, {}))
-        elif isinstance(item, Mapping) and len(item) == 1:
-            (name, options), = item.items()
-            if options is True:
-                options = {}
-            terms.append(ENDERS.build(f"{where}[{i}]", name, options))
-        else:
-            raise ConfigError(f"{where}[{i}]: expected an ender name or {{name: options}}, "
-                              f"got {item!r}")
-    if "success" not in [t.name for t in terms]:
-        terms.insert(0, SuccessEnder())
-    return Enders(tuple(terms))

@@ -14,10 +14,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from sgjax.observations import Observer, parse_observations
-from sgjax.rewards import Rewarder, RewardParams, parse_rewards
+from sgjax.observations import Observer
+from sgjax.rewards import Rewarder, RewardParams
 from sgjax.terms.base import ConfigError, unknown_name
-from sgjax.terms.enders import Enders, parse_enders
+from sgjax.terms.enders import Enders
 
 ZONE_OBSERVATIONS = ["zone_priority", "zone_order", "in_zone", "entering_zone", "exiting_zone",
                      "zone_entering_count", "zone_exiting_count"]
@@ -149,6 +149,6 @@ def resolve_terms(
         ender_spec = _preset("reward", ender_spec, REWARD_PRESETS)["enders"]
     if ender_spec is None:
         ender_spec = REWARD_PRESETS["default"]["enders"]
-    observer = parse_observations(obs_spec)
-    rewarder, reward_params = parse_rewards(reward_spec)
-    return observer, rewarder, reward_params, parse_enders(ender_spec)
+    observer = Observer.parse(obs_spec)
+    rewarder, reward_params = Rewarder.parse(reward_spec)
+    return observer, rewarder, reward_params, Enders.parse(ender_spec)

@@ -7,12 +7,15 @@ import pytest
 from scenes import make_room, place
 
 from sgjax.terms.base import ConfigError
-from sgjax.terms.enders import ENDERS, parse_enders
+from sgjax.terms.contract import TermInput
+from sgjax.terms.enders import ENDERS, Enders
 
 
 def outcome(spec, env, params, prev, state):
     name, options = (spec, {}) if isinstance(spec, str) else next(iter(spec.items()))
-    return ENDERS.build("test", name, options)(prev, state, params, env.config.layout)
+    inputs = TermInput(prev=prev, state=state, actions=jnp.zeros(env.max_agents, jnp.int32),
+                       params=params, key=jax.random.key(0), layout=env.config.layout)
+    return ENDERS.build("test", name, options)(inputs)
 
 
 @pytest.fixture(scope="module")
@@ -108,12 +111,15 @@ def test_collision_ended_robot_leaves_the_world():
 
 
 def test_ender_config():
-    enders = parse_enders(["time_limit"])
+    enders = Enders.parse(["time_limit"])
     assert enders.names == ("success", "time_limit")  # success is always there
-    assert parse_enders({"stuck": {"steps": 50}}).window == 50
+    assert Enders.parse({"stuck": {"steps": 50}}).window == 50
     with pytest.raises(ConfigError, match="unknown episode ender 'stuk'.*did you mean 'stuck'"):
-        parse_enders(["stuk"])
+        Enders.parse(["stuk"])
     with pytest.raises(ConfigError, match="scope must be one of"):
-        parse_enders([{"collision": {"scope": "everyone"}}])
+        Enders.parse([{"collision": {"scope": "everyone"}}])
     with pytest.raises(ConfigError, match="repeated"):
-        parse_enders(["time_limit", "time_limit"])
+        Enders.parse(["time_limit", "time_limit"])
+    assert Enders.parse({"stuck": True}).names == ("success", "stuck")
+    with pytest.raises(ConfigError, match="expected a list or mapping of episode enders.*stuck"):
+        Enders.parse("stuck")

@@ -9,16 +9,23 @@ import pytest
 from scenes import make_room, place
 
 from sgjax.kernels import zone_books as zn
-from sgjax.observations import OBSERVATIONS, Lidar, Observer, Others, parse_observations
+from sgjax.observations import OBSERVATIONS, Lidar, Observer, Others
 from sgjax.observations.lidar import beam_angles
 from sgjax.terms.base import ConfigError
+from sgjax.terms.contract import TermInput
+from sgjax.types import Layout
 
 KEY = jax.random.key(0)
 
 
+def inputs(env, params, state, key=KEY):
+    """The one term input of observation terms for ``state``."""
+    return TermInput.observing(state, params, env.config.layout, key)
+
+
 def term_value(spec, env, params, state):
-    term = parse_observations([spec]).terms[0]
-    return np.asarray(term(state, params, env.config.layout, KEY))
+    term = Observer.parse([spec]).terms[0]
+    return np.asarray(term(inputs(env, params, state)))
 
 
 @pytest.fixture(scope="module")
@@ -49,7 +56,7 @@ def test_velocity_frames_and_history():
     state = state.replace(robots=slower, history=hist)
     value = term_value({"velocity": {"history": 2, "turn_rate": False}}, env, params, state)
     np.testing.assert_allclose(value[0], [0.5, 0, 1, 0], atol=1e-6)
-    assert parse_observations([{"velocity": {"history": 3}}]).terms[0].size(env.config.layout) == 9
+    assert Observer.parse([{"velocity": {"history": 3}}]).terms[0].size(env.config.layout) == 9
     with pytest.raises(ValueError, match="keeps a history of 2 steps"):
         term_value({"velocity": {"history": 3}}, env, params, state)
     # Through the step: the row after the current one is what the robot had before the step.
@@ -106,14 +113,14 @@ def test_others_nearest_first_in_robot_frame(room):
     state = place(env, params, [0.0, 2.0, 0.0], [0.0, 0.0, -1.0], [0.0, 0.0, math.pi],
                   humans=[(0.0, 3.0, 1.0, 0.0)])
     term = Others(k=4)
-    value = np.asarray(term(state, params, env.config.layout, KEY))[0].reshape(4, term.width)
+    value = np.asarray(term(inputs(env, params, state)))[0].reshape(4, term.width)
     # features: position(2) distance heading(2) velocity(2) radius kind mask
     np.testing.assert_allclose(value[0], [0, -1, 1 - 2 * r, -1, 0, 0, 0, r, 0, 1], atol=1e-5)
     np.testing.assert_allclose(value[1], [2, 0, 2 - 2 * r, 1, 0, 0, 0, r, 0, 1], atol=1e-5)
     np.testing.assert_allclose(value[2], [0, 3, 3 - r - rh, 1, 0, 1, 0, rh, 1, 1], atol=1e-5)
     np.testing.assert_array_equal(value[3], np.zeros(term.width))  # padding
     # Robot 2 faces -x: robot 0 (at (0, 1) relative, world) is to its right.
-    value2 = np.asarray(term(state, params, env.config.layout, KEY))[2].reshape(4, term.width)
+    value2 = np.asarray(term(inputs(env, params, state)))[2].reshape(4, term.width)
     np.testing.assert_allclose(value2[0, :2], [0, -1], atol=1e-5)
 
 
@@ -126,7 +133,7 @@ def test_others_goal_is_where_the_other_robot_is_going(room):
                   humans=[(0.0, 3.0, 0.0, 0.0)])
     goal_x, goal_y = np.asarray(state.route.x[:, -1]), np.asarray(state.route.y[:, -1])
     term = Others(k=3, features=("position", "goal"))
-    value = np.asarray(term(state, params, env.config.layout, KEY))[0].reshape(3, 4)
+    value = np.asarray(term(inputs(env, params, state)))[0].reshape(3, 4)
     # facing +y, world (dx, dy) reads (dy, -dx) in the robot's frame
     dx, dy = goal_x[1] - 1.0, goal_y[1] - 0.0
     np.testing.assert_allclose(value[0], [0, -1, dy, -dx], atol=1e-5)  # robot 1, nearest
@@ -141,15 +148,15 @@ def test_others_masks_absent_and_filtered_bodies(room):
     env, params = room
     state = place(env, params, [0.0, 2.0], [0.0, 0.0], humans=[(0.0, 3.0, 0.0, 0.0)])
     robots_only = Others(k=3, humans=False, features=("position", "mask"))
-    value = np.asarray(robots_only(state, params, env.config.layout, KEY))[0].reshape(3, 3)
+    value = np.asarray(robots_only(inputs(env, params, state)))[0].reshape(3, 3)
     np.testing.assert_allclose(value, [[2, 0, 1], [0, 0, 0], [0, 0, 0]], atol=1e-6)
     near = Others(k=2, max_range=2.5, features=("mask",))
-    value = np.asarray(near(state, params, env.config.layout, KEY))[0]
+    value = np.asarray(near(inputs(env, params, state)))[0]
     np.testing.assert_array_equal(value, [1, 0])
     # A robot that reached its goal has left the world: others no longer see it.
     done = state.replace(robots=state.robots.replace(
         succeeded=state.robots.succeeded.at[1].set(True)))
-    value = np.asarray(robots_only(done, params, env.config.layout, KEY))[0]
+    value = np.asarray(robots_only(inputs(env, params, done)))[0]
     np.testing.assert_array_equal(value, np.zeros(9))
 
 
@@ -169,7 +176,7 @@ def test_others_line_of_sight():
     env, params = sgjax.make(parse_map(room), num_agents=3)
     state = place(env, params, [0.0, 2.0, -1.0], [0.0, 0.0, 0.0])
     seen = Others(k=2, features=("position", "mask"), line_of_sight=True)
-    value = np.asarray(seen(state, params, env.config.layout, KEY))
+    value = np.asarray(seen(inputs(env, params, state)))
     # Robot 1 is behind the wall at x = 1 from robot 0; robot 2 is in view.
     np.testing.assert_allclose(value[0], [-1, 0, 1, 0, 0, 0], atol=1e-6)
     np.testing.assert_allclose(value[1], [0, 0, 0, 0, 0, 0], atol=1e-6)
@@ -181,7 +188,7 @@ def test_others_with_variable_robot_counts():
     for n in (1, 2, 3, 4):
         p = params.replace(num_agents=jnp.asarray(n, jnp.int32))
         state = place(env, p, [0.0, 1.0, 2.0, 3.0][:n], [0.0] * n)
-        mask = np.asarray(term(state, p, env.config.layout, KEY))
+        mask = np.asarray(term(inputs(env, p, state)))
         np.testing.assert_array_equal(mask[:n].sum(axis=1), [min(n - 1, 3)] * n)
         obs = np.asarray(env.observe(state, p))
         assert (obs[n:] == 0).all()  # the Observer zeroes absent robots' rows
@@ -194,15 +201,15 @@ def test_lidar_against_a_wall_and_a_robot(room):
     lidar = Lidar(beams=4, range=10.0)
     angles = np.asarray(beam_angles(4, 2 * math.pi))
     np.testing.assert_allclose(angles, [-math.pi, -math.pi / 2, 0, math.pi / 2])
-    value = np.asarray(lidar(state, params, env.config.layout, KEY))[0]
+    value = np.asarray(lidar(inputs(env, params, state)))[0]
     # Behind: robot 1's disc at 2 - r; right and left: walls at 5 m; ahead: the wall at x = 5.
     np.testing.assert_allclose(value, [2 - r, 5, 5, 5], atol=1e-5)
     capped = Lidar(beams=4, range=3.0)
-    np.testing.assert_allclose(np.asarray(capped(state, params, env.config.layout, KEY))[0],
+    np.testing.assert_allclose(np.asarray(capped(inputs(env, params, state)))[0],
                                [2 - r, 3, 3, 3], atol=1e-5)
     noisy = Lidar(beams=4, range=10.0, noise=0.01)
-    a = np.asarray(noisy(state, params, env.config.layout, jax.random.key(1)))[0]
-    b = np.asarray(noisy(state, params, env.config.layout, jax.random.key(2)))[0]
+    a = np.asarray(noisy(inputs(env, params, state, jax.random.key(1))))[0]
+    b = np.asarray(noisy(inputs(env, params, state, jax.random.key(2))))[0]
     assert np.abs(a - value).max() < 0.05 and not np.allclose(a, b)
 
 
@@ -210,7 +217,7 @@ def test_lidar_sees_pedestrians_and_turns_with_the_robot(room):
     env, params = room
     rh = float(params.humans.radius)
     state = place(env, params, [0.0], [0.0], [math.pi / 2], humans=[(0.0, 2.0, 0.0, 0.0)])
-    value = np.asarray(Lidar(beams=4, range=10.0)(state, params, env.config.layout, KEY))[0]
+    value = np.asarray(Lidar(beams=4, range=10.0)(inputs(env, params, state)))[0]
     # Facing +y: beam 2 (straight ahead) meets the pedestrian.
     np.testing.assert_allclose(value[2], 2 - rh, atol=1e-5)
     np.testing.assert_allclose(value[[0, 1, 3]], [5, 5, 5], atol=1e-5)
@@ -276,7 +283,7 @@ def test_observer_slices_sizes_and_split():
     assert observer.size(cfg) == 38 and observer.history_length == 2
     assert observer.slices(cfg)["others"] == slice(10, 30)
     state = place(env, params, [0.0, 2.0], [0.0, 0.0])
-    obs = observer(state, params, cfg, KEY)
+    obs = observer(inputs(env, params, state))
     assert obs.shape == (4, 38) and env.observation_space().shape == (38,)
     assert (np.asarray(obs)[2:] == 0).all()  # absent robots observe zeros
     split = observer.split(obs, cfg)
@@ -284,18 +291,70 @@ def test_observer_slices_sizes_and_split():
     assert "others" in observer.describe(cfg)
 
 
+def test_terms_publish_their_column_layouts():
+    """Each term names its columns; the Observer lays them out over the whole vector, so
+    readers (networks, masks) find features by name instead of by the terms' internals."""
+    from sgjax.observations import Columns
+
+    spec = [{"pose": {"heading": True}}, {"velocity": {"history": 2, "turn_rate": False}},
+            {"others": {"k": 3, "features": ["position", "mask", "goal"]}},
+            {"lidar": {"beams": 2}}]
+    env, _ = make_room(num_agents=2, max_agents=4, observations=spec)
+    layout = env.config.layout
+    pose, velocity, others, lidar = env.config.observer.terms
+    assert pose.columns(layout).names == ("x", "y", "cos_heading", "sin_heading")
+    assert pose.columns(layout).feature_names == ("position", "heading")
+    assert velocity.columns(layout).names == ("v_forward[0]", "v_lateral[0]", "v_forward[1]",
+                                              "v_lateral[1]")
+    block = others.columns(layout)
+    assert block.shape == (3, 5) and block.block_names == ("dx", "dy", "mask", "goal_dx",
+                                                           "goal_dy")
+    assert block.offset("mask") == 2 and block.feature_slice("goal") == slice(3, 5)
+    assert block.filled == 3  # 3 other robots + 2 pedestrians can be seen, k = 3
+    np.testing.assert_array_equal(block.indices("mask"), [2, 7, 12])
+    assert lidar.columns(layout).names == ("range[0]", "range[1]")
+    for term in env.config.observer.terms:
+        assert len(term.columns(layout)) == term.size(layout)
+    columns = env.config.observer.columns(layout)
+    assert columns.size == env.observation_size == 4 + 4 + 15 + 2
+    assert columns.slices == env.observation_slices()
+    assert columns.span("others") == slice(8, 23) and columns["others"] == block
+    assert columns.names[:3] == ("pose.x", "pose.y", "pose.cos_heading")
+    assert columns.names[8:10] == ("others.dx[0]", "others.dy[0]")
+    assert len(columns.names) == len(set(columns.names)) == columns.size
+    np.testing.assert_array_equal(columns.indices("pose.heading"), [2, 3])
+    np.testing.assert_array_equal(columns.indices("others.mask"), [10, 15, 20])
+    np.testing.assert_array_equal(columns.indices("lidar"), [23, 24])
+    with pytest.raises(ValueError, match="others: no feature 'heading'.*position, mask, goal"):
+        columns.indices("others.heading")
+    with pytest.raises(KeyError, match="no observation term 'goal'"):
+        columns.indices("goal")
+    assert "others" in columns.describe() and "3 x 5" in columns.describe()
+    in_zone = Observer.parse(["in_zone"]).terms[0]  # one block per zone of the map
+    assert in_zone.columns(Layout(max_agents=2, num_zones=0)).names == ()
+    assert in_zone.columns(Layout(max_agents=2, num_zones=2)).names == ("inside[0]", "inside[1]")
+    with pytest.raises(ValueError, match="unique"):
+        Columns.grouped({"a": ("x",), "b": ("x",)})
+
+
 def test_observation_config_errors():
     with pytest.raises(ConfigError, match="unknown observation term 'poze'.*did you mean 'pose'"):
-        parse_observations(["poze"])
+        Observer.parse(["poze"])
     with pytest.raises(ConfigError, match="valid observation terms are: .*lidar"):
-        parse_observations(["nope"])
+        Observer.parse(["nope"])
     with pytest.raises(ConfigError, match=r"velocity: unknown option 'histroy'.*history"):
-        parse_observations([{"velocity": {"histroy": 2}}])
+        Observer.parse([{"velocity": {"histroy": 2}}])
     with pytest.raises(ConfigError, match="frame must be one of"):
-        parse_observations([{"goal": {"frame": "map"}}])
+        Observer.parse([{"goal": {"frame": "map"}}])
     with pytest.raises(ConfigError, match="repeated"):
-        parse_observations(["pose", "pose"])
+        Observer.parse(["pose", "pose"])
     with pytest.raises(ConfigError, match="unknown feature"):
-        parse_observations([{"others": {"features": ["speed"]}}])
-    assert isinstance(parse_observations({"pose": None, "goal": {"frame": "world"}}), Observer)
+        Observer.parse([{"others": {"features": ["speed"]}}])
+    with pytest.raises(ConfigError, match="each feature may appear once"):
+        Observer.parse([{"others": {"features": ["mask", "mask"]}}])
+    with pytest.raises(ConfigError, match=r"observations\[1\]: expected a name or"):
+        Observer.parse(["pose", 3])
+    with pytest.raises(ConfigError, match="expected a list or mapping of observation terms"):
+        Observer.parse("pose")
+    assert isinstance(Observer.parse({"pose": None, "goal": {"frame": "world"}}), Observer)
     assert "lidar" in OBSERVATIONS.names()

@@ -178,14 +178,27 @@ def test_rich_terms_long_rollout_stays_finite(rich):
 
 
 @pytest.mark.slow
-def test_docs_terms_examples_run(tmp_path):
-    """The Python and YAML examples of docs/terms.md work as written."""
+def test_docs_terms_examples_run(tmp_path, monkeypatch):
+    """The Python and YAML examples of docs/terms.md work as written, in order (the terms the
+    "Writing a term" example registers are forgotten afterwards)."""
     import re
     from pathlib import Path
 
+    from sgjax.observations import OBSERVATIONS
+    from sgjax.rewards import REWARDS
+    from sgjax.terms.enders import ENDERS
+
+    for registry in (OBSERVATIONS, REWARDS, ENDERS):
+        monkeypatch.setattr(registry, "classes", dict(registry.classes))
     text = (Path(__file__).resolve().parents[2] / "docs" / "terms.md").read_text()
-    python = re.search(r"```python\n(.*?)```", text, re.S).group(1)
-    exec(compile(python, "docs/terms.md", "exec"), {})
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert len(blocks) == 3
+    namespace: dict = {}
+    for python in blocks:
+        exec(compile(python, "docs/terms.md", "exec"), namespace)
+    assert {"speed", "standing", "astray"} <= {*OBSERVATIONS.classes, *REWARDS.classes,
+                                               *ENDERS.classes}
+    assert namespace["columns"]["others"].offset("mask") == 9
     yaml_text = re.search(r"```yaml\n(.*?)```", text, re.S).group(1)
     path = tmp_path / "my_terms.yaml"
     path.write_text(yaml_text)

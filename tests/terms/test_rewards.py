@@ -3,22 +3,30 @@ and per-term info; weight schedules."""
 
 import math
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 from scenes import make_room, place
 
 from sgjax.kernels import zone_books as zn
-from sgjax.rewards import REWARDS, Rewarder, constant, linear, parse_rewards, parse_schedule
+from sgjax.rewards import REWARDS, Rewarder, constant, linear, parse_schedule
 from sgjax.terms.base import ConfigError
+from sgjax.terms.contract import TermInput
+
+
+def step_inputs(env, params, prev, state, actions=None):
+    """The one term input for the step from ``prev`` to ``state`` (GO for every robot)."""
+    actions = jnp.zeros(env.max_agents, jnp.int32) if actions is None else actions
+    return TermInput(prev=prev, state=state, actions=actions, params=params,
+                     key=jax.random.key(0), layout=env.config.layout)
 
 
 def value(spec, env, params, prev, state, actions=None):
     """Raw (unweighted) value of one reward term, ``{name: options}`` or a name."""
     name, options = (spec, {}) if isinstance(spec, str) else next(iter(spec.items()))
     term = REWARDS.build("test", name, options)
-    actions = jnp.zeros(env.max_agents, jnp.int32) if actions is None else actions
-    return np.asarray(term(prev, state, actions, params, env.config.layout))
+    return np.asarray(term(step_inputs(env, params, prev, state, actions)))
 
 
 @pytest.fixture(scope="module")
@@ -194,7 +202,7 @@ def test_zone_order_multiple_entry_penalty_and_continuous():
 
 
 def test_rewarder_sums_weighted_terms_and_reports_each():
-    rewarder, weights = parse_rewards({"existence": 2.0, "collision": {"weight": 10.0},
+    rewarder, weights = Rewarder.parse({"existence": 2.0, "collision": {"weight": 10.0},
                                        "progress": {"weight": 1.0, "clip": [0.0, 1.0]}})
     env, params = make_room(num_agents=2, max_agents=2, rewards={
         "existence": 2.0, "collision": {"weight": 10.0},
@@ -203,15 +211,14 @@ def test_rewarder_sums_weighted_terms_and_reports_each():
     prev = place(env, params, [-1.0, 2.0], [0.0, 0.0])
     after = moved(prev, x=jnp.asarray([-0.5, 2.0])).replace(
         touching_robot=jnp.asarray([False, True]))
-    total, parts = env.config.rewarder(prev, after, jnp.zeros(2, jnp.int32), params,
-                                       env.config.layout)
+    total, parts = env.config.rewarder(step_inputs(env, params, prev, after))
     np.testing.assert_allclose(parts["existence"], [-2, -2])
     np.testing.assert_allclose(parts["collision"], [0, -10])
     np.testing.assert_allclose(parts["progress"], [0.5, 0], atol=1e-5)
     np.testing.assert_allclose(total, [-1.5, -12], atol=1e-5)
     # Robots that were not active get nothing.
     gone = moved(prev, succeeded=jnp.asarray([False, True]))
-    total, parts = env.config.rewarder(gone, after, jnp.zeros(2, jnp.int32), params, env.config)
+    total, parts = env.config.rewarder(step_inputs(env, params, gone, after))
     assert float(total[1]) == 0 and all(float(v[1]) == 0 for v in parts.values())
 
 
@@ -249,16 +256,16 @@ def test_schedules():
 
 def test_reward_config_errors():
     with pytest.raises(ConfigError, match="unknown reward term 'sucess'.*did you mean 'success'"):
-        parse_rewards({"sucess": 100})
+        Rewarder.parse({"sucess": 100})
     with pytest.raises(ConfigError, match="valid reward terms are: .*zone_order"):
-        parse_rewards({"bogus": 1})
+        Rewarder.parse({"bogus": 1})
     with pytest.raises(ConfigError, match="collision: unknown option 'per_stp'"):
-        parse_rewards({"collision": {"per_stp": True}})
+        Rewarder.parse({"collision": {"per_stp": True}})
     with pytest.raises(ConfigError, match="expected a number"):
-        parse_rewards({"success": "lots"})
+        Rewarder.parse({"success": "lots"})
     with pytest.raises(ConfigError, match="clip must be"):
-        parse_rewards({"progress": {"clip": [1.0, 0.0]}})
-    assert isinstance(parse_rewards({})[0], Rewarder)
+        Rewarder.parse({"progress": {"clip": [1.0, 0.0]}})
+    assert isinstance(Rewarder.parse({})[0], Rewarder)
 
 
 def test_schedule_clock_runs_across_auto_resets_and_pettingzoo_resets():

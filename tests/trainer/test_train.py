@@ -348,6 +348,36 @@ def test_lstm_encoder_skips_the_slots_that_are_always_empty_in_training():
             np.testing.assert_array_equal(a, b)
 
 
+def test_masks_and_the_others_encoder_read_the_observation_column_layout():
+    """Ablation masks, the others encoder's layout and its slot count come from the
+    observation's published column layout (no term internals): ``pose.heading``,
+    ``others.<feature>``, or any ``term.feature`` the layout names."""
+    import sgjax
+    from train.ablation import observation_mask
+    from train.networks import OthersLayout, most_seen, others_layout
+
+    env, _ = sgjax.make("open", num_agents=2, max_agents=3, observations="socialgym")
+    columns = env.config.observer.columns(env.config.layout)
+    mask = observation_mask(env, ["pose.heading", "others.velocity", "collision"])
+    hidden = [columns.names[i] for i in np.flatnonzero(mask == 0)]
+    assert hidden == (["pose.cos_heading", "pose.sin_heading", "collision.collision"]
+                      + [f"others.{v}[{i}]" for i in range(6) for v in ("vx", "vy")])
+    start = columns.span("others").start
+    # socialgym: 6 bodies of position (2), heading (2), velocity (2), mask (1)
+    assert others_layout(env) == OthersLayout(start=start, k=6, width=7, mask_column=6)
+    assert most_seen(env) == 2  # two other robot slots, no pedestrians
+    velocity = observation_mask(env, ["velocity.omega"])
+    assert [columns.names[i] for i in np.flatnonzero(velocity == 0)] == [
+        "velocity.omega[0]", "velocity.omega[1]"]
+    with pytest.raises(ConfigError, match="'pose' has no feature 'theta'; its features are "
+                                          "position, heading"):
+        observation_mask(env, ["pose.theta"])
+    with pytest.raises(ConfigError, match="no observation term 'lidar'"):
+        observation_mask(env, ["lidar"])
+    bare, _ = sgjax.make("open", num_agents=2, observations="default")
+    assert others_layout(bare) is None and most_seen(bare) is None
+
+
 def test_gru_state_resets_at_episode_starts():
     gru = ResetGRU(4)
     x = jax.random.normal(jax.random.PRNGKey(0), (3, 2, 5))
