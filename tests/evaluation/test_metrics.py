@@ -36,7 +36,7 @@ def play(env, params, frames, arrived=None, done_at=None):
         state = state.replace(robots=state.robots.replace(
             succeeded=prev.robots.succeeded | jnp.asarray(now)))
         info = {"was_active": prev.robots.active, "arrived": jnp.asarray(now)}
-        m = metrics.update(m, prev, state, info, jnp.asarray(t == done_at), params, env.config)
+        m = metrics.update(m, prev, state, info, jnp.asarray(t == done_at), params)
         prev = state
     robot, episode = metrics.finalize(m, prev, params)
     return ({k: np.asarray(v) for k, v in robot.items()},
