@@ -36,16 +36,14 @@ from sgjax.evaluation.metrics.accumulate import (
     update,
 )
 from sgjax.evaluation.metrics.base import (
-    DEFAULT_CONSTANTS,
-    SPACE_NAMES,
     Metric,
-    MetricConstants,
     MetricInfo,
     episode_metric,
     known,
     robot_metric,
     team_success,
 )
+from sgjax.evaluation.metrics.constants import DEFAULT_CONSTANTS, SPACE_NAMES, MetricConstants
 from sgjax.evaluation.metrics.registration import (
     METRICS,
     MetricRegistry,

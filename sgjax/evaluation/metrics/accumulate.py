@@ -22,7 +22,8 @@ import jax.numpy as jnp
 from flax import struct
 from jax import Array
 
-from sgjax.evaluation.metrics.base import DEFAULT_CONSTANTS, NAN, MetricConstants
+from sgjax.evaluation.metrics.base import NAN
+from sgjax.evaluation.metrics.constants import DEFAULT_CONSTANTS, MetricConstants
 from sgjax.evaluation.metrics.registration import METRICS
 from sgjax.evaluation.metrics.step_view import EpisodeEnd, StepView
 from sgjax.types import EnvParams, EnvState

@@ -21,7 +21,8 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from sgjax.evaluation import counterfactual  # noqa: F401  (registers the counterfactual metrics)
-from sgjax.evaluation.metrics.base import DEFAULT_CONSTANTS, MetricConstants, MetricInfo
+from sgjax.evaluation.metrics.base import MetricInfo
+from sgjax.evaluation.metrics.constants import DEFAULT_CONSTANTS, MetricConstants
 from sgjax.evaluation.metrics.registration import METRICS
 
 COMMAND = "python -m sgjax.evaluation.metrics.catalogue"

@@ -13,12 +13,12 @@ from jax import Array
 
 from sgjax.evaluation.metrics.base import (
     Metric,
-    MetricConstants,
     episode_metric,
     known,
     robot_metric,
     team_success,
 )
+from sgjax.evaluation.metrics.constants import MetricConstants
 from sgjax.evaluation.metrics.registration import register_metric
 from sgjax.evaluation.metrics.step_view import EpisodeEnd, StepView
 from sgjax.kernels import zone_books as zn

@@ -14,7 +14,7 @@ import functools
 import jax.numpy as jnp
 from jax import Array
 
-from sgjax.evaluation.metrics.base import MetricConstants
+from sgjax.evaluation.metrics.constants import MetricConstants
 from sgjax.kernels.geometry import safe_norm
 from sgjax.terms.queries import Bodies, body_gaps, gather_bodies
 from sgjax.types import EnvParams, EnvState, Layout, RobotState

@@ -6,7 +6,8 @@ import jax.numpy as jnp
 from flax import struct
 from jax import Array
 
-from sgjax.evaluation.metrics.base import Metric, MetricConstants, episode_metric, robot_metric
+from sgjax.evaluation.metrics.base import Metric, episode_metric, robot_metric
+from sgjax.evaluation.metrics.constants import MetricConstants
 from sgjax.evaluation.metrics.registration import register_metric
 from sgjax.evaluation.metrics.step_view import EpisodeEnd, StepView
 
