@@ -16,10 +16,15 @@ registered metric; :func:`start`, :func:`update`, :func:`finalize`, :func:`per_e
 * ``proximity``: closest approach, personal spaces;
 * ``ttc``: time to collision;
 * ``mini_game``: order violations at conflict zones, makespan, flow rate;
-* and the counterfactual metrics, registered by :mod:`sgjax.evaluation.counterfactual`.
+* and the counterfactual metrics, registered by :mod:`sgjax.evaluation.counterfactual`
+  (importing any part of ``sgjax.evaluation`` registers them).
 
-Every definition, constant and source is in docs/metrics.md, whose tables are generated from
-the registry (``python -m sgjax.evaluation.metrics.catalogue``).
+The framework: ``base`` (:class:`Metric`, :class:`MetricInfo`), ``constants``
+(:class:`MetricConstants`), ``registration`` (:func:`register_metric`, :data:`METRICS`),
+``step_view`` (:class:`StepView`, :class:`EpisodeEnd`), ``accumulate`` (:class:`MetricState`
+and the composed functions). Every definition, constant and source is in docs/metrics.md,
+whose tables are generated from the registry (``python -m sgjax.evaluation.metrics.catalogue``,
+module ``catalogue``).
 """
 
 # The import order is the catalogue's order: each module registers its metrics.
