@@ -1,17 +1,16 @@
 """Throughput of the evaluation runner: with the counterfactual lanes, with the metrics, and
 without the metric accumulators.
 
-``sgjax.evaluation.evaluate`` plays a batch of episodes as ``jit(scan(vmap(step_env)))``, freezing
-ended
-episodes and updating ``sgjax.evaluation.metrics`` every step. This prints agent-steps/s over the
-whole
-time limit (of the evaluated episodes themselves), compile time and peak memory (XLA's memory
-analysis) for: the runner with the counterfactual lanes on (each robot alone and the episode
-without each robot: ``1 + 2R`` lanes per episode, ``sgjax.evaluation.counterfactual``), the plain
-runner,
-the same loop with no metrics, all three stepping through the whole time limit; and the plain
-runner as ``sgjax evaluate`` runs it, stopping once every episode has ended ("early stop": its
-rate is time-limit agent-steps per second of the same evaluation, so it shows the saving).
+``sgjax.evaluation.runner.EpisodeRunner`` plays a batch of episodes as
+``jit(scan(vmap(step_env)))``, freezing ended episodes and updating
+``sgjax.evaluation.metrics`` every step. This prints agent-steps/s over the whole time limit (of
+the evaluated episodes themselves), compile time and peak memory (XLA's memory analysis) for:
+the runner with the counterfactual lanes on (each robot alone and the episode without each
+robot: ``1 + 2R`` lanes per episode, ``sgjax.evaluation.counterfactual``), the plain runner,
+the same loop with no metrics (the same kernel, ``scan_until_done``), all three stepping
+through the whole time limit; and the plain runner as ``sgjax evaluate`` runs it, stopping once
+every episode has ended ("early stop": its rate is time-limit agent-steps per second of the
+same evaluation, so it shows the saving).
 
     python bench/evaluation.py --episodes 256 1024 --robots 4 10
 """
@@ -26,8 +25,8 @@ from compiled import compile_measured
 
 import sgjax
 from sgjax.evaluation import metrics
-from sgjax.evaluation.evaluate import episode_runner
 from sgjax.evaluation.policies import only_local
+from sgjax.evaluation.runner import EpisodeRunner, scan_until_done
 
 
 def without_metrics(env, params, policy, num_episodes: int):
@@ -50,14 +49,15 @@ def without_metrics(env, params, policy, num_episodes: int):
             return jax.numpy.where(running.reshape((-1,) + (1,) * (new.ndim - 1)), new, old)
 
         done = done_of(nstate, term, trunc)
-        return (keep(nobs, obs), jax.tree.map(keep, nstate, state), running & ~done), None
+        return keep(nobs, obs), jax.tree.map(keep, nstate, state), running & ~done
 
     @jax.jit
     def run(key):
         obs, state = reset(jax.random.split(key, num_episodes), params)
         running = jax.numpy.ones(num_episodes, bool)
-        (_, state, running), _ = jax.lax.scan(one_step, (obs, state, running),
-                                              jax.random.split(key, steps))
+        (_, state, running), _, _ = scan_until_done(
+            one_step, (obs, state, running), lambda c: ~jax.numpy.any(c[2]), steps, steps,
+            xs=jax.random.split(key, steps), stop_early=False)
         return state.time, running
 
     return run
@@ -90,11 +90,11 @@ def main() -> None:
         env, params = sgjax.make(args.scenario, num_agents=robots)
         steps = int(params.max_steps)
         for episodes in args.episodes:
-            whole = {"stop_early": False}
-            with_metrics = episode_runner(env, params, only_local(env), episodes, **whole)
-            lanes = episode_runner(env, params, only_local(env), episodes, counterfactual=True,
-                                   **whole)
-            early = episode_runner(env, params, only_local(env), episodes)
+            policy = only_local(env)
+            with_metrics = EpisodeRunner(env, policy, episodes, steps, stop_early=False).episodes
+            lanes = EpisodeRunner(env, policy, episodes, steps, counterfactual=True,
+                                  stop_early=False).episodes
+            early = EpisodeRunner(env, policy, episodes, steps).episodes
             runs = {"counterfactual": jax.jit(lambda key, run=lanes, p=params: run(key, p)),
                     "with metrics": jax.jit(lambda key, run=with_metrics, p=params: run(key, p)),
                     "no metrics": without_metrics(env, params, only_local(env), episodes),

@@ -18,8 +18,8 @@ import numpy as np
 from flax import struct
 from jax import Array
 
-from sgjax.evaluation.evaluate import check_steps, episode_runner
 from sgjax.evaluation.policies import RecurrentPolicy
+from sgjax.evaluation.runner import EpisodeRunner, check_steps
 from train.config import NetworkConfig
 from train.networks import ActorCritic, OthersLayout, greedy, initial_carry, sample
 from train.normalize import RunningStats
@@ -134,12 +134,14 @@ def lane_evaluator(network: NetworkConfig, layout: ActorLayout, env: Any, env_pa
     variant) of lane-batched :class:`ActorWeights` at once, ``vmap``-ed over the lanes:
     ``values`` is ``{metric: [lanes, episodes]}``, ``robot`` ``{metric: [lanes, episodes, R]}``.
     Compiled once per shape: the weights and the environment params are arguments, so every
-    robot count up to ``env.max_agents`` (same time limit) reuses one compilation."""
+    robot count up to ``env.max_agents`` (same time limit) reuses one compilation. Each lane
+    is played by an :class:`sgjax.evaluation.runner.EpisodeRunner` (chunks of steps until
+    every episode has ended)."""
     num_steps = int(env_params.max_steps)
 
     def one(weights: ActorWeights, key: Array, params: Any) -> tuple[dict, dict]:
         policy = acting_policy(network, layout, weights, deterministic)
-        values, robot, _ = episode_runner(env, env_params, policy, episodes)(key, params)
+        values, robot, _ = EpisodeRunner(env, policy, episodes, num_steps).episodes(key, params)
         return values, robot
 
     compiled = jax.jit(jax.vmap(one, in_axes=(0, None, None)))

@@ -51,9 +51,10 @@ import jax
 import numpy as np
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
-from sgjax.evaluation.evaluate import episode_runner, params_by_count
+from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.policies import load_policy, policy_make_kwargs
 from sgjax.evaluation.report import format_summary, markdown_table
+from sgjax.evaluation.runner import EpisodeRunner
 from sgjax.evaluation.statistics import summarize
 from sgjax.terms.presets import REWARD_PRESETS
 from train.actor import ActorWeights, lane_evaluator
@@ -184,7 +185,7 @@ def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: in
     env, by_count = params_by_count(scenario, counts, **make_kwargs)
     first = by_count[counts[0]]
     if trainer is None:
-        run = episode_runner(env, first, load_policy(policy, env), episodes)
+        run = EpisodeRunner(env, load_policy(policy, env), episodes, int(first.max_steps)).run
     else:
         evaluator = lane_evaluator(trainer.config.network, trainer.actor, env, first, episodes,
                                    trainer.config.evaluation.deterministic)

@@ -179,6 +179,135 @@ class DwaSettings:
     pass_angle: float = 0.6  # rad: how far right of the way on a blocked robot aims
 
 
+@dataclasses.dataclass(frozen=True)
+class DwaArcs:
+    """The sampled commands of every robot and the circular arcs they drive: ``v [R, V, 1]``
+    m/s and ``w [R, 1, W]`` rad/s (broadcast to ``[R, V, W]``), the points ``x, y [R, V, W, T]``
+    (m, world) reached at times ``t [T]`` (s), and the heading there ``theta [R, V, W, T]``."""
+
+    v: Array
+    w: Array
+    t: Array
+    x: Array
+    y: Array
+    theta: Array
+
+
+def _dwa_arcs(state: EnvState, params: EnvParams, s: DwaSettings) -> DwaArcs:
+    """Forward speeds and turn rates reachable within ``s.window`` under each robot's limits,
+    each rolled out as an arc for ``s.horizon``."""
+    r, rp = state.robots, params.robots
+    v0, w0 = r.kin.v_forward, r.kin.omega
+    frac_v = jnp.linspace(-1.0, 1.0, s.speeds)
+    frac_w = jnp.linspace(-1.0, 1.0, s.turns)
+    v = jnp.clip(v0[:, None] + frac_v[None, :] * rp.max_accel[:, None] * s.window, 0.0,
+                 rp.max_speed[:, None])  # [R, V]
+    w = jnp.clip(w0[:, None] + frac_w[None, :] * rp.max_alpha[:, None] * s.window,
+                 -rp.max_omega[:, None], rp.max_omega[:, None])  # [R, W]
+    vv, ww = v[:, :, None], w[:, None, :]  # [R, V, W]
+    t = jnp.linspace(s.horizon / s.points, s.horizon, s.points)  # [T]
+    theta = r.heading[:, None, None, None] + ww[..., None] * t  # [R, V, W, T]
+    straight = jnp.abs(ww[..., None]) < 1e-3
+    safe_w = jnp.where(straight, 1.0, ww[..., None])
+    dx = jnp.where(straight, vv[..., None] * t * jnp.cos(r.heading)[:, None, None, None],
+                   vv[..., None] / safe_w * (jnp.sin(theta)
+                                             - jnp.sin(r.heading)[:, None, None, None]))
+    dy = jnp.where(straight, vv[..., None] * t * jnp.sin(r.heading)[:, None, None, None],
+                   -vv[..., None] / safe_w * (jnp.cos(theta)
+                                              - jnp.cos(r.heading)[:, None, None, None]))
+    return DwaArcs(v=vv, w=ww, t=t, x=r.x[:, None, None, None] + dx,
+                   y=r.y[:, None, None, None] + dy, theta=theta)
+
+
+@dataclasses.dataclass(frozen=True)
+class DwaBodies:
+    """The bodies a robot avoids, robots first: ``x, y [T, B]`` (m) where their present
+    velocities take them at each arc time, ``radius [B]`` (m), ``other [R, B]`` (bool: in the
+    world, not the robot itself)."""
+
+    x: Array
+    y: Array
+    radius: Array
+    other: Array
+
+
+def _dwa_bodies(state: EnvState, params: EnvParams, t: Array) -> DwaBodies:
+    r, h, rp = state.robots, state.humans, params.robots
+    velocity = r.body_velocity
+    bx = jnp.concatenate([r.x, h.x])[None, :] + t[:, None] * jnp.concatenate(
+        [velocity[:, 0], h.vx])[None, :]  # [T, B]
+    by = jnp.concatenate([r.y, h.y])[None, :] + t[:, None] * jnp.concatenate(
+        [velocity[:, 1], h.vy])[None, :]
+    bradius = jnp.concatenate([rp.radius, jnp.broadcast_to(params.humans.radius, h.x.shape)])
+    present = jnp.concatenate([r.in_world, h.active])
+    other = present[None, :] & ~jnp.eye(r.x.shape[0], bx.shape[1], dtype=bool)  # [R, B]
+    return DwaBodies(x=bx, y=by, radius=bradius, other=other)
+
+
+def _dwa_clearance(arcs: DwaArcs, bodies: DwaBodies, params: EnvParams, s: DwaSettings
+                   ) -> Array:
+    """``[R, V, W]`` m: each arc's smallest clearance to the walls (nearest point of each) and
+    to the bodies where they will be at each point's time."""
+    m, rp = params.map, params.robots
+    px, py = arcs.x, arcs.y
+    radius = (rp.radius + s.margin)[:, None, None, None]
+    wall = point_segment_distance(px[..., None], py[..., None], m.wall_x1, m.wall_y1,
+                                  m.wall_x2, m.wall_y2)
+    wall = jnp.min(jnp.where(m.wall_valid, wall, jnp.inf), axis=-1) - radius
+    gap = ((safe_norm(px[..., None] - bodies.x, py[..., None] - bodies.y) - bodies.radius)
+           - radius[..., None])
+    gap = jnp.min(jnp.where(bodies.other[:, None, None, None, :], gap, jnp.inf), axis=-1)
+    return jnp.min(jnp.minimum(wall, gap), axis=-1)
+
+
+def _dwa_way_on(state: EnvState, params: EnvParams, bodies: DwaBodies, s: DwaSettings
+                ) -> tuple[Array, Array]:
+    """``[R]`` m, world: the point each robot heads for: a point of its route beyond the
+    arcs' reach, turned ``pass_angle`` clockwise when a body is in the way."""
+    r, rp = state.robots, params.robots
+    ahead = state.progress + s.horizon * rp.max_speed + 1.0
+    gx, gy = point_along_route(state.route, ahead)
+    # Keep right: with a body in the way (within clearance_cap of the path straight ahead,
+    # in front), aim pass_angle clockwise of the way on; a symmetric head-on meeting
+    # otherwise ends nose to nose (DWA treats bodies as obstacles, not as agents).
+    hx, hy = jnp.cos(r.heading), jnp.sin(r.heading)
+    rel_x, rel_y = bodies.x[0][None, :] - r.x[:, None], bodies.y[0][None, :] - r.y[:, None]
+    along = rel_x * hx[:, None] + rel_y * hy[:, None]
+    across = jnp.abs(-rel_x * hy[:, None] + rel_y * hx[:, None])
+    in_way = bodies.other & (along > 0.0) & (across < (rp.radius + s.margin)[:, None]
+                                             + bodies.radius + s.clearance_cap * 0.5) & (
+        along < s.horizon * rp.max_speed[:, None] + s.clearance_cap)
+    blocked = jnp.any(in_way, axis=1)
+    wx_, wy_ = gx - r.x, gy - r.y
+    turn_by = jnp.where(blocked, -s.pass_angle, 0.0)
+    c, si = jnp.cos(turn_by), jnp.sin(turn_by)
+    return r.x + c * wx_ - si * wy_, r.y + si * wx_ + c * wy_
+
+
+def _dwa_score(arcs: DwaArcs, clearance: Array, gx: Array, gy: Array, state: EnvState,
+               params: EnvParams, s: DwaSettings) -> Array:
+    """``[R, V, W]``: the weighted sum of heading, clearance, speed and progress of each arc;
+    -inf for arcs on which the robot could not stop before the nearest obstacle."""
+    r, rp = state.robots, params.robots
+    vv = arcs.v
+    stop_distance = vv * vv / (2.0 * rp.max_decel[:, None, None])
+    admissible = clearance > stop_distance
+    # Heading: alignment of the arc's end direction with the way on, seen from where the robot
+    # is (an arc that runs past the point still points the right way).
+    ex, ey = (gx - r.x)[:, None, None], (gy - r.y)[:, None, None]
+    end = arcs.theta[..., -1]
+    to_way = safe_norm(ex, ey)  # m from the robot to the way on
+    align = (jnp.cos(end) * ex + jnp.sin(end) * ey) / jnp.maximum(to_way, 1e-9)
+    reach = s.horizon * rp.max_speed[:, None, None]
+    gained = to_way - safe_norm(gx[:, None, None] - arcs.x[..., -1],
+                                gy[:, None, None] - arcs.y[..., -1])
+    score = (s.heading_weight * (align + 1.0) / 2.0
+             + s.clearance_weight * jnp.minimum(clearance, s.clearance_cap) / s.clearance_cap
+             + s.speed_weight * vv / rp.max_speed[:, None, None]
+             + s.progress_weight * gained / reach)
+    return jnp.where(admissible, score, -jnp.inf)
+
+
 def dwa_controller(env: SocialNavEnv, settings: DwaSettings | None = None):
     """The ``dwa`` baseline policy for ``env`` (continuous actions). For each robot: sample
     forward speeds and turn rates reachable within ``window`` s under its acceleration limits,
@@ -197,85 +326,17 @@ def dwa_controller(env: SocialNavEnv, settings: DwaSettings | None = None):
     action_dim = env.config.action_dim
 
     def policy(obs: Array, key: Array, state: EnvState, params: EnvParams) -> Array:
-        r, h, m, rp = state.robots, state.humans, params.map, params.robots
+        r, rp = state.robots, params.robots
         num = r.x.shape[0]
-        v0, w0 = r.kin.v_forward, r.kin.omega
-        frac_v = jnp.linspace(-1.0, 1.0, s.speeds)
-        frac_w = jnp.linspace(-1.0, 1.0, s.turns)
-        v = jnp.clip(v0[:, None] + frac_v[None, :] * rp.max_accel[:, None] * s.window, 0.0,
-                     rp.max_speed[:, None])  # [R, V]
-        w = jnp.clip(w0[:, None] + frac_w[None, :] * rp.max_alpha[:, None] * s.window,
-                     -rp.max_omega[:, None], rp.max_omega[:, None])  # [R, W]
-        vv, ww = v[:, :, None], w[:, None, :]  # [R, V, W]
-        t = jnp.linspace(s.horizon / s.points, s.horizon, s.points)  # [T]
-        theta = r.heading[:, None, None, None] + ww[..., None] * t  # [R, V, W, T]
-        straight = jnp.abs(ww[..., None]) < 1e-3
-        safe_w = jnp.where(straight, 1.0, ww[..., None])
-        dx = jnp.where(straight, vv[..., None] * t * jnp.cos(r.heading)[:, None, None, None],
-                       vv[..., None] / safe_w * (jnp.sin(theta)
-                                                 - jnp.sin(r.heading)[:, None, None, None]))
-        dy = jnp.where(straight, vv[..., None] * t * jnp.sin(r.heading)[:, None, None, None],
-                       -vv[..., None] / safe_w * (jnp.cos(theta)
-                                                  - jnp.cos(r.heading)[:, None, None, None]))
-        px = r.x[:, None, None, None] + dx  # [R, V, W, T]
-        py = r.y[:, None, None, None] + dy
-        radius = (rp.radius + s.margin)[:, None, None, None]
-        # Clearance to walls (nearest point of each) and to bodies, along the arc.
-        wall = point_segment_distance(px[..., None], py[..., None], m.wall_x1, m.wall_y1,
-                                      m.wall_x2, m.wall_y2)
-        wall = jnp.min(jnp.where(m.wall_valid, wall, jnp.inf), axis=-1) - radius
-        # Bodies where they will be at each point's time, at their present velocities.
-        velocity = r.body_velocity
-        bx = jnp.concatenate([r.x, h.x])[None, :] + t[:, None] * jnp.concatenate(
-            [velocity[:, 0], h.vx])[None, :]  # [T, B]
-        by = jnp.concatenate([r.y, h.y])[None, :] + t[:, None] * jnp.concatenate(
-            [velocity[:, 1], h.vy])[None, :]
-        bradius = jnp.concatenate([rp.radius, jnp.broadcast_to(params.humans.radius,
-                                                               h.x.shape)])
-        present = jnp.concatenate([r.in_world, h.active])
-        other = present[None, :] & ~jnp.eye(num, bx.shape[1], dtype=bool)  # [R, B]
-        gap = (safe_norm(px[..., None] - bx, py[..., None] - by) - bradius) - radius[..., None]
-        gap = jnp.min(jnp.where(other[:, None, None, None, :], gap, jnp.inf), axis=-1)
-        clearance = jnp.min(jnp.minimum(wall, gap), axis=-1)  # [R, V, W]
-        stop_distance = vv * vv / (2.0 * rp.max_decel[:, None, None])
-        admissible = clearance > stop_distance
-        # Heading: alignment of the arc's end direction with the way on, a point of the route
-        # beyond the arc's reach.
-        ahead = state.progress + s.horizon * rp.max_speed + 1.0
-        gx, gy = point_along_route(state.route, ahead)
-        # Keep right: with a body in the way (within clearance_cap of the path straight ahead,
-        # in front), aim pass_angle clockwise of the way on; a symmetric head-on meeting
-        # otherwise ends nose to nose (DWA treats bodies as obstacles, not as agents).
-        hx, hy = jnp.cos(r.heading), jnp.sin(r.heading)
-        rel_x, rel_y = bx[0][None, :] - r.x[:, None], by[0][None, :] - r.y[:, None]
-        along = rel_x * hx[:, None] + rel_y * hy[:, None]
-        across = jnp.abs(-rel_x * hy[:, None] + rel_y * hx[:, None])
-        in_way = other & (along > 0.0) & (across < (rp.radius + s.margin)[:, None] + bradius
-                                         + s.clearance_cap * 0.5) & (
-            along < s.horizon * rp.max_speed[:, None] + s.clearance_cap)
-        blocked = jnp.any(in_way, axis=1)
-        wx_, wy_ = gx - r.x, gy - r.y
-        turn_by = jnp.where(blocked, -s.pass_angle, 0.0)
-        c, si = jnp.cos(turn_by), jnp.sin(turn_by)
-        gx, gy = r.x + c * wx_ - si * wy_, r.y + si * wx_ + c * wy_
-        # (the direction from where the robot is: an arc that runs past the point still
-        # points the right way)
-        ex, ey = (gx - r.x)[:, None, None], (gy - r.y)[:, None, None]
-        end = theta[..., -1]
-        to_way = safe_norm(ex, ey)  # m from the robot to the way on
-        align = (jnp.cos(end) * ex + jnp.sin(end) * ey) / jnp.maximum(to_way, 1e-9)
-        reach = s.horizon * rp.max_speed[:, None, None]
-        gained = to_way - safe_norm(gx[:, None, None] - px[..., -1],
-                                    gy[:, None, None] - py[..., -1])
-        score = (s.heading_weight * (align + 1.0) / 2.0
-                 + s.clearance_weight * jnp.minimum(clearance, s.clearance_cap) / s.clearance_cap
-                 + s.speed_weight * vv / rp.max_speed[:, None, None]
-                 + s.progress_weight * gained / reach)
-        score = jnp.where(admissible, score, -jnp.inf).reshape(num, -1)
+        arcs = _dwa_arcs(state, params, s)
+        bodies = _dwa_bodies(state, params, arcs.t)
+        clearance = _dwa_clearance(arcs, bodies, params, s)
+        gx, gy = _dwa_way_on(state, params, bodies, s)
+        score = _dwa_score(arcs, clearance, gx, gy, state, params, s).reshape(num, -1)
         best = jnp.argmax(score, axis=1)
         any_ok = jnp.isfinite(jnp.max(score, axis=1))
-        flat_v = jnp.broadcast_to(vv, (num, s.speeds, s.turns)).reshape(num, -1)
-        flat_w = jnp.broadcast_to(ww, (num, s.speeds, s.turns)).reshape(num, -1)
+        flat_v = jnp.broadcast_to(arcs.v, (num, s.speeds, s.turns)).reshape(num, -1)
+        flat_w = jnp.broadcast_to(arcs.w, (num, s.speeds, s.turns)).reshape(num, -1)
         v_best = jnp.where(any_ok, jnp.take_along_axis(flat_v, best[:, None], 1)[:, 0], 0.0)
         w_best = jnp.where(any_ok, jnp.take_along_axis(flat_w, best[:, None], 1)[:, 0], 0.0)
         return _commands_to_actions(v_best, w_best, r.kin.v_forward, rp, action_dim)

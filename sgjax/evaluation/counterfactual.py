@@ -4,7 +4,7 @@ A batched simulator can answer "what would this robot have done with nobody else
 "what did this robot do to the others" exactly, by playing extra lanes of the same episode:
 same reset key (same starts, goals and pedestrians, :meth:`SocialNavEnv.reset_subset`), same
 per-step keys, one robot kept or one removed. For ``E`` episodes of ``R`` robot slots the
-evaluation plays
+evaluation plays (:func:`play_counterfactual`, the lane plan)
 
 * ``E x R`` **alone** lanes first (lane ``i``: robot ``i`` alone; its path and arrival are kept
   as :class:`SoloPaths`), then
@@ -12,21 +12,66 @@ evaluation plays
   it; :func:`update` compares them step by step against the solo paths.
 
 So the counterfactual metrics cost about ``1 + 2R`` times a plain evaluation (21x at 10 robot
-slots; ``bench/evaluation.py`` measures it). Definitions
-(``sgjax.evaluation.metrics.COUNTERFACTUAL_METRICS``
-and ``docs/metrics.md``): path deviation (mean, max) and Hausdorff distance from the robot's
-own path alone, the makespan over the slowest robot's time alone, and invasiveness: how far and
-how differently fast the other robots and pedestrians move with versus without the robot.
+slots; ``bench/evaluation.py`` measures it). They are registered here (:class:`Counterfactual`,
+``per_step = False``: they read NaN unless these lanes run). Definitions (``docs/metrics.md``):
+path deviation (mean, max) and Hausdorff distance from the robot's own path alone, the makespan
+over the slowest robot's time alone, and invasiveness: how far and how differently fast the
+other robots and pedestrians move with versus without the robot.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any, Protocol
+
+import jax
 import jax.numpy as jnp
 from flax import struct
 from jax import Array
 
+from sgjax.evaluation.metrics.accumulate import MetricState
+from sgjax.evaluation.metrics.base import Metric, episode_metric, robot_metric
+from sgjax.evaluation.metrics.paths import Paths
+from sgjax.evaluation.metrics.registration import register_metric
 from sgjax.kernels.geometry import point_segment_distance_sq, safe_norm
 from sgjax.types import EnvParams, EnvState
+
+
+@register_metric
+class Counterfactual(Metric):
+    """The metrics that compare an episode with the same episode played again with a robot
+    alone or without it. Not computed from the step (``per_step = False``): the runner plays
+    the lanes of :func:`play_counterfactual`, whose accumulator is :class:`Tally`
+    (:func:`start`, :func:`update`, :func:`finalize`)."""
+
+    per_step = False
+    infos = (
+        episode_metric("makespan_ratio", "ratio",
+                       "makespan / the slowest robot's arrival time when it plays the same "
+                       "episode alone (team successes whose robots all arrive alone; NaN "
+                       "otherwise)", "SMGLib"),
+        robot_metric("path_deviation_mean", "m",
+                     "mean over the robot's active steps of the distance from its position to "
+                     "its own path in the same episode alone (polyline of its positions there)",
+                     "SMGLib path deviation, with the exact solo path for the straight line"),
+        robot_metric("path_deviation_max", "m", "max of the same", "SMGLib"),
+        robot_metric("hausdorff", "m",
+                     "Hausdorff distance between the robot's path and its own path alone (both "
+                     "polylines, start to where it stopped)", "SMGLib Hausdorff distance"),
+        robot_metric("invasiveness_robots", "m",
+                     "mean over steps (while this episode or the one without the robot runs) "
+                     "and over the other robots of the distance between where they are with "
+                     "and without this robot",
+                     "SMGLib's reverted invasiveness, made exact by a counterfactual lane"),
+        robot_metric("invasiveness_humans", "m",
+                     "the same over the pedestrians (NaN without any)", "sgjax"),
+        robot_metric("invasiveness_speed", "m/s",
+                     "the same for speeds: mean over steps and over the other robots and "
+                     "pedestrians of |speed with - speed without this robot|", "sgjax"),
+    )
+
+
+COUNTERFACTUAL_NAMES = tuple(info.name for info in Counterfactual.infos)
 
 
 def alone_masks(num_robots: int) -> Array:
@@ -168,3 +213,84 @@ def finalize(c: Tally, solo: SoloPaths, final: EnvState, makespan: Array, params
     slowest = jnp.max(jnp.where(present, solo.arrived_at, 0), axis=-1) * params.dt
     ratio = jnp.where(solo_done & (slowest > 0), makespan / jnp.maximum(slowest, 1e-6), nan)
     return robot, {"makespan_ratio": ratio.astype(jnp.float32)}
+
+
+class LanePlayer(Protocol):
+    """What the lane plan needs from an episode runner
+    (:class:`sgjax.evaluation.runner.EpisodeRunner` is one): ``E`` episodes of ``R`` robot
+    slots, reset with a subset of the robots, played together as lanes of one batch."""
+
+    num_episodes: int  # E
+    num_robots: int  # R
+
+    def reset_lanes(self, keys: Array, params: EnvParams, keep: Array
+                    ) -> tuple[Array, EnvState]:
+        """``env.reset_subset`` batched: ``keys [N]``, ``keep [N, R]`` bool."""
+
+    def play(self, params: EnvParams, obs: Array, state: EnvState, lanes: int,
+             step_keys: Array, hook: Callable | None = None, extra: Any = None,
+             emit: Callable | None = None) -> tuple[EnvState, MetricState, Any, Any]:
+        """Play ``E x lanes`` episodes (episode-major, the lanes of an episode sharing its
+        per-step keys); ``hook(extra, prev, state, running)`` folds each step into ``extra``;
+        ``emit(state)`` is returned for every step. Returns ``(final, tally, extra, out)``."""
+
+    def finalize(self, tally: MetricState, final: EnvState, params: EnvParams
+                 ) -> tuple[dict[str, Array], dict[str, Array]]:
+        """Every lane's metrics (``metrics.finalize`` batched)."""
+
+
+def by_episode(tree: Any, num_episodes: int, lanes: int) -> Any:
+    """``[E * L, ...] -> [E, L, ...]`` for every leaf of ``tree``."""
+    return jax.tree.map(lambda v: v.reshape((num_episodes, lanes) + v.shape[1:]), tree)
+
+
+def play_alone(player: LanePlayer, reset_keys: Array, step_keys: Array, params: EnvParams
+               ) -> SoloPaths:
+    """Play every robot of every episode alone (lane ``i`` keeps robot ``i``) and keep its
+    path and arrival step. ``reset_keys [E]``, ``step_keys [T]``."""
+    episodes, lanes = player.num_episodes, player.num_robots
+    own = jnp.arange(lanes)
+    masks = jnp.tile(alone_masks(lanes), (episodes, 1))
+    obs, state = player.reset_lanes(jnp.repeat(reset_keys, lanes, axis=0), params, masks)
+
+    def own_xy(s: EnvState) -> Array:  # [E, R, 2]: robot i in lane i
+        r = by_episode(s.robots, episodes, lanes)
+        return jnp.stack([r.x[:, own, own], r.y[:, own, own]], axis=-1)
+
+    _, alone, _, path = player.play(params, obs, state, lanes, step_keys, emit=own_xy)
+    path = jnp.concatenate([own_xy(state)[None], path])  # [T + 1, E, R, 2]
+    arrived_at = alone.tallies[Paths.__name__].arrived_at  # [E * R, R] step it arrived (0: not)
+    arrived = by_episode(arrived_at, episodes, lanes)[:, own, own]
+    return SoloPaths(x=jnp.moveaxis(path[..., 0], 0, -1), y=jnp.moveaxis(path[..., 1], 0, -1),
+                     arrived_at=arrived)
+
+
+def play_counterfactual(player: LanePlayer, reset_keys: Array, step_keys: Array,
+                        params: EnvParams, record: bool = False) -> tuple:
+    """The lane plan: every robot alone (:func:`play_alone`), then the episode (lane 0) and
+    the episode without each robot (lane ``1 + i``) compared step by step.
+
+    Returns ``(robot, episode, states, first)``: every metric, the counterfactual ones filled
+    in (``{name: [E, R]}``, ``{name: [E]}``); with ``record`` the episodes' states after each
+    step ``[T, E, ...]`` (else None); ``first``, their states after the reset ``[E, ...]``."""
+    episodes, num = player.num_episodes, player.num_robots
+    solo = play_alone(player, reset_keys, step_keys, params)
+    lanes = 1 + num
+    masks = jnp.tile(main_masks(num), (episodes, 1))
+    obs, state = player.reset_lanes(jnp.repeat(reset_keys, lanes, axis=0), params, masks)
+
+    def compare(c: Tally, prev: EnvState, now: EnvState, running: Array) -> Tally:
+        return update(c, solo, by_episode(prev, episodes, lanes),
+                      by_episode(now, episodes, lanes), running.reshape(episodes, lanes))
+
+    def episode_lane(tree: Any) -> Any:  # lane 0 of every episode
+        return jax.tree.map(lambda v: v[::lanes], tree)
+
+    first = by_episode(state.robots, episodes, lanes)
+    c0 = start(first.x[:, 0], first.y[:, 0], solo)
+    final, tally, c, out = player.play(params, obs, state, lanes, step_keys, hook=compare,
+                                       extra=c0, emit=episode_lane if record else None)
+    final, tally = episode_lane((final, tally))
+    robot, episode = player.finalize(tally, final, params)
+    extra_robot, extra_episode = finalize(c, solo, final, episode["makespan"], params)
+    return ({**robot, **extra_robot}, {**episode, **extra_episode}, out, episode_lane(state))

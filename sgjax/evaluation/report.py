@@ -17,7 +17,7 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from sgjax.evaluation.metrics import METRICS, METRICS_BY_NAME, MetricConstants
+from sgjax.evaluation.metrics import METRICS, MetricConstants
 from sgjax.evaluation.statistics import CONFIDENCE, ConfigResult, Summary
 from sgjax.version import __version__
 
@@ -72,7 +72,7 @@ def write_csv(results: Sequence[ConfigResult], path: Path) -> Path:
             for name, s in r.metrics.items():
                 d = s.as_dict()
                 writer.writerow([r.scenario, r.policy, r.num_agents, r.episodes, name,
-                                 METRICS_BY_NAME[name].unit,
+                                 METRICS[name].unit,
                                  *("" if d[k] is None else d[k]
                                    for k in ("mean", "ci_low", "ci_high", "std", "n"))])
     return path
@@ -141,7 +141,7 @@ def write_table(results: Sequence[ConfigResult], path: Path) -> Path:
         for name, s in r.metrics.items():
             interval = ("n/a" if math.isnan(s.ci_low) else f"[{s.ci_low:.3g}, {s.ci_high:.3g}]")
             mean = "n/a" if math.isnan(s.mean) else f"{s.mean:.3g}"
-            rows.append([name, METRICS_BY_NAME[name].unit, mean, interval, s.n])
+            rows.append([name, METRICS[name].unit, mean, interval, s.n])
         lines += markdown_table(["Metric", "Unit", "Mean", "95% interval", "n"], rows)
         lines.append("")
     path.write_text("\n".join(lines) + "\n")
@@ -162,7 +162,7 @@ def _plot(ax: Axes, results: Sequence[ConfigResult], metric: str) -> None:
     for label, xs, ys, err in _series(results, metric):
         err = [[0.0 if math.isnan(e) else e for e in side] for side in err]
         ax.errorbar(xs, ys, yerr=err, marker="o", capsize=3, label=label)
-    info = METRICS_BY_NAME[metric]
+    info = METRICS[metric]
     ax.set_title(f"{metric} ({info.unit})", fontsize=9)
     ax.set_xlabel("robots", fontsize=8)
     ax.tick_params(labelsize=7)

@@ -77,16 +77,17 @@ def summarize(values: np.ndarray, binary: bool, fraction: bool = False) -> Summa
 
 
 def summarize_metrics(values: Mapping[str, np.ndarray]) -> dict[str, Summary]:
-    """:func:`summarize` of every metric's per-episode values ``{name: [E]}``, in
-    :data:`sgjax.evaluation.metrics.METRICS` order, with each metric's interval kind and range."""
+    """:func:`summarize` of every registered metric's per-episode values ``{name: [E]}``, in
+    catalogue order (:data:`sgjax.evaluation.metrics.METRICS`), with each metric's interval
+    kind and range."""
     return {info.name: summarize(values[info.name], info.binary, info.unit == "fraction")
             for info in METRICS}
 
 
 @dataclasses.dataclass
 class ConfigResult:
-    """One configuration's summaries (``metrics`` in :data:`sgjax.evaluation.metrics.METRICS`
-    order)."""
+    """One configuration's summaries (``metrics`` in the catalogue order of
+    :data:`sgjax.evaluation.metrics.METRICS`)."""
 
     scenario: str
     policy: str

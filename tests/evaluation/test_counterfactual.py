@@ -10,10 +10,11 @@ import pytest
 
 import sgjax
 from sgjax.command import main as cli_main
-from sgjax.evaluation import metrics
-from sgjax.evaluation.evaluate import episode_runner, params_by_count
+from sgjax.evaluation import counterfactual, metrics
+from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.policies import load_policy
 from sgjax.evaluation.protocols import PAPER, load_protocol
+from sgjax.evaluation.runner import EpisodeRunner, with_zone_books
 from sgjax.maps import parse_map
 from sgjax.maps.arrays import zone_widths
 
@@ -38,7 +39,7 @@ def test_zone_widths_are_the_free_gaps_of_the_shipped_mini_games():
 
 
 def _play_lane(env, params, policy, reset_key, step_keys, episode, keep):
-    """One lane played as ``episode_runner`` plays it: its episode's keys, frozen once done.
+    """One lane played as ``EpisodeRunner`` plays it: its episode's keys, frozen once done.
     Returns per-step records (the start first) of robots, pedestrians and zones."""
     obs, state = env.reset_subset(reset_key, params, keep)
 
@@ -74,15 +75,15 @@ def test_counterfactual_metrics_equal_brute_force_from_separate_episodes():
     extra lanes; makespan and flow rate match their definitions."""
     env, by_count = params_by_count("doorway", [3], time_limit=TIME_LIMIT, num_humans=4)
     params = by_count[3]
-    from sgjax.evaluation.evaluate import with_zone_books
     env = with_zone_books(env)
     policy = load_policy("only_local", env)
     key = jax.random.key(5)
-    plain = episode_runner(env, params, policy, EPISODES)(key, params)[0]
-    values, robot, _ = episode_runner(env, params, policy, EPISODES,
-                                      counterfactual=True)(key, params)
-    for name in metrics.METRIC_NAMES:
-        if name not in metrics.COUNTERFACTUAL_NAMES:
+    steps = int(params.max_steps)
+    plain = EpisodeRunner(env, policy, EPISODES, steps).run(key, params)[0]
+    values, robot, _ = EpisodeRunner(env, policy, EPISODES, steps,
+                                     counterfactual=True).run(key, params)
+    for name in metrics.METRICS.names():
+        if name not in counterfactual.COUNTERFACTUAL_NAMES:
             np.testing.assert_array_equal(np.asarray(values[name]), np.asarray(plain[name]),
                                           err_msg=name)
     assert np.all(np.isnan(np.asarray(plain["hausdorff"])))
@@ -158,8 +159,9 @@ def test_a_robot_alone_deviates_from_nothing_and_invades_nobody():
     makespan ratio 1, and invasiveness undefined (nobody else)."""
     env, by_count = params_by_count("open", [1], time_limit=TIME_LIMIT)
     params = by_count[1]
-    values, robot, _ = episode_runner(env, params, load_policy("only_local", env), EPISODES,
-                                      counterfactual=True)(jax.random.key(1), params)
+    values, robot, _ = EpisodeRunner(env, load_policy("only_local", env), EPISODES,
+                                     int(params.max_steps), counterfactual=True
+                                     ).run(jax.random.key(1), params)
     np.testing.assert_allclose(np.asarray(robot["hausdorff"][:, 0]), 0.0, atol=1e-5)
     np.testing.assert_allclose(np.asarray(robot["path_deviation_max"][:, 0]), 0.0, atol=1e-5)
     np.testing.assert_allclose(np.asarray(values["makespan_ratio"]), 1.0)

@@ -39,7 +39,7 @@ def test_evaluate_command_end_to_end(tmp_path, capsys):
     assert "team success" in out and "agent-steps/s" in out  # throughput, once compiled
     document = json.loads((tmp_path / "metrics.json").read_text())
     assert document["constants"]["space_radii"] == [0.45, 1.2, 3.6]
-    assert set(document["definitions"]) == set(metrics.METRIC_NAMES)
+    assert set(document["definitions"]) == set(metrics.METRICS.names())
     results = document["results"]
     assert [(r["policy"], r["num_agents"]) for r in results] == [
         ("only_local", 2), ("only_local", 3), ("stop_when_blocked", 2),
@@ -89,7 +89,7 @@ def test_stopping_once_every_episode_ended_changes_no_result():
     for scenario, policy in (("doorway", "only_local"), ("doorway", "random"),
                              ("doorway", "stop_when_blocked"), ("open", "only_local")):
         env, params = sgjax.make(scenario, num_agents=3, time_limit=33.3)
-        assert int(params.max_steps) % sgjax.evaluation.evaluate.STEP_CHUNK
+        assert int(params.max_steps) % sgjax.evaluation.runner.STEP_CHUNK
         early = run_episodes(env, params, policy, jax.random.key(4), 3)
         full = run_episodes(env, params, policy, jax.random.key(4), 3, record=True)
         for name, value in early.values.items():
@@ -215,7 +215,7 @@ def test_metrics_are_finite_where_defined():
     batch = run_episodes(env, params, "random", jax.random.key(0), 4, counterfactual=True)
     undefined_without_success = ("time_to_goal", "aggregated_time", "makespan", "makespan_ratio")
     for name, values in batch.values.items():
-        info = metrics.METRICS_BY_NAME[name]
+        info = metrics.METRICS[name]
         if name in undefined_without_success or "human" in name:
             continue
         assert np.isfinite(values).all(), name

@@ -4,6 +4,7 @@ import dataclasses
 import math
 from pathlib import Path
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -11,6 +12,8 @@ from scenes import make_room, place
 
 from sgjax.environment.env import SocialNavEnv
 from sgjax.evaluation import metrics
+from sgjax.evaluation.evaluate import run_episodes
+from sgjax.evaluation.metrics import catalogue
 from sgjax.evaluation.statistics import summarize, t_interval, wilson_interval
 from sgjax.kernels.zone_books import update_zones
 from sgjax.types import CollisionCounts
@@ -36,7 +39,7 @@ def play(env, params, frames, arrived=None, done_at=None):
         state = state.replace(robots=state.robots.replace(
             succeeded=prev.robots.succeeded | jnp.asarray(now)))
         info = {"was_active": prev.robots.active, "arrived": jnp.asarray(now)}
-        m = metrics.update(m, prev, state, info, jnp.asarray(t == done_at), params, env.config)
+        m = metrics.update(m, prev, state, info, jnp.asarray(t == done_at), params)
         prev = state
     robot, episode = metrics.finalize(m, prev, params)
     return ({k: np.asarray(v) for k, v in robot.items()},
@@ -211,8 +214,102 @@ def test_wilson_and_t_intervals_match_hand_values():
     assert summarize(np.array([np.nan]), binary=True).n == 0
 
 
-def test_every_metric_is_documented_once():
-    text = (Path(__file__).resolve().parents[2] / "docs" / "metrics.md").read_text()
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "metrics.md"
+
+
+def test_docs_tables_agree_with_the_registry():
+    """docs/metrics.md's constants and definitions tables are those the registry generates
+    (``python -m sgjax.evaluation.metrics.catalogue`` rewrites them), so every registered
+    metric is documented once, with its unit, level, definition and source."""
+    text = DOCS.read_text()
+    assert catalogue.render(text) == text, (
+        "docs/metrics.md is out of date: run python -m sgjax.evaluation.metrics.catalogue")
     for info in metrics.METRICS:
-        assert f"| `{info.name}` |" in text, info.name
-    assert len(set(metrics.METRIC_NAMES)) == len(metrics.METRICS)
+        assert text.count(f"| `{info.name}` |") == 1, info.name
+    assert len(set(metrics.METRICS.names())) == len(metrics.METRICS) == 49
+    assert catalogue.main([str(DOCS), "--check"]) == 0
+
+
+def test_the_registry_rejects_incomplete_or_repeated_metrics():
+    class Repeats(metrics.Metric):
+        infos = (metrics.robot_metric("success", "fraction", "again", "here"),)
+
+    class NoSource(metrics.Metric):
+        infos = (metrics.robot_metric("unsourced", "m", "a distance", ""),)
+
+    class BadLevel(metrics.Metric):
+        infos = (metrics.MetricInfo("sideways", "m", "team", definition="x", source="y"),)
+
+    for cls, message in ((Repeats, r"repeats metric names \['success'\]"),
+                         (NoSource, "'unsourced': source must not be empty"),
+                         (BadLevel, "'sideways': level must be one of")):
+        with pytest.raises(ValueError, match=message):
+            metrics.register_metric(cls)
+    with pytest.raises(TypeError, match="Metric subclass"):
+        metrics.register_metric(object)
+    assert "sideways" not in metrics.METRICS and metrics.METRICS["spl"].unit == "fraction"
+    with pytest.raises(KeyError, match="no metric or family"):
+        metrics.unregister_metric("never_registered")
+
+
+class ToyMetric(metrics.Metric):
+    """A metric from outside sgjax: each robot's active steps, and the episode in seconds."""
+
+    infos = (
+        metrics.robot_metric("toy_active_steps", "steps", "steps the robot was active",
+                             "this test", reduce="sum"),
+        metrics.episode_metric("toy_seconds", "s", "episode length x dt", "this test"),
+    )
+
+    def start(self, num_robots, num_zones, constants):
+        return jnp.zeros(num_robots, jnp.int32)
+
+    def update(self, tally, view):
+        return view.add(tally, 1)
+
+    def finalize(self, tally, end):
+        return {"toy_active_steps": tally, "toy_seconds": end.length * end.dt}
+
+
+@pytest.fixture
+def toy_metric():
+    metrics.register_metric(ToyMetric)
+    try:
+        yield ToyMetric
+    finally:
+        metrics.unregister_metric(ToyMetric)
+
+
+def test_a_metric_registered_from_outside_reaches_run_episodes(toy_metric):
+    """Registering a Metric subclass is all it takes: ``run_episodes`` reports its values per
+    robot (NaN for robot slots not in the episode) and per episode, and unregistering removes
+    it again."""
+    assert metrics.METRICS.names()[-2:] == ("toy_active_steps", "toy_seconds")
+    env, params = make_room(num_agents=2, max_agents=3, dt=DT, time_limit=2.0)
+    batch = run_episodes(env, params, "only_local", jax.random.key(0), 2)
+    steps = batch.robot["toy_active_steps"]
+    assert steps.shape == (2, 3) and np.isnan(steps[:, 2]).all()
+    assert (steps[:, :2] >= 1).all() and (steps[:, :2] <= batch.values["episode_length"][:, None]
+                                          ).all()
+    np.testing.assert_allclose(batch.values["toy_active_steps"], steps[:, :2].sum(axis=1))
+    np.testing.assert_allclose(batch.values["toy_seconds"],
+                               batch.values["episode_length"] * DT, rtol=1e-6)
+    metrics.unregister_metric(ToyMetric)
+    assert "toy_seconds" not in metrics.METRICS and len(metrics.METRICS) == 49
+    metrics.register_metric(ToyMetric)  # for the fixture to remove
+
+
+def test_the_docs_example_registers_and_unregisters():
+    """The example of docs/metrics.md ("Adding a metric") runs as printed."""
+    text = DOCS.read_text()
+    section = text[text.index("## Adding a metric"):]
+    code = section[section.index("```python\n") + 10:section.index("\n```\n")]
+    names = metrics.METRICS.names()
+    namespace = {}
+    exec(compile(code, "docs/metrics.md", "exec"), namespace)
+    assert metrics.METRICS.names() == names  # registered, then unregistered
+    metrics.register_metric(namespace["CloseCalls"])
+    try:
+        assert metrics.METRICS["close_calls"].reduce == "sum"
+    finally:
+        metrics.unregister_metric("close_calls")

@@ -55,9 +55,9 @@ env.reset(seed=0)
 frame = env.render()
 assert frame.ndim == 3 and frame.shape[2] == 3 and frame.std() > 0
 import pathlib, tempfile, numpy as np
-from sgjax.evaluation.metrics import DEFAULT_CONSTANTS, METRIC_NAMES
+from sgjax.evaluation.metrics import DEFAULT_CONSTANTS, METRICS
 from sgjax.evaluation.statistics import ConfigResult, summarize_metrics
-values = {name: np.random.default_rng(0).random(4) for name in METRIC_NAMES}
+values = {name: np.random.default_rng(0).random(4) for name in METRICS.names()}
 result = ConfigResult("open", "p", 2, 4, 0, 0.1, 10, summarize_metrics(values), 1.0)
 out = pathlib.Path(tempfile.mkdtemp())
 sgjax.evaluation.report.write_all([result], out, DEFAULT_CONSTANTS)

@@ -1,0 +1,271 @@
+"""The batched episode runner: ``E`` episodes of one environment under one policy, played as
+one ``jit(scan(vmap(step_env)))`` with the metrics accumulated inside.
+
+::
+
+    runner = EpisodeRunner(env, policy, num_episodes=25, max_steps=int(params.max_steps))
+    values, robot, states = runner.run(key, params)  # jitted; params are an argument
+    batch = runner(key, params)  # compiled, played and brought to the host: Episodes
+
+``params`` is an argument, so one compiled ``run`` serves every robot count up to
+``env.max_agents`` (and every pedestrian count, radius or weight the params hold). Steps run
+in chunks (:func:`scan_until_done`) until every episode has ended; an ended episode's state is
+frozen, so the results equal those of the whole time limit. With ``counterfactual`` the runner
+plays the lanes of :func:`sgjax.evaluation.counterfactual.play_counterfactual` as well.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable
+from typing import Any, NamedTuple, TypeVar
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax import Array
+
+from sgjax.environment.env import SocialNavEnv
+from sgjax.evaluation import counterfactual as cf
+from sgjax.evaluation import metrics
+from sgjax.evaluation.policies import Policy, RecurrentPolicy
+from sgjax.types import EnvParams, EnvState
+
+__all__ = ["STEP_CHUNK", "EpisodeRunner", "Episodes", "check_steps", "scan_until_done",
+           "with_zone_books"]
+
+STEP_CHUNK = 32  # steps per chunk of the runner's early-stopping loop
+C = TypeVar("C")
+
+
+def scan_until_done(step: Callable[[C, Any], C], carry: C, done: Callable[[C], Array],
+                    max_steps: int, chunk: int, xs: Any = None,
+                    record: Callable[[C], Any] | None = None, stop_early: bool = True
+                    ) -> tuple[C, Any, Array]:
+    """Apply ``step(carry, x)`` up to ``max_steps`` times, stopping once ``done(carry)``.
+
+    ``xs``: per-step inputs with leading axis ``max_steps`` (default: the step index, int32).
+    The steps run in chunks of ``chunk`` steps inside a ``lax.while_loop`` that checks
+    ``done`` between chunks, so a run that is done early costs the chunks it took (a step
+    after ``done`` must leave ``carry`` as it is for the results to equal the full scan); the
+    last chunk is cut at ``max_steps``. ``stop_early=False`` is one plain ``lax.scan`` of
+    every step.
+
+    Returns ``(carry, ys, steps_run)``: ``ys`` (None without ``record``) holds
+    ``record(carry)`` after every step ``[max_steps, ...]``, the final carry's for the steps
+    not run; ``steps_run`` (int32) is the number of steps taken (whole chunks, at most
+    ``max_steps``)."""
+    if xs is None:
+        xs = jnp.arange(max_steps, dtype=jnp.int32)
+
+    def recorded(c: C) -> Any:
+        return None if record is None else record(c)
+
+    if not stop_early:
+        carry, ys = jax.lax.scan(lambda c, x: (lambda n: (n, recorded(n)))(step(c, x)),
+                                 carry, xs, length=max_steps)
+        return carry, ys, jnp.asarray(max_steps, jnp.int32)
+    chunk = max(1, min(chunk, max_steps))
+    chunks = -(-max_steps // chunk)
+    rows = (None if record is None else jax.tree.map(
+        lambda s: jnp.zeros((max_steps,) + s.shape, s.dtype), jax.eval_shape(record, carry)))
+
+    def one_step(t: Array, loop: tuple) -> tuple:
+        c, rows = loop
+        c = step(c, jax.tree.map(lambda v: jax.lax.dynamic_index_in_dim(v, t, keepdims=False),
+                                 xs))
+        if record is not None:
+            rows = jax.tree.map(lambda r, y: jax.lax.dynamic_update_index_in_dim(r, y, t, 0),
+                                rows, record(c))
+        return c, rows
+
+    def unfinished(loop: tuple) -> Array:
+        i, c, _ = loop
+        return (i < chunks) & ~done(c)
+
+    def run_chunk(loop: tuple) -> tuple:
+        i, c, rows = loop
+        first = i * chunk
+        c, rows = jax.lax.fori_loop(first, jnp.minimum(first + chunk, max_steps), one_step,
+                                    (c, rows))
+        return i + 1, c, rows
+
+    i, carry, rows = jax.lax.while_loop(unfinished, run_chunk,
+                                        (jnp.zeros((), jnp.int32), carry, rows))
+    steps_run = jnp.minimum(i * chunk, max_steps)
+    ys = None
+    if record is not None:  # the rows never played hold the final carry's record
+        played = jnp.arange(max_steps) < steps_run
+        ys = jax.tree.map(lambda r, last: jnp.where(
+            played.reshape((-1,) + (1,) * last.ndim), r, last[None]), rows, record(carry))
+    return carry, ys, steps_run
+
+
+def with_zone_books(env: SocialNavEnv) -> SocialNavEnv:
+    """The same environment, keeping conflict-zone books for the order-violation metrics."""
+    if env.config.track_zones:
+        return env
+    return SocialNavEnv(dataclasses.replace(env.config, track_zones=True), env.default_params)
+
+
+def check_steps(params: EnvParams, num_steps: int, where: str) -> None:
+    """Raise unless episodes under ``params`` end within ``num_steps`` steps (the length a
+    runner was built for)."""
+    if int(params.max_steps) > num_steps:
+        raise ValueError(f"{where}: these params run episodes of {int(params.max_steps)} steps, "
+                         f"but the runner was built for {num_steps} (a longer time limit needs "
+                         "its own runner)")
+
+
+@dataclasses.dataclass
+class Episodes:
+    """Host results of a batch of ``E`` episodes."""
+
+    values: dict[str, np.ndarray]  # per-episode value of every metric, [E]
+    robot: dict[str, np.ndarray]  # per-robot values of robot-level metrics, [E, R]
+    states: Any = None  # with record=True: EnvState stacked [T + 1, E, ...] (T = time limit)
+    compile_seconds: float | None = None  # compiling the batched run
+    run_seconds: float | None = None  # running it once compiled (results on the host)
+
+
+class LoopCarry(NamedTuple):
+    """What the runner's loop carries, every leaf ``[E * L, ...]`` (``L`` lanes per episode)."""
+
+    obs: Array  # [N, R, D]
+    state: EnvState
+    tally: metrics.MetricState
+    memory: Any  # the policy's (zeros for a policy without memory)
+    extra: Any  # what a hook folds the steps into (the counterfactual comparisons)
+
+
+class EpisodeRunner:
+    """Plays ``num_episodes`` episodes of ``env`` under ``policy`` for ``max_steps`` steps.
+
+    ``env`` gets conflict-zone books (:func:`with_zone_books`); ``policy`` is a
+    ``policy(obs, key, state, params) -> actions`` or a :class:`RecurrentPolicy`. ``record``
+    keeps every step's state (and plays the whole time limit); ``counterfactual`` also plays
+    every episode with each robot alone and without each robot (``1 + 2R`` times the work) and
+    fills in the counterfactual metrics (NaN otherwise; every other metric is the same either
+    way). ``stop_early=False`` steps through the whole time limit (same results; for
+    benchmarks of the step). :attr:`run` is ``jit(episodes)``, compiled once per shape."""
+
+    def __init__(self, env: SocialNavEnv, policy: Policy | RecurrentPolicy, num_episodes: int,
+                 max_steps: int, constants: metrics.MetricConstants = metrics.DEFAULT_CONSTANTS,
+                 record: bool = False, counterfactual: bool = False, stop_early: bool = True):
+        if num_episodes < 1:
+            raise ValueError(f"num_episodes must be at least 1, got {num_episodes}")
+        self.env = with_zone_books(env)
+        self.policy, self.num_episodes, self.num_steps = policy, num_episodes, int(max_steps)
+        self.num_robots = self.env.max_agents
+        self.constants, self.record, self.counterfactual = constants, record, counterfactual
+        self.every_step = record or not stop_early
+        self.run = jax.jit(self.episodes)
+
+    def reset_lanes(self, keys: Array, params: EnvParams, keep: Array
+                    ) -> tuple[Array, EnvState]:
+        """``env.reset_subset`` for every lane: ``keys [N]``, ``keep [N, R]``."""
+        return jax.vmap(self.env.reset_subset, in_axes=(0, None, 0))(keys, params, keep)
+
+    def finalize(self, tally: metrics.MetricState, final: EnvState, params: EnvParams
+                 ) -> tuple[dict[str, Array], dict[str, Array]]:
+        """:func:`sgjax.evaluation.metrics.finalize` of every lane."""
+        return jax.vmap(metrics.finalize, in_axes=(0, 0, None))(tally, final, params)
+
+    def _act(self, memory: Any, obs: Array, keys: Array, state: EnvState, params: EnvParams
+             ) -> tuple[Any, Array]:
+        if isinstance(self.policy, RecurrentPolicy):
+            return jax.vmap(self.policy.step, in_axes=(0, 0, 0, 0, None))(memory, obs, keys,
+                                                                           state, params)
+        return memory, jax.vmap(self.policy, in_axes=(0, 0, 0, None))(obs, keys, state, params)
+
+    def _first_memory(self, count: int) -> Any:
+        if isinstance(self.policy, RecurrentPolicy):
+            return jax.vmap(lambda _: self.policy.init(self.num_robots))(jnp.arange(count))
+        return jnp.zeros(count)
+
+    def play(self, params: EnvParams, obs: Array, state: EnvState, lanes: int,
+             step_keys: Array, hook: Callable | None = None, extra: Any = None,
+             emit: Callable | None = None) -> tuple[EnvState, metrics.MetricState, Any, Any]:
+        """Play ``num_episodes x lanes`` episodes (episode-major) from ``obs, state`` for the
+        time limit; the lanes of an episode share its per-step keys (``step_keys [T]``).
+        ``hook(extra, prev, state, running)`` folds each step into ``extra``; ``emit(state)``
+        is returned for every step ``[T, ...]``. Returns ``(final, tally, extra, out)``."""
+        count, episodes, constants = self.num_episodes * lanes, self.num_episodes, self.constants
+        step = jax.vmap(self.env.step_env, in_axes=(0, 0, 0, None))
+        update = jax.vmap(lambda m, s0, s1, info, done: metrics.update(
+            m, s0, s1, info, done, params, constants))
+        num_zones = state.zones.phase.shape[-1]
+        tally = jax.vmap(lambda _: metrics.start(self.num_robots, constants, num_zones))(
+            jnp.arange(count))
+
+        def per_lane(keys: Array) -> Array:
+            return keys if lanes == 1 else keys[jnp.arange(count) // lanes]
+
+        def one_step(c: LoopCarry, key: Array) -> LoopCarry:
+            k_act, k_step = jax.random.split(key)
+            memory, actions = self._act(c.memory, c.obs,
+                                        per_lane(jax.random.split(k_act, episodes)), c.state,
+                                        params)
+            next_obs, next_state, _, term, trunc, info = step(
+                per_lane(jax.random.split(k_step, episodes)), c.state, actions, params)
+            done = jax.vmap(metrics.episode_done)(next_state, term, trunc)
+            tally_next = update(c.tally, c.state, next_state, info, done)
+
+            def keep(new: Array, old: Array) -> Array:  # ended episodes stay as they ended
+                running = c.tally.running.reshape((-1,) + (1,) * (new.ndim - 1))
+                return jnp.where(running, new, old)
+
+            kept = jax.tree.map(keep, next_state, c.state)
+            extra = c.extra if hook is None else hook(c.extra, c.state, kept, c.tally.running)
+            return LoopCarry(keep(next_obs, c.obs), kept, tally_next, memory, extra)
+
+        start = LoopCarry(obs, state, tally, self._first_memory(count), extra)
+        final, out, _ = scan_until_done(
+            one_step, start, lambda c: ~jnp.any(c.tally.running), self.num_steps, STEP_CHUNK,
+            xs=step_keys, record=None if emit is None else (lambda c: emit(c.state)),
+            stop_early=not self.every_step)
+        return final.state, final.tally, final.extra, out
+
+    def episodes(self, key: Array, params: EnvParams) -> tuple:
+        """``(values, robot, states)``: every metric per episode ``{name: [E]}`` and per robot
+        ``{name: [E, R]}``; with ``record`` the states ``[T + 1, E, ...]`` (the reset first;
+        else None). Traceable: :attr:`run` is its ``jit``; ``params.max_steps`` must be at
+        most ``max_steps`` (:func:`check_steps`), as an episode is cut off there."""
+        k_reset, k_steps = jax.random.split(key)
+        reset_keys = jax.random.split(k_reset, self.num_episodes)
+        step_keys = jax.random.split(k_steps, self.num_steps)
+        if self.counterfactual:
+            robot, episode, states, first = cf.play_counterfactual(
+                self, reset_keys, step_keys, params, self.record)
+        else:
+            obs, first = jax.vmap(self.env.reset, in_axes=(0, None))(reset_keys, params)
+            final, tally, _, states = self.play(params, obs, first, 1, step_keys,
+                                                emit=(lambda s: s) if self.record else None)
+            robot, episode = self.finalize(tally, final, params)
+        values = jax.vmap(metrics.per_episode)(robot, episode)
+        if self.record:
+            states = jax.tree.map(lambda a, rest: jnp.concatenate([a[None], rest]), first, states)
+        return values, robot, states
+
+    def compile(self, key: Array, params: EnvParams) -> tuple[Callable, float]:
+        """:attr:`run` compiled for the shapes of ``key`` and ``params``, and the seconds it
+        took."""
+        t0 = time.perf_counter()
+        compiled = self.run.lower(key, params).compile()
+        return compiled, time.perf_counter() - t0
+
+    def play_compiled(self, compiled: Callable, key: Array, params: EnvParams,
+                      compile_seconds: float | None = None) -> Episodes:
+        """Run a compiled :attr:`run` and bring its results to the host, timed."""
+        check_steps(params, self.num_steps, "EpisodeRunner")
+        t0 = time.perf_counter()
+        values, robot, states = jax.device_get(compiled(key, params))
+        return Episodes(values={k: np.asarray(v) for k, v in values.items()},
+                        robot={k: np.asarray(v) for k, v in robot.items()}, states=states,
+                        compile_seconds=compile_seconds, run_seconds=time.perf_counter() - t0)
+
+    def __call__(self, key: Array, params: EnvParams) -> Episodes:
+        """Compile for these shapes, play, and return the host results."""
+        compiled, seconds = self.compile(key, params)
+        return self.play_compiled(compiled, key, params, seconds)
