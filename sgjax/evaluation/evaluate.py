@@ -14,7 +14,7 @@ accumulated inside. Results are summarised per metric over episodes by
 :mod:`sgjax.evaluation.statistics` (mean, a 95% confidence interval: Wilson for yes/no episode
 metrics, Student t for the rest, and the number of episodes with a value) and written by
 :mod:`sgjax.evaluation.report`. ``Episodes``, ``check_steps`` and ``with_zone_books`` live in
-:mod:`sgjax.evaluation.runner` (importable from here too).
+:mod:`sgjax.evaluation.runner`.
 """
 
 from __future__ import annotations
@@ -33,20 +33,13 @@ from sgjax.environment.registry import make
 from sgjax.evaluation import metrics
 from sgjax.evaluation.policies import Policy, RecurrentPolicy, load_policy, policy_make_kwargs
 from sgjax.evaluation.report import write_all
-from sgjax.evaluation.runner import (
-    STEP_CHUNK,
-    EpisodeRunner,
-    Episodes,
-    check_steps,
-    with_zone_books,
-)
+from sgjax.evaluation.runner import STEP_CHUNK, EpisodeRunner, Episodes
 from sgjax.evaluation.statistics import ConfigResult, Summary, summarize_metrics
 from sgjax.types import EnvParams
 
 __all__ = [
-    "DEFAULT_EPISODES", "DEFAULT_NUM_AGENTS", "Episodes", "check_steps", "evaluate",
-    "params_by_count", "policy_environment", "run_episodes", "summarize_episodes",
-    "with_zone_books",
+    "DEFAULT_EPISODES", "DEFAULT_NUM_AGENTS", "evaluate", "params_by_count",
+    "policy_environment", "run_episodes", "summarize_episodes",
 ]
 
 DEFAULT_NUM_AGENTS = (3, 4, 5, 7, 10)

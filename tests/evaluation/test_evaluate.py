@@ -16,6 +16,7 @@ from PIL import Image
 from scenes import make_room, place
 
 import sgjax
+import sgjax.evaluation.runner
 from sgjax import command as cli
 from sgjax.command import main
 from sgjax.evaluation import metrics, policies
@@ -112,7 +113,7 @@ def test_every_robot_count_is_evaluated_by_one_compilation():
     assert [r.num_agents for r in results] == [2, 3, 4]
     assert all(r.metrics["success"].n == 2 for r in results)
     with pytest.raises(ValueError, match="here: .* the runner was built for 30"):
-        sgjax.evaluation.evaluate.check_steps(sgjax.make("open", time_limit=6.0)[1], 30, "here")
+        sgjax.evaluation.runner.check_steps(sgjax.make("open", time_limit=6.0)[1], 30, "here")
 
 
 def test_policy_specs_and_errors():
