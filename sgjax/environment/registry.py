@@ -35,8 +35,8 @@ from sgjax.types import EnvParams
 CAPACITY_TRIALS = 64
 HUMAN_TOP_SPEED = 2.6  # m/s: fastest pedestrian (desired speed 2.0 m/s x the 1.3 cap)
 # Robots repel pedestrians twice as strongly as a pedestrian does: the Moussaid law ignores body
-# sizes, and at weight 1 pedestrians graze a standing robot (tests/test_humans.py). pedsim gets
-# the same effect by scaling a robot's distance by robotPosDiffScalingFactor = 1.5.
+# sizes, and at weight 1 pedestrians graze a standing robot (tests/kernels/test_humans.py).
+# pedsim gets the same effect by scaling a robot's distance by robotPosDiffScalingFactor = 1.5.
 ROBOT_WEIGHT = 2.0
 WALL_RESOLUTION = 10.0  # wall points per metre for human_walls="points" (PySocialForce's)
 PLANNER_SLACK = 0.2  # m: how much obstacle_margin may grow after make() with walls still seen

@@ -239,7 +239,7 @@ def _episode(env, params, key, steps=30):
 @pytest.mark.slow
 def test_deterministic():
     """Two runs of one jitted episode agree bit for bit (jit = eager with pedestrians is
-    tests/test_presets.py::test_rich_terms_jit_equals_eager_and_deterministic)."""
+    tests/terms/test_presets.py::test_rich_terms_jit_equals_eager_and_deterministic)."""
     env, params = sgjax.make("intersection", num_agents=3, num_humans=12)
     key = jax.random.key(11)
     episode = jax.jit(_episode, static_argnums=(0,))

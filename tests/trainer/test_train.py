@@ -1,6 +1,6 @@
 """The trainer: it learns, checkpoints round-trip and resume the same run, configs are
 validated, a vmap over sixteen seeds equals separate seeds and never hangs (the commands end to
-end: tests/test_train_commands.py)."""
+end: tests/trainer/test_train_commands.py)."""
 
 import json
 from pathlib import Path

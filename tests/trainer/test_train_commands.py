@@ -1,6 +1,6 @@
 """The training commands end to end: ``python -m train`` then ``sgjax evaluate`` and a resume,
 ``train.reproduce`` writing the paper's tables, and a sharded run agreeing with an unsharded one
-(separate from tests/test_train.py so that the two files run on different workers)."""
+(separate from tests/trainer/test_train.py so that the two files run on different workers)."""
 
 import json
 import os
