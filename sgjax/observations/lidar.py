@@ -11,8 +11,8 @@ import jax.numpy as jnp
 from jax import Array
 
 from sgjax.observations.base import OBSERVATIONS, ObservationTerm
-from sgjax.terms.base import check_bool, check_int, check_positive
 from sgjax.terms.queries import gather_bodies
+from sgjax.validation import check_bool, check_int, check_positive
 
 if TYPE_CHECKING:
     from sgjax.types import EnvParams, EnvState, Layout

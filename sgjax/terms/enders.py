@@ -17,16 +17,9 @@ import jax.numpy as jnp
 from flax import struct
 from jax import Array
 
-from sgjax.terms.base import (
-    ConfigError,
-    Registry,
-    TermSet,
-    check_bool,
-    check_choice,
-    check_int,
-    check_positive,
-)
+from sgjax.terms.base import ConfigError, Registry, TermSet
 from sgjax.terms.queries import collided
+from sgjax.validation import check_bool, check_choice, check_int, check_positive
 
 if TYPE_CHECKING:
     from sgjax.types import EnvParams, EnvState, Layout
