@@ -18,21 +18,14 @@ from typing import Any
 import jax
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
+from sgjax.environment.options import MakeOptions
 from sgjax.environment.registry import registered
-from sgjax.evaluation.evaluate import (
-    DEFAULT_EPISODES,
-    DEFAULT_NUM_AGENTS,
-    evaluate,
-    policy_environment,
-    run_episodes,
-)
-from sgjax.evaluation.policies import BASELINES, load_policy
-from sgjax.evaluation.protocols import PROTOCOLS, load_protocol
+from sgjax.evaluation.evaluate import evaluate, policy_environment, run_episodes
+from sgjax.evaluation.policies import BASELINES, load_policy, policy_options
+from sgjax.evaluation.protocols import PAPER, PROTOCOLS, load_protocol
 from sgjax.maps.io import load as load_map
 from sgjax.types import ACTION_MODES, ARRIVED_SEMANTICS
 from sgjax.version import __version__
-
-MINI_GAMES = ("open", "doorway", "hallway", "intersection", "roundabout")
 
 
 def _add_environment_options(parser: argparse.ArgumentParser) -> None:
@@ -59,12 +52,15 @@ def _add_action_choice(parser: argparse.ArgumentParser) -> None:
                          help="trained checkpoints sample their actions")
 
 
-def _make_kwargs(args: argparse.Namespace) -> dict[str, Any]:
-    names = {"num_humans": "num_humans", "time_limit": "time_limit",
-             "action_mode": "action_mode", "arrived": "arrived",
-             "observation_preset": "observation_preset"}
-    return {key: getattr(args, attr) for attr, key in names.items()
-            if getattr(args, attr) is not None}
+ENVIRONMENT_FLAGS = ("num_humans", "time_limit", "action_mode", "arrived", "observation_preset")
+
+
+def _options(args: argparse.Namespace, policy: Any) -> MakeOptions:
+    """The options ``policy`` acts in (``policy_options``: a checkpoint's from training), with
+    the environment flags given on the command line on top."""
+    flags = {name: getattr(args, name) for name in ENVIRONMENT_FLAGS
+             if getattr(args, name) is not None}
+    return policy_options(policy).replace(where=f"sgjax {args.command}", **flags)
 
 
 def _policy_help() -> str:
@@ -75,8 +71,10 @@ def _policy_help() -> str:
 
 PROTOCOL_FIXED = {"scenario": "scenarios", "num_agents": "num_agents", "episodes": "episodes",
                   "seed": "seed", "counterfactual": "counterfactual", "time_limit": "time_limit"}
-EVALUATE_DEFAULTS = {"scenario": list(MINI_GAMES), "num_agents": list(DEFAULT_NUM_AGENTS),
-                     "episodes": DEFAULT_EPISODES, "seed": 0, "counterfactual": False}
+# Without --protocol: the paper's scenarios, robot counts, episodes and seed, without the
+# counterfactual lanes.
+EVALUATE_DEFAULTS = {"scenario": list(PAPER.scenarios), "num_agents": list(PAPER.num_agents),
+                     "episodes": PAPER.episodes, "seed": PAPER.seed, "counterfactual": False}
 
 
 def _apply_protocol(args: argparse.Namespace) -> None:
@@ -106,7 +104,8 @@ def run_evaluate(args: argparse.Namespace) -> None:
           + (f", protocol {args.protocol}" if args.protocol else "")
           + (", counterfactual lanes on" if args.counterfactual else ""))
     evaluate(args.scenario, args.policy, num_agents=args.num_agents, episodes=args.episodes,
-             seed=args.seed, out=args.out, make_kwargs=_make_kwargs(args),
+             seed=args.seed, out=args.out,
+             options=[_options(args, policy) for policy in args.policy],
              counterfactual=args.counterfactual, deterministic=args.deterministic)
     print(f"table: {Path(args.out) / 'table.md'}")
 
@@ -119,7 +118,7 @@ def run_render(args: argparse.Namespace) -> None:
         raise SystemExit(f"sgjax render: --out {args.out!r} must end in .gif or .mp4")
     # exactly --num-agents robots in the settings the policy needs, as sgjax evaluate plays
     env, by_count = policy_environment(args.scenario, [args.num_agents], args.policy,
-                                       _make_kwargs(args))
+                                       _options(args, args.policy))
     params = by_count[args.num_agents]
     policy = load_policy(args.policy, env, args.deterministic)
     batch = run_episodes(env, params, policy, jax.random.key(args.seed), 1, record=True)
@@ -210,10 +209,11 @@ def build_parser() -> argparse.ArgumentParser:
                          f"shipped: {', '.join(registered())}")
     ev.add_argument("--policy", nargs="+", default=["only_local"], help=_policy_help())
     ev.add_argument("--num-agents", nargs="+", type=int, default=None,
-                    help=f"robot counts (default: {' '.join(map(str, DEFAULT_NUM_AGENTS))})")
+                    help=f"robot counts (default: {' '.join(map(str, PAPER.num_agents))})")
     ev.add_argument("--episodes", type=int, default=None,
-                    help=f"episodes per configuration (default {DEFAULT_EPISODES})")
-    ev.add_argument("--seed", type=int, default=None, help="evaluation seed (default 0)")
+                    help=f"episodes per configuration (default {PAPER.episodes})")
+    ev.add_argument("--seed", type=int, default=None,
+                    help=f"evaluation seed (default {PAPER.seed})")
     ev.add_argument("--counterfactual", action="store_true",
                     help="also play each episode with each robot alone and without each robot "
                          "(1 + 2R times the work) for path deviation, Hausdorff distance, "

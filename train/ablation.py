@@ -47,7 +47,8 @@ from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.report import format_summary, markdown_table
 from sgjax.evaluation.statistics import summarize
-from sgjax.terms.base import ConfigError, suggest
+from sgjax.terms.base import ConfigError
+from sgjax.validation import check_keys, freeze, thaw
 from train.actor import ActorWeights, lane_evaluator
 from train.config import TrainConfig, config_from_dict, load_config, read_yaml
 from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
@@ -191,11 +192,10 @@ def load_variants(path: str | Path) -> dict[str, Variant]:
         spec = spec or {}
         if not isinstance(spec, Mapping):
             raise ConfigError(f"{path}: {name}: expected a mapping with {', '.join(fields)}")
-        for key in spec:
-            if key not in fields:
-                raise ConfigError(f"{path}: {name}: unknown key {key!r}"
-                                  f"{suggest(str(key), fields)}; valid keys are: "
-                                  f"{', '.join(fields)}")
+        try:
+            check_keys(f"{path}: {name}", spec, fields)
+        except ValueError as err:
+            raise ConfigError(str(err)) from None
         lists = {}
         for key in ("rewards_off", "hide"):
             value = spec.get(key, [])
@@ -209,45 +209,24 @@ def load_variants(path: str | Path) -> dict[str, Variant]:
         if not isinstance(settings, Mapping) or not all(
                 isinstance(k, str) and "." in k for k in settings):
             raise ConfigError(f"{path}: {name}.set: expected a mapping of section.key: value")
-        variants[str(name)] = Variant(**lists, network=tuple(sorted(network.items())),
-                                      settings=tuple(sorted(
-                                          (k, _frozen(v)) for k, v in settings.items())))
+        # values frozen (sgjax.validation.freeze): variants group by them
+        variants[str(name)] = Variant(**lists, network=tuple(sorted(freeze(network).items())),
+                                      settings=tuple(sorted(freeze(settings).items())))
     if BASELINE not in variants:
         raise ConfigError(f"{path}: no {BASELINE!r} variant (the others are compared to it)")
     return variants
-
-
-class _FrozenMapping(tuple):
-    """A YAML mapping made hashable: its sorted ``(key, value)`` pairs, told apart from a list."""
-
-
-def _frozen(value: Any) -> Any:
-    """A YAML value made hashable (lists to tuples, mappings to :class:`_FrozenMapping`), so
-    variants can group by it."""
-    if isinstance(value, list | tuple):
-        return tuple(_frozen(v) for v in value)
-    if isinstance(value, Mapping):
-        return _FrozenMapping(sorted((k, _frozen(v)) for k, v in value.items()))
-    return value
-
-
-def _thawed(value: Any) -> Any:
-    """The YAML value :func:`_frozen` made hashable."""
-    if isinstance(value, _FrozenMapping):
-        return {k: _thawed(v) for k, v in value}
-    return [_thawed(v) for v in value] if isinstance(value, tuple) else value
 
 
 def _variant_config(config: TrainConfig, variant: Variant, seeds: int) -> TrainConfig:
     """``config`` with ``seeds`` seeds and a variant's network keys and settings changed."""
     data = config.to_dict()
     data["num_seeds"] = seeds
-    data["network"] = {**data["network"], **dict(variant.network)}
+    data["network"] = {**data["network"], **thaw(dict(variant.network))}
     for key, value in variant.settings:
         section, _, field = key.partition(".")
         if not isinstance(data.get(section), dict):
             raise ConfigError(f"variant setting {key!r}: {section!r} is not a config section")
-        data[section] = {**data[section], field: _thawed(value)}
+        data[section] = {**data[section], field: thaw(value)}
     where = f"variant network {dict(variant.network)}, settings {dict(variant.settings)}"
     return config_from_dict(data, where)
 
@@ -286,7 +265,7 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
             t1 = time.perf_counter()
             env, by_count = params_by_count(scenario, counts,
                                             max_agents=max(*counts, trainer.slots),
-                                            **trainer.config.env.make_kwargs())
+                                            options=trainer.config.env.options)
             evaluator = lane_evaluator(trainer.config.network, trainer.actor, env,
                                        by_count[counts[0]], episodes)
             team = np.stack([np.mean(np.asarray(evaluator(ActorWeights.of(runner), key,

@@ -1,10 +1,11 @@
 """Checkpoints: one self-contained msgpack file per save (Flax serialisation).
 
-A file holds the run's configuration (YAML text), metadata (JSON text: steps, updates, best
-success, wall time) and the whole ``RunnerState`` of every seed (network, optimiser,
-normalisation statistics, environment states, random keys), so that a resumed run continues
-exactly where it stopped. Files are written to a temporary name and renamed into place, so a
-run killed mid-write loses at most one checkpoint interval.
+A file holds the run's configuration (YAML text; the environment's ``sgjax.make`` options
+nested by group, ``MakeOptions.to_dict``, under ``env.options``), metadata (JSON text: steps,
+updates, best success, wall time) and the whole ``RunnerState`` of every seed (network,
+optimiser, normalisation statistics, environment states, random keys), so that a resumed run
+continues exactly where it stopped. Files are written to a temporary name and renamed into
+place, so a run killed mid-write loses at most one checkpoint interval.
 
 The meta also holds the actor's layout (``train.actor.ActorLayout``: observation size, action
 head, where the ``others`` block sits), so :func:`load_checkpoint_policy` rebuilds the acting
@@ -30,6 +31,7 @@ import numpy as np
 import yaml
 from flax import serialization
 
+from sgjax.environment.options import MakeOptions
 from sgjax.environment.registry import make
 from sgjax.evaluation.policies import register_loader
 from train.actor import ActorLayout, ActorWeights, acting_policy
@@ -64,9 +66,11 @@ def read(path: str | Path) -> tuple[TrainConfig, dict[str, Any], dict[str, Any]]
         payload = serialization.msgpack_restore(path.read_bytes())
         data = yaml.safe_load(payload["config"])
         env = data.get("env") if isinstance(data, dict) else None
-        if isinstance(env, dict) and "arrived" not in env:
+        if isinstance(env, dict) and "options" not in env and "arrived" not in env:
             # Written before checkpoints recorded it (2026-11-25), when the default was "park"
-            # (arrived robots stop where they arrive); "settle" is the default since.
+            # (arrived robots stop where they arrive); "settle" is the default since. (Such
+            # files, like every one before the nested ``options``, hold their make options as
+            # flat keys of the env section, which the config reader still takes.)
             env["arrived"] = "park"
         config = config_from_dict(data, str(path))
         return config, json.loads(payload["meta"]), payload["runner"]
@@ -104,10 +108,11 @@ def resolve(path: str | Path) -> Path:
     return path
 
 
-def make_kwargs(path: str | Path) -> dict[str, Any]:
-    """The ``sgjax.make`` settings the checkpoint's policy was trained with."""
+def training_options(path: str | Path) -> MakeOptions:
+    """The ``sgjax.make`` options the checkpoint's policy was trained in (robot counts
+    aside)."""
     config, _, _ = read(path)
-    return config.env.make_kwargs()
+    return config.env.options
 
 
 def is_checkpoint(spec: Any) -> bool:
@@ -132,8 +137,9 @@ def actor_layout(path: str | Path, config: TrainConfig, meta: dict[str, Any],
     if config.network.others_encoder != "none":
         if env is None:
             try:
-                env, _ = make(config.env.scenarios[0], num_agents=config.env.curriculum[0][1],
-                              max_agents=config.env.slots, **config.env.make_kwargs())
+                env, _ = make(config.env.scenarios[0], options=config.env.options,
+                              num_agents=config.env.curriculum[0][1],
+                              max_agents=config.env.slots)
             except (ValueError, KeyError, TypeError) as err:
                 raise ValueError(
                     f"{resolve(path)}: this checkpoint predates saved actor layouts, and its "
@@ -183,6 +189,6 @@ def load_checkpoint_policy(path: str | Path, env: Any = None, seed_index: int | 
 
 
 LOADER = register_loader(
-    "checkpoint", matches=is_checkpoint, make_kwargs=make_kwargs, greedy=True,
+    "checkpoint", matches=is_checkpoint, options=training_options, greedy=True,
     load=lambda spec, env, deterministic=None: load_checkpoint_policy(spec, env,
                                                            deterministic=deterministic))

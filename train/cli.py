@@ -125,7 +125,7 @@ def make_evaluator(trainer: Trainer, scenario: str, episodes: int):
     curriculum (the environment at the trainer's slots; counts are params)."""
     counts = sorted({n for _, n in trainer.config.env.curriculum})
     env, by_count = params_by_count(scenario, counts, max_agents=trainer.slots,
-                                    **trainer.config.env.make_kwargs())
+                                    options=trainer.config.env.options)
     evaluator = lane_evaluator(trainer.config.network, trainer.actor, env, by_count[counts[0]],
                                episodes, trainer.config.evaluation.deterministic)
     return lambda weights, key, n: evaluator(weights, key, by_count[n])
@@ -266,14 +266,14 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
     t0 = time.perf_counter()
     policy = checkpoint.load_checkpoint_policy(path, deterministic=e.deterministic)
     print(f"\nfinal evaluation of {path} ({e.episodes} episodes per configuration)")
-    kwargs = config.env.make_kwargs()
+    options = config.env.options
     results = evaluate(config.env.scenarios, [policy], num_agents=e.num_agents,
-                       episodes=e.episodes, seed=config.seed + 1, make_kwargs=kwargs,
+                       episodes=e.episodes, seed=config.seed + 1, options=options,
                        log=None, policy_names=[f"trained ({config.algorithm.name})"])
     if e.baseline is not None:
         results += evaluate(config.env.scenarios, [e.baseline], num_agents=e.num_agents,
                             episodes=e.episodes, seed=config.seed + 1,
-                            make_kwargs={**kwargs, "action_mode": "go_stop"}, log=None)
+                            options=options.replace(action_mode="go_stop"), log=None)
     write_all(results, out / "eval", DEFAULT_CONSTANTS)
     print(summary_tables(results))
     summary = {(r.policy, r.num_agents, r.scenario): r.metrics["team_success"].mean
@@ -286,7 +286,7 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
     mine = summary.get((trained_name, count, scenario))
     base = summary.get((e.baseline, count, scenario))
     if e.gif:
-        env, params = make(scenario, num_agents=count, **kwargs)
+        env, params = make(scenario, options=options, num_agents=count)
         batch = run_episodes(env, params, policy, jax.random.PRNGKey(config.seed + 2), 1,
                              record=True)
         states = jax.tree.map(lambda leaf: leaf[:, 0], batch.states)

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import dataclasses
 import re
-import types
 import typing
 from collections.abc import Mapping
 from functools import partial
@@ -21,27 +20,49 @@ from typing import Any
 import yaml
 
 from sgjax.environment.options import KEYWORDS, MakeOptions
-from sgjax.terms.base import ConfigError, suggest
+from sgjax.evaluation.protocols import PAPER
+from sgjax.terms.base import ConfigError
+from sgjax.validation import (
+    check_choice,
+    check_int,
+    check_keys,
+    check_range,
+    check_type,
+    freeze,
+    thaw,
+)
 
 TRAINER_OBSERVATIONS = "navigation"  # the trainer's default observation preset
+# sgjax.make's robot counts: the curriculum's and the section's max_agents, not options.
+COUNTS = ("num_agents", "max_agents")
+
+
+def _trainer_options() -> MakeOptions:
+    return MakeOptions.from_keywords(observations=TRAINER_OBSERVATIONS)
 
 
 @dataclasses.dataclass(frozen=True)
 class EnvSection:
-    """What to train on: the scenarios, the robot-count curriculum, and any option of
-    ``sgjax.make`` (``sgjax.environment.options``: ``action_mode``, ``robots``, ``observations``,
-    ``rewards``, ``num_humans``, ``dt``, ``num_arcs``, ...) as a key of the same name, validated
-    by the same code. ``curriculum`` is ``[[env_step, num_agents], ...]``: from each total
-    environment step on, episodes have that many robots (SocialGym's ``agents_settings``), so
-    ``num_agents`` itself is not a key; ``max_agents`` defaults to the curriculum's largest
-    count. ``preset`` sets the observation and reward presets at once (cadrl,
-    enforced_order); observations default to ``navigation``."""
+    """What to train on: the scenarios, the robot-count curriculum, the robot slots, and the
+    options of ``sgjax.make`` (``options``, a :class:`~sgjax.environment.options.MakeOptions`
+    that goes to ``make(scenario, options=...)`` as it is).
+
+    In a config file every option of ``sgjax.make`` is a key of the same name (``action_mode``,
+    ``robots``, ``observations``, ``rewards``, ``num_humans``, ``dt``, ``num_arcs``, ...),
+    validated by the same code; an ``options`` key may hold them nested by group instead
+    (``{robots: {...}, humans: {...}, terms: {...}, physics: {...}}``, the form
+    :meth:`to_dict` writes and checkpoints store), with any flat key on top. ``curriculum`` is
+    ``[[env_step, num_agents], ...]``: from each total environment step on, episodes have that
+    many robots (SocialGym's ``agents_settings``), so ``num_agents`` itself is not a key;
+    ``max_agents`` (the robot slots) defaults to the curriculum's largest count. ``preset``
+    sets the observation and reward presets at once (cadrl, enforced_order); observations
+    default to ``navigation``."""
 
     scenarios: tuple[str, ...] = ("doorway",)
     curriculum: tuple[tuple[int, int], ...] = ((0, 4),)
     preset: str | None = None
-    make: MakeOptions = dataclasses.field(
-        default_factory=lambda: MakeOptions.from_keywords(observations=TRAINER_OBSERVATIONS))
+    max_agents: int | None = None
+    options: MakeOptions = dataclasses.field(default_factory=_trainer_options)
 
     def __post_init__(self) -> None:
         if not self.scenarios:
@@ -50,47 +71,58 @@ class EnvSection:
         if not self.curriculum or steps[0] != 0 or steps != sorted(steps):
             raise ValueError("curriculum must be [[0, n], [step, n], ...] with increasing steps,"
                              f" got {self.curriculum}")
-        if any(n < 1 for _, n in self.curriculum):
-            raise ValueError(f"curriculum robot counts must be >= 1, got {self.curriculum}")
-        max_agents = self.make.robots.max_agents
-        if max_agents is not None and max_agents < self.largest_count:
-            raise ValueError(f"max_agents {max_agents} is below the curriculum's largest "
-                             f"count {self.largest_count}")
+        for i, (_, n) in enumerate(self.curriculum):
+            check_int(f"curriculum[{i}] robot count", n)
+        if self.max_agents is not None:
+            check_int("max_agents", self.max_agents)
+            if self.max_agents < self.largest_count:
+                raise ValueError(f"max_agents {self.max_agents} is below the curriculum's "
+                                 f"largest count {self.largest_count}")
+        robots, defaults = self.options.robots, MakeOptions().robots
+        for name in COUNTS:
+            if getattr(robots, name) != getattr(defaults, name):
+                raise ValueError(f"options.robots.{name} must be left at its default "
+                                 f"({getattr(defaults, name)!r}): the robot counts are "
+                                 "curriculum and max_agents")
+        if self.preset is not None:
+            object.__setattr__(self, "options", self.options.replace(
+                observations=self.preset, rewards=self.preset, observation_preset=None,
+                reward_preset=None))
 
     @classmethod
     def from_keys(cls, where: str, values: Mapping[str, Any]) -> EnvSection:
-        """From a config section: the section's own keys, the rest ``sgjax.make`` options."""
-        own = [f.name for f in dataclasses.fields(cls) if f.name != "make"]
-        valid = own + [k for k in KEYWORDS if k != "num_agents"]
-        for key in values:
-            if key not in valid:
-                raise ConfigError(f"{where}: unknown key {key!r}{suggest(str(key), valid)}; "
-                                  f"valid keys are: {', '.join(valid)}")
+        """From a config section: the section's own keys, ``options`` (nested by group) and
+        flat ``sgjax.make`` options on top of it."""
+        own = ["scenarios", "curriculum", "preset", "max_agents"]
+        flat = [k for k in KEYWORDS if k not in COUNTS]
         hints = typing.get_type_hints(cls)
-        for key in own:
-            if key in values:
-                _check_type(f"{where}.{key}", values[key], hints[key])
-        options = {k: _freeze(v) for k, v in values.items() if k not in own}
-        if not {"observations", "observation_preset"} & set(options):
-            options["observations"] = TRAINER_OBSERVATIONS
         try:
-            make = MakeOptions.from_keywords(where, **options)
-            return cls(make=make, **{k: _freeze(v) for k, v in values.items() if k in own})
+            check_keys(where, values, own + ["options"] + flat)
+            for key in own:
+                if key in values:
+                    check_type(f"{where}.{key}", values[key], hints[key])
+            options = MakeOptions.from_dict(freeze(values.get("options", {})),
+                                            f"{where}.options")
+            changes = {k: freeze(v) for k, v in values.items() if k in flat}
+            nested = {k for group in values.get("options", {}).values() for k in group}
+            if not {"observations", "observation_preset"} & (set(changes) | nested):
+                changes["observations"] = TRAINER_OBSERVATIONS
+            return cls(options=options.replace(where, **changes),
+                       **{k: freeze(v) for k, v in values.items() if k in own})
         except ValueError as err:
-            raise ConfigError(f"{where}: {err}") from None
+            raise ConfigError(_located(where, err)) from None
 
     def to_dict(self) -> dict[str, Any]:
-        """The section as written in a config file (make options that differ from defaults,
-        and always the world semantics ``arrived`` / ``ended``, so that a checkpoint keeps the
-        world it was trained in when a default changes)."""
-        out = {"scenarios": list(self.scenarios), "curriculum": _plain(self.curriculum),
-               "preset": self.preset}
-        world = {"arrived": self.make.robots.arrived, "ended": self.make.robots.ended}
-        return out | world | _plain(self.make.keywords(changed_only=True))
+        """The section as written in a config file, with every ``sgjax.make`` option nested
+        by group (``options``), defaults included: a checkpoint keeps the world it was
+        trained in when a default changes."""
+        return {"scenarios": list(self.scenarios), "curriculum": thaw(self.curriculum),
+                "preset": self.preset, "max_agents": self.max_agents,
+                "options": self.options.to_dict()}
 
     @property
     def action_mode(self) -> str:
-        return self.make.robots.action_mode
+        return self.options.robots.action_mode
 
     @property
     def largest_count(self) -> int:
@@ -98,18 +130,7 @@ class EnvSection:
 
     @property
     def slots(self) -> int:
-        return self.make.robots.max_agents or self.largest_count
-
-    def make_kwargs(self) -> dict[str, Any]:
-        """Keyword arguments of ``sgjax.make`` (robot counts aside)."""
-        kwargs = _thaw(self.make.keywords(changed_only=True))
-        kwargs.pop("num_agents", None)
-        kwargs.pop("max_agents", None)
-        if self.preset is not None:
-            kwargs["observations"] = kwargs["rewards"] = self.preset
-            kwargs.pop("observation_preset", None)
-            kwargs.pop("reward_preset", None)
-        return kwargs
+        return self.max_agents or self.largest_count
 
     def num_agents_at(self, step: int) -> int:
         """Robot count of the curriculum stage that ``step`` (environment steps) is in."""
@@ -121,6 +142,7 @@ class EnvSection:
 
 
 LANE_MODES = ("auto", "batched", "sequential")
+ALGORITHMS = ("ippo", "mappo")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -156,17 +178,13 @@ class AlgorithmConfig:
     lanes: str = "auto"
 
     def __post_init__(self) -> None:
-        if self.name not in ("ippo", "mappo"):
-            raise ValueError(f"name must be ippo or mappo, got {self.name!r}")
-        if self.lanes not in LANE_MODES:
-            raise ValueError(f"lanes must be one of {', '.join(LANE_MODES)}, got {self.lanes!r}")
+        check_choice("name", self.name, ALGORITHMS)
+        check_choice("lanes", self.lanes, LANE_MODES)
         for field in ("total_steps", "num_envs", "num_steps", "update_epochs",
                       "num_minibatches"):
-            if getattr(self, field) < 1:
-                raise ValueError(f"{field} must be >= 1, got {getattr(self, field)}")
+            check_int(field, getattr(self, field))
         for field in ("gamma", "gae_lambda", "team_reward"):
-            if not 0.0 <= getattr(self, field) <= 1.0:
-                raise ValueError(f"{field} must be in [0, 1], got {getattr(self, field)}")
+            check_range(field, getattr(self, field), 0.0, 1.0)
 
     @property
     def steps_per_update(self) -> int:
@@ -197,11 +215,11 @@ class NetworkConfig:
     def __post_init__(self) -> None:
         for field, choices in (("kind", ("mlp", "gru")), ("activation", ("tanh", "relu")),
                                ("others_encoder", ("none", "attention", "lstm"))):
-            if getattr(self, field) not in choices:
-                raise ValueError(f"{field} must be one of {choices}, got "
-                                 f"{getattr(self, field)!r}")
-        if not self.hidden or any(h < 1 for h in self.hidden):
+            check_choice(field, getattr(self, field), choices)
+        if not self.hidden:
             raise ValueError(f"hidden must be a non-empty list of sizes, got {self.hidden}")
+        for i, size in enumerate(self.hidden):
+            check_int(f"hidden[{i}]", size)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -212,14 +230,18 @@ class EvaluationConfig:
 
     every: int = 1_000_000
     episodes: int = 32
-    num_agents: tuple[int, ...] = (3, 4, 5, 7, 10)
+    num_agents: tuple[int, ...] = PAPER.num_agents  # the paper's robot counts
     baseline: str | None = "only_local"
     deterministic: bool = False  # greedy actions instead of sampling from the policy
     gif: bool = True
 
     def __post_init__(self) -> None:
-        if self.every < 1 or self.episodes < 1 or not self.num_agents:
-            raise ValueError("every and episodes must be >= 1 and num_agents non-empty")
+        check_int("every", self.every)
+        check_int("episodes", self.episodes)
+        if not self.num_agents:
+            raise ValueError("num_agents must name at least one robot count")
+        for i, n in enumerate(self.num_agents):
+            check_int(f"num_agents[{i}]", n)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -230,8 +252,7 @@ class LoggingConfig:
     progress: bool = True
 
     def __post_init__(self) -> None:
-        if self.checkpoint_every < 1:
-            raise ValueError(f"checkpoint_every must be >= 1, got {self.checkpoint_every}")
+        check_int("checkpoint_every", self.checkpoint_every)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -245,12 +266,15 @@ class TrainConfig:
     num_seeds: int = 1  # trained at once with vmap
 
     def __post_init__(self) -> None:
-        if self.num_seeds < 1:
-            raise ValueError(f"num_seeds must be >= 1, got {self.num_seeds}")
+        check_int("num_seeds", self.num_seeds)
 
     def to_dict(self) -> dict[str, Any]:
-        out = _plain(dataclasses.asdict(dataclasses.replace(self, env=EnvSection())))
-        return out | {"env": self.env.to_dict()}
+        """The config as a file holds it (plain YAML data; :func:`config_from_dict` reads it
+        back)."""
+        out = {f.name: thaw(dataclasses.asdict(getattr(self, f.name)))
+               if dataclasses.is_dataclass(getattr(self, f.name)) else getattr(self, f.name)
+               for f in dataclasses.fields(self) if f.name != "env"}
+        return {"env": self.env.to_dict()} | out
 
 
 SECTIONS = {"env": EnvSection, "algorithm": AlgorithmConfig, "network": NetworkConfig,
@@ -315,112 +339,41 @@ def apply_overrides(data: Mapping[str, Any], overrides: list[str] | tuple[str, .
 
 
 def config_from_dict(data: Mapping[str, Any], source: str = "config") -> TrainConfig:
+    """A validated config from plain data (a config file's or :meth:`TrainConfig.to_dict`'s);
+    errors are ``ConfigError`` naming ``source``, the key and the value."""
     valid = list(SECTIONS) + list(TOP_LEVEL)
     sections = {}
-    for key, value in data.items():
-        if key not in valid:
-            raise ConfigError(f"{source}: unknown key {key!r}{suggest(str(key), valid)}; "
-                              f"valid keys are: {', '.join(valid)}")
-        if key in TOP_LEVEL:
-            _check_type(f"{source}: {key}", value, int)
-            sections[key] = value
-            continue
-        if not isinstance(value, Mapping):
-            raise ConfigError(f"{source}: section {key!r} must be a mapping, got {value!r}")
-        build = EnvSection.from_keys if key == "env" else partial(_build, cls=SECTIONS[key])
-        sections[key] = build(f"{source}: {key}", values=value)
     try:
+        check_keys(source, data, valid)
+        for key, value in data.items():
+            if key in TOP_LEVEL:
+                check_type(f"{source}: {key}", value, int)
+                sections[key] = value
+                continue
+            if not isinstance(value, Mapping):
+                raise ValueError(f"{source}: section {key!r} must be a mapping, got {value!r}")
+            build = EnvSection.from_keys if key == "env" else partial(_build, cls=SECTIONS[key])
+            sections[key] = build(f"{source}: {key}", values=value)
         return TrainConfig(**sections)
+    except ConfigError:
+        raise
     except ValueError as err:
-        raise ConfigError(f"{source}: {err}") from None
+        raise ConfigError(_located(source, err)) from None
+
+
+def _located(where: str, err: Exception) -> str:
+    """An error's message, with ``where`` in front unless it names it already."""
+    return str(err) if str(err).startswith(where) else f"{where}: {err}"
 
 
 def _build(where: str, values: Mapping[str, Any], cls: type) -> Any:
+    """``cls(**values)`` for a section: unknown keys, wrong types and bad values are
+    ``ConfigError`` naming ``where`` and the key."""
     hints = typing.get_type_hints(cls)
-    names = [f.name for f in dataclasses.fields(cls)]
-    for key, value in values.items():
-        if key not in names:
-            raise ConfigError(f"{where}: unknown key {key!r}{suggest(str(key), names)}; "
-                              f"valid keys are: {', '.join(names)}")
-        _check_type(f"{where}.{key}", value, hints[key])
     try:
-        return cls(**{k: _freeze(v) for k, v in values.items()})
+        check_keys(where, values, [f.name for f in dataclasses.fields(cls)])
+        for key, value in values.items():
+            check_type(f"{where}.{key}", value, hints[key])
+        return cls(**{k: freeze(v) for k, v in values.items()})
     except ValueError as err:
-        raise ConfigError(f"{where}: {err}") from None
-
-
-def _check_type(where: str, value: Any, hint: Any) -> None:
-    """Check plain YAML values against simple annotations (Any passes)."""
-    if hint is Any:
-        return
-    origin = typing.get_origin(hint)
-    if origin in (typing.Union, types.UnionType):
-        errors = []
-        for option in typing.get_args(hint):
-            try:
-                _check_type(where, value, option)
-                return
-            except ConfigError as err:
-                errors.append(str(err))
-        raise ConfigError(f"{where}: expected {_describe(hint)}, got {value!r}")
-    if hint is type(None):
-        if value is not None:
-            raise ConfigError(f"{where}: expected null, got {value!r}")
-        return
-    if origin is tuple:
-        if not isinstance(value, list | tuple):
-            raise ConfigError(f"{where}: expected a list, got {value!r}")
-        args = typing.get_args(hint)
-        if len(args) == 2 and args[1] is Ellipsis:
-            for i, item in enumerate(value):
-                _check_type(f"{where}[{i}]", item, args[0])
-        else:
-            if len(value) != len(args):
-                raise ConfigError(f"{where}: expected {len(args)} items, got {value!r}")
-            for i, (item, arg) in enumerate(zip(value, args, strict=True)):
-                _check_type(f"{where}[{i}]", item, arg)
-        return
-    if hint is bool:
-        ok = isinstance(value, bool)
-    elif hint is int:
-        ok = isinstance(value, int) and not isinstance(value, bool)
-    elif hint is float:
-        ok = isinstance(value, int | float) and not isinstance(value, bool)
-    elif hint is str:
-        ok = isinstance(value, str)
-    else:
-        ok = True
-    if not ok:
-        raise ConfigError(f"{where}: expected {_describe(hint)}, got {value!r}")
-
-
-def _describe(hint: Any) -> str:
-    if typing.get_origin(hint) in (typing.Union, types.UnionType):
-        return " or ".join(_describe(a) for a in typing.get_args(hint))
-    if hint is type(None):
-        return "null"
-    return getattr(hint, "__name__", str(hint))
-
-
-def _freeze(value: Any) -> Any:
-    if isinstance(value, list | tuple):
-        return tuple(_freeze(v) for v in value)
-    if isinstance(value, Mapping):
-        return {k: _freeze(v) for k, v in value.items()}
-    return value
-
-
-def _thaw(value: Any) -> Any:
-    if isinstance(value, tuple):
-        return [_thaw(v) for v in value]
-    if isinstance(value, Mapping):
-        return {k: _thaw(v) for k, v in value.items()}
-    return value
-
-
-def _plain(value: Any) -> Any:
-    if isinstance(value, tuple | list):
-        return [_plain(v) for v in value]
-    if isinstance(value, Mapping):
-        return {k: _plain(v) for k, v in value.items()}
-    return value
+        raise ConfigError(_located(where, err)) from None

@@ -68,8 +68,8 @@ class EnvBatch:
                               f"least the number of scenarios ({count})")
         base, extra = divmod(config.algorithm.num_envs, count)
         self.sizes = tuple(base + (i < extra) for i in range(count))
-        pairs = [make(s, num_agents=e.curriculum[0][1], max_agents=e.slots,
-                            **e.make_kwargs()) for s in e.scenarios]
+        pairs = [make(s, options=e.options, num_agents=e.curriculum[0][1],
+                      max_agents=e.slots) for s in e.scenarios]
         self.envs = tuple(env for env, _ in pairs)
         self.params = tuple(params for _, params in pairs)
         first = self.envs[0]

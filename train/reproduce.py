@@ -51,8 +51,10 @@ import jax
 import numpy as np
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
+from sgjax.environment.options import MakeOptions
 from sgjax.evaluation.evaluate import params_by_count
-from sgjax.evaluation.policies import load_policy, policy_make_kwargs
+from sgjax.evaluation.policies import load_policy, policy_options
+from sgjax.evaluation.protocols import MINI_GAMES, PAPER
 from sgjax.evaluation.report import format_summary, markdown_table
 from sgjax.evaluation.runner import EpisodeRunner
 from sgjax.evaluation.statistics import summarize
@@ -62,7 +64,6 @@ from train.config import TrainConfig, config_from_dict
 from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
 from train.ppo import Trainer, seed_keys
 
-MINI_GAMES = ("open", "doorway", "hallway", "intersection", "roundabout")
 BASELINES = {
     "cadrl": {"env": {"preset": "cadrl"}, "network": {}},
     "cadrl_lstm": {"env": {"preset": "cadrl"},
@@ -139,23 +140,23 @@ def socialgym_baseline_config(name: str, scenario: str, seeds: int, total_steps:
     return config_from_dict(data, f"reproduce:{name} (socialgym profile)")
 
 
-def only_local_settings(profile: str, time_limit: float | None) -> dict[str, Any]:
-    """``sgjax.make`` settings of the untrained Only Local baseline under ``profile``: the
+def only_local_options(profile: str, time_limit: float | None) -> MakeOptions:
+    """``sgjax.make`` options of the untrained Only Local baseline under ``profile``: the
     trained baselines' world (step, time limit, robots, arrived robots) and their enders, so the
     stuck ender cuts Only Local's episodes short exactly as it cuts theirs (their observations
     and rewards do not move a policy that always says GO)."""
     if profile == "sgjax":
         limit = 75.0 if time_limit is None else time_limit
-        kwargs = {**baseline_config("cadrl", "open", 1, 1, 1, 0, limit).env.make_kwargs(),
-                  "time_limit": limit}
+        trained = baseline_config("cadrl", "open", 1, 1, 1, 0, limit).env.options
     else:
-        kwargs = socialgym_baseline_config("cadrl", "open", 1, 1, 0, [3], 1,
-                                           time_limit).env.make_kwargs()
-    settings = {key: value for key, value in kwargs.items()
-                if key in ("dt", "time_limit", "robots", "arrived", "enders")}
-    if "enders" not in settings and isinstance(kwargs.get("rewards"), str):
-        settings["enders"] = REWARD_PRESETS[kwargs["rewards"]]["enders"]  # the preset's
-    return settings
+        trained = socialgym_baseline_config("cadrl", "open", 1, 1, 0, [3], 1,
+                                            time_limit).env.options
+    enders = trained.terms.enders
+    if enders is None and isinstance(trained.terms.rewards, str):
+        enders = REWARD_PRESETS[trained.terms.rewards]["enders"]  # the preset's
+    return MakeOptions.from_keywords(
+        "only_local", dt=trained.physics.dt, time_limit=trained.physics.time_limit,
+        robots=trained.robots.robots, arrived=trained.robots.arrived, enders=enders)
 
 
 def train_baseline(config: Any) -> tuple[Trainer, Any, float, float]:
@@ -172,17 +173,18 @@ def train_baseline(config: Any) -> tuple[Trainer, Any, float, float]:
 
 
 def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: int,
-                   trainer: Trainer | None, runner: Any, make_kwargs: dict[str, Any],
+                   trainer: Trainer | None, runner: Any, options: MakeOptions,
                    policy: str = "only_local") -> dict[int, dict[str, list[float]]]:
     """``{robots: {metric: [per-seed mean over episodes]}}`` (one seed for an untrained
-    ``policy``, used when ``trainer`` is None). One compilation serves every count: the
-    environment has ``max(counts)`` slots and each count is a params value; the seeds are
-    ``vmap`` lanes of it."""
+    ``policy``, used when ``trainer`` is None) in the ``sgjax.make`` ``options`` (for an
+    untrained policy, with what it needs on top: continuous actions for the velocity
+    controllers). One compilation serves every count: the environment has ``max(counts)``
+    slots and each count is a params value; the seeds are ``vmap`` lanes of it."""
     out: dict[int, dict[str, list[float]]] = {}
     key = jax.random.PRNGKey(seed + 1000)
     if trainer is None:
-        make_kwargs = {**make_kwargs, **policy_make_kwargs(policy)}
-    env, by_count = params_by_count(scenario, counts, **make_kwargs)
+        options = options.replace(**policy_options(policy).keywords(changed_only=True))
+    env, by_count = params_by_count(scenario, counts, options=options)
     first = by_count[counts[0]]
     if trainer is None:
         run = EpisodeRunner(env, load_policy(policy, env), episodes, int(first.max_steps)).run
@@ -219,7 +221,7 @@ PAPER_TABLE_4: dict[str, dict[str, tuple[int, ...]]] = {
                    "enforced_order": (0, 0, 0, 0, 0, 0), "any_order": (16, 20, 12, 0, 4, 10),
                    "only_local": (4, 0, 0, 0, 0, 1)},
 }
-PAPER_COUNTS = (3, 4, 5, 7, 10)
+PAPER_COUNTS = PAPER.num_agents  # the columns of PAPER_TABLE_4
 
 
 def _cell(values: list[float], percent: bool = False) -> str:
@@ -382,7 +384,7 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
             if BASELINES[name] is None:
                 t0 = time.perf_counter()
                 by_count = evaluate_seeds(scenario, counts, episodes, seed, None, None,
-                                          only_local_settings(profile, time_limit), name)
+                                          only_local_options(profile, time_limit), name)
                 cell["evaluate"] = time.perf_counter() - t0
                 print(f"{scenario:>12} {name:>15}: not trained", flush=True)
             else:
@@ -399,7 +401,7 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
                 cell.update(compile=compile_s, train=train_s)
                 t0 = time.perf_counter()
                 by_count = evaluate_seeds(scenario, counts, episodes, seed, trainer, runner,
-                                          config.env.make_kwargs())
+                                          config.env.options)
                 cell["evaluate"] = time.perf_counter() - t0
                 by_count = gather_seeds(by_count, seeds, processes)
                 print(f"{scenario:>12} {name:>15}: trained {len(share)} seeds x "
@@ -449,9 +451,10 @@ def main(argv: list[str] | None = None) -> None:
                         help="environment steps per seed (default: 2,000,000 for the sgjax "
                              "profile, Listing 1's 250,000 for socialgym)")
     parser.add_argument("--num-envs", type=int, default=256)
-    parser.add_argument("--robots", nargs="+", type=int, default=[3, 4, 5, 7, 10],
-                        help="evaluation robot counts")
-    parser.add_argument("--episodes", type=int, default=25, help="per seed and robot count")
+    parser.add_argument("--robots", nargs="+", type=int, default=list(PAPER.num_agents),
+                        help="evaluation robot counts (default: the paper's)")
+    parser.add_argument("--episodes", type=int, default=PAPER.episodes,
+                        help="per seed and robot count (default: the paper's)")
     parser.add_argument("--table-robots", type=int, default=4,
                         help="robot count of the metrics table")
     parser.add_argument("--seed", type=int, default=0)

@@ -25,8 +25,9 @@ from typing import Any
 
 import yaml
 
-from sgjax.terms.base import ConfigError, suggest
+from sgjax.terms.base import ConfigError
 from sgjax.terms.presets import ZONE_OBSERVATIONS
+from sgjax.validation import suggest
 from train.config import config_from_dict
 
 SOCIALGYM_DT = 0.025  # s: UTMRS's delta_t in every shipped template (40 Hz)

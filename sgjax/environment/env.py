@@ -60,10 +60,7 @@ from sgjax.terms.contract import TermInput
 from sgjax.terms.enders import Enders, Outcome
 from sgjax.terms.presets import OBSERVATION_PRESETS, REWARD_PRESETS
 from sgjax.types import (
-    ACTION_MODES,
-    ARRIVED_SEMANTICS,
     GO,
-    WORLD_SEMANTICS,
     CollisionCounts,
     EnvParams,
     EnvState,
@@ -87,7 +84,10 @@ OBS_SIZE = 10  # of the default observation preset
 
 @dataclasses.dataclass(frozen=True)
 class EnvConfig:
-    """Static settings: they fix shapes or control flow, so changing them recompiles."""
+    """Static settings: they fix shapes or control flow, so changing them recompiles.
+
+    ``make`` builds it from validated options (``sgjax.environment.options``: ``action_mode``,
+    ``arrived``, ``ended`` and ``decision_period`` are checked there, once)."""
 
     scenario: str
     max_agents: int
@@ -108,17 +108,6 @@ class EnvConfig:
     arrived: str = "settle"  # an arrived robot settles on its goal, parks where it is, or leaves
     ended: str = "leave"  # the same for a robot an ender terminates (e.g. a fatal collision)
     decision_period: int = 1  # steps each action is held (robots read actions every that many)
-
-    def __post_init__(self) -> None:
-        if self.action_mode not in ACTION_MODES:
-            raise ValueError(f"action_mode must be one of {ACTION_MODES}, "
-                             f"got {self.action_mode!r}")
-        for name, valid in (("arrived", ARRIVED_SEMANTICS), ("ended", WORLD_SEMANTICS)):
-            if getattr(self, name) not in valid:
-                raise ValueError(f"{name} must be one of {valid}, got {getattr(self, name)!r}")
-        if self.decision_period < 1:
-            raise ValueError(f"decision_period must be a positive integer, got "
-                             f"{self.decision_period!r}")
 
     @property
     def layout(self) -> Layout:

@@ -14,57 +14,42 @@ each belongs to one group:
 
 :class:`MakeOptions` holds the four groups; ``MakeOptions.from_keywords(**kw)`` builds it from
 flat keywords (an unknown one names the nearest valid keyword), ``options.keywords()`` gives them
-back, and ``make(scenario, options=...)`` takes it whole. The trainer's ``env`` config section
-takes the same keywords (``train/config.py``). Bad values raise ``ValueError`` naming the keyword.
+back, ``options.to_dict()`` / ``MakeOptions.from_dict`` write and read the nested form (what a
+training checkpoint stores), and ``make(scenario, options=...)`` takes it whole. The trainer's
+``env`` config section takes the same keywords (``train/config.py``) and hands a
+``MakeOptions`` on. Bad values raise ``ValueError`` naming the keyword and the value
+(``sgjax.validation``).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
+from collections.abc import Mapping
 from typing import Any
-
-import numpy as np
 
 from sgjax.dynamics.limits import RobotPreset
 from sgjax.humans.groups import leaders
 from sgjax.humans.pedestrians import FORCE_MODELS, GOAL_MODES, WALL_MODELS, HumanConfig
-from sgjax.terms.base import suggest
 from sgjax.types import ACTION_MODES, ARRIVED_SEMANTICS, WORLD_SEMANTICS
+from sgjax.validation import (
+    check_bool,
+    check_choice,
+    check_int,
+    check_keys,
+    check_positive,
+    thaw,
+)
 
 
-def _positive_int(name: str, value: Any) -> None:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-        raise ValueError(f"{name} must be a positive integer, got {value!r}")
-
-
-def _count(name: str, value: Any) -> None:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
-        raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
-
-
-def _within_slots(name: str, value: Any, slots_name: str, slots: Any,
-                  check: Callable[[str, Any], None]) -> None:
-    """``value`` and ``slots`` (when given) pass ``check``, and ``value <= slots``."""
-    check(name, value)
+def _within_slots(name: str, value: Any, slots_name: str, slots: Any, low: int) -> None:
+    """``value`` and ``slots`` (when given) are integers of at least ``low``, and
+    ``value <= slots``."""
+    check_int(name, value, low)
     if slots is not None:
-        check(slots_name, slots)
+        check_int(slots_name, slots, low)
         if value > slots:
             raise ValueError(f"{name} ({value}) must not exceed {slots_name} ({slots})")
-
-
-def _positive_float(name: str, value: Any) -> None:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.floating) or not (
-        math.isfinite(value) and value > 0
-    ):
-        raise ValueError(f"{name} must be a positive number, got {value!r}")
-
-
-def _choice(name: str, value: Any, choices: tuple[str, ...]) -> None:
-    if value not in choices:
-        hint = suggest(value, list(choices)) if isinstance(value, str) else ""
-        raise ValueError(f"{name} must be one of {choices}, got {value!r}{hint}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -86,16 +71,14 @@ class RobotOptions:
     ended: str = "leave"  # the same for a robot an ender terminates (e.g. a fatal collision)
 
     def __post_init__(self) -> None:
-        _within_slots("num_agents", self.num_agents, "max_agents", self.max_agents,
-                      _positive_int)
+        _within_slots("num_agents", self.num_agents, "max_agents", self.max_agents, 1)
         if self.min_agents is not None:
-            _within_slots("min_agents", self.min_agents, "num_agents", self.num_agents,
-                          _positive_int)
-        _choice("action_mode", self.action_mode, ACTION_MODES)
-        _positive_int("decision_period", self.decision_period)
-        _positive_float("goal_tolerance", self.goal_tolerance)
-        _choice("arrived", self.arrived, ARRIVED_SEMANTICS)
-        _choice("ended", self.ended, WORLD_SEMANTICS)
+            _within_slots("min_agents", self.min_agents, "num_agents", self.num_agents, 1)
+        check_choice("action_mode", self.action_mode, ACTION_MODES)
+        check_int("decision_period", self.decision_period)
+        check_positive("goal_tolerance", self.goal_tolerance)
+        check_choice("arrived", self.arrived, ARRIVED_SEMANTICS)
+        check_choice("ended", self.ended, WORLD_SEMANTICS)
         if not isinstance(self.robots, str | RobotPreset | list | tuple):
             raise ValueError(f"robots must be a preset name, a RobotPreset or a list of them, "
                              f"got {self.robots!r}")
@@ -125,14 +108,12 @@ class HumanOptions:
     human_groups: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
-        if not isinstance(self.humans_see_robots, bool):
-            raise ValueError(f"humans_see_robots must be True or False, got "
-                             f"{self.humans_see_robots!r}")
-        _within_slots("num_humans", self.num_humans, "max_humans", self.max_humans, _count)
-        _positive_float("human_radius", self.human_radius)
-        _choice("human_model", self.human_model, FORCE_MODELS)
-        _choice("human_walls", self.human_walls, WALL_MODELS)
-        _choice("human_goals", self.human_goals, GOAL_MODES)
+        check_bool("humans_see_robots", self.humans_see_robots)
+        _within_slots("num_humans", self.num_humans, "max_humans", self.max_humans, 0)
+        check_positive("human_radius", self.human_radius)
+        check_choice("human_model", self.human_model, FORCE_MODELS)
+        check_choice("human_walls", self.human_walls, WALL_MODELS)
+        check_choice("human_goals", self.human_goals, GOAL_MODES)
         if not isinstance(self.human_groups, list | tuple):
             raise ValueError(f"human_groups must be a list of group sizes, got "
                              f"{self.human_groups!r}")
@@ -196,12 +177,12 @@ class PhysicsOptions:
     contact_passes: int = 1  # robot-robot separation passes per sub-step (more: less overlap)
 
     def __post_init__(self) -> None:
-        _positive_float("dt", self.dt)
+        check_positive("dt", self.dt)
         if self.substeps is not None:
-            _positive_int("substeps", self.substeps)
-        _positive_float("time_limit", self.time_limit)
-        _positive_int("num_arcs", self.num_arcs)
-        _positive_int("contact_passes", self.contact_passes)
+            check_int("substeps", self.substeps)
+        check_positive("time_limit", self.time_limit)
+        check_int("num_arcs", self.num_arcs)
+        check_int("contact_passes", self.contact_passes)
 
     @property
     def max_steps(self) -> int:
@@ -252,10 +233,37 @@ class MakeOptions:
                     out[f.name] = value
         return out
 
+    def to_dict(self) -> dict[str, dict[str, Any]]:
+        """Every option by group as plain data (tuples as lists), the form a checkpoint
+        stores: ``{"robots": {"num_agents": 4, ...}, "humans": {...}, "terms": {...},
+        "physics": {...}}``; :meth:`from_dict` reads it back."""
+        return {group: {f.name: thaw(getattr(getattr(self, group), f.name))
+                        for f in dataclasses.fields(cls)} for group, cls in GROUPS.items()}
+
+    @classmethod
+    def from_dict(cls, data: Any, where: str = "options") -> MakeOptions:
+        """Options from the nested form of :meth:`to_dict` (a group or an option left out
+        keeps its default). An unknown group or option is a ``ValueError`` naming ``where``
+        and the nearest valid name."""
+        if not isinstance(data, Mapping):
+            raise ValueError(f"{where} must be a mapping of {', '.join(GROUPS)}, got {data!r}")
+        check_keys(where, data, list(GROUPS), "group")
+        keywords: dict[str, Any] = {}
+        for group, values in data.items():
+            if not isinstance(values, Mapping):
+                raise ValueError(f"{where}.{group} must be a mapping of its options, got "
+                                 f"{values!r}")
+            check_keys(f"{where}.{group}", values, group_keywords(group), "option")
+            keywords.update(values)
+        return cls.from_keywords(where, **keywords)
+
+
+def group_keywords(group: str) -> list[str]:
+    """The flat keywords of one group (``"robots"``, ``"humans"``, ``"terms"``,
+    ``"physics"``)."""
+    return [f.name for f in dataclasses.fields(GROUPS[group])]
+
 
 def check_keywords(where: str, keywords: Any) -> None:
     """Raise ``TypeError`` naming the nearest valid keyword for any unknown one."""
-    for key in keywords:
-        if key not in KEYWORDS:
-            raise TypeError(f"{where}: unknown option {key!r}{suggest(str(key), list(KEYWORDS))}"
-                            f"; valid options are: {', '.join(KEYWORDS)}")
+    check_keys(where, keywords, list(KEYWORDS), "option", TypeError)

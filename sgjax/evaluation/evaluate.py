@@ -29,9 +29,11 @@ import jax.numpy as jnp
 import numpy as np
 
 from sgjax.environment.env import SocialNavEnv
+from sgjax.environment.options import MakeOptions
 from sgjax.environment.registry import make
 from sgjax.evaluation import metrics
-from sgjax.evaluation.policies import Policy, RecurrentPolicy, load_policy, policy_make_kwargs
+from sgjax.evaluation.policies import Policy, RecurrentPolicy, load_policy, policy_options
+from sgjax.evaluation.protocols import PAPER
 from sgjax.evaluation.report import write_all
 from sgjax.evaluation.runner import STEP_CHUNK, EpisodeRunner, Episodes
 from sgjax.evaluation.statistics import ConfigResult, Summary, summarize_metrics
@@ -42,8 +44,8 @@ __all__ = [
     "policy_environment", "run_episodes", "summarize_episodes",
 ]
 
-DEFAULT_NUM_AGENTS = (3, 4, 5, 7, 10)
-DEFAULT_EPISODES = 25
+DEFAULT_NUM_AGENTS = PAPER.num_agents  # the paper's robot counts
+DEFAULT_EPISODES = PAPER.episodes
 
 
 def params_by_count(scenario: Any, counts: Sequence[int], **make_kwargs: Any
@@ -61,14 +63,16 @@ def params_by_count(scenario: Any, counts: Sequence[int], **make_kwargs: Any
 
 
 def policy_environment(scenario: Any, counts: Sequence[int], policy: Any,
-                       make_kwargs: dict[str, Any] | None = None
+                       options: MakeOptions | None = None
                        ) -> tuple[SocialNavEnv, dict[int, EnvParams]]:
-    """:func:`params_by_count` in the settings ``policy`` needs (a checkpoint's observations,
-    a velocity baseline's continuous actions:
-    :func:`sgjax.evaluation.policies.policy_make_kwargs`), with
-    ``make_kwargs`` on top."""
-    return params_by_count(scenario, counts,
-                           **{**policy_make_kwargs(policy), **(make_kwargs or {})})
+    """:func:`params_by_count` in ``options``, by default the options ``policy`` acts in (a
+    checkpoint's from training, a velocity baseline's continuous actions:
+    :func:`sgjax.evaluation.policies.policy_options`); ``max_agents`` is the options', else
+    the largest count."""
+    if options is None:
+        options = policy_options(policy)
+    return params_by_count(scenario, counts, options=options,
+                           max_agents=options.robots.max_agents or max(counts))
 
 
 def run_episodes(
@@ -102,7 +106,8 @@ def summarize_episodes(episodes: Episodes) -> dict[str, Summary]:
 def evaluate(
     scenarios: Sequence[str], policies: Sequence[str | Policy | RecurrentPolicy],
     num_agents: Sequence[int] = DEFAULT_NUM_AGENTS, episodes: int = DEFAULT_EPISODES,
-    seed: int = 0, out: str | Path | None = None, make_kwargs: dict[str, Any] | None = None,
+    seed: int = 0, out: str | Path | None = None,
+    options: MakeOptions | Sequence[MakeOptions | None] | None = None,
     constants: metrics.MetricConstants = metrics.DEFAULT_CONSTANTS,
     log: Callable[[str], None] | None = print,
     policy_names: Sequence[str] | None = None,
@@ -114,13 +119,16 @@ def evaluate(
     (:mod:`sgjax.evaluation.report`).
 
     ``policies`` are baseline names, ``"module:function"`` specs, trainer checkpoints or
-    policy objects (named ``policy<i>`` in the outputs); ``make_kwargs`` go to
-    :func:`sgjax.make` (observation preset, robots, time limit, ...) on top of the settings a
-    checkpoint was trained with; ``policy_names`` name them in the outputs. Every
+    policy objects (named ``policy<i>`` in the outputs); ``policy_names`` name them in the
+    outputs. ``options`` are the :func:`sgjax.make` options
+    (:class:`~sgjax.environment.options.MakeOptions`: observation preset, robots, time limit,
+    ...) of every policy, or a sequence of one per policy; None (the default, or an entry):
+    the options the policy acts in (:func:`sgjax.evaluation.policies.policy_options`: a
+    checkpoint's from training, continuous actions for the velocity baselines). Every
     configuration uses the same ``seed``.
 
     Each (scenario, policy) compiles once: the environment is made with ``max_agents`` = the
-    largest count (unless ``make_kwargs`` sets it) and every robot count is a params value of
+    largest count (unless the options set it) and every robot count is a params value of
     the same compiled run. ``counterfactual`` adds the lanes of
     :mod:`sgjax.evaluation.counterfactual`
     (each robot alone, the episode without each robot: ``1 + 2 max_agents`` times the work) and
@@ -133,6 +141,11 @@ def evaluate(
         raise ValueError("evaluate: scenarios, policies and num_agents must not be empty")
     if episodes < 1:
         raise ValueError(f"evaluate: episodes must be at least 1, got {episodes}")
+    by_policy = ([options] * len(policies) if options is None or isinstance(options, MakeOptions)
+                 else list(options))
+    if len(by_policy) != len(policies):
+        raise ValueError(f"evaluate: {len(by_policy)} options for {len(policies)} policies; "
+                         "give one MakeOptions for all, or one per policy")
     results = []
     key = jax.random.key(seed)
     for scenario in scenarios:
@@ -140,7 +153,7 @@ def evaluate(
             name = (policy_names[p] if policy_names is not None
                     else policy if isinstance(policy, str) else f"policy{p}")
             t0 = time.perf_counter()
-            env, by_count = policy_environment(scenario, num_agents, policy, make_kwargs)
+            env, by_count = policy_environment(scenario, num_agents, policy, by_policy[p])
             params = by_count[num_agents[0]]
             runner = EpisodeRunner(env, load_policy(policy, env, deterministic), episodes,
                                    int(params.max_steps), constants,

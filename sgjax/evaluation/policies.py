@@ -16,7 +16,7 @@ Built-in baselines (:data:`BASELINES`):
 * ``orca``, ``dwa``, ``social_force`` (continuous actions; :mod:`sgjax.evaluation.controllers`):
 ORCA
   velocities, the dynamic window approach, and the pedestrians' social forces, each toward the
-  robot's route under its kinematic limits; :func:`policy_make_kwargs` asks for
+  robot's route under its kinematic limits; :func:`policy_options` asks for
   ``action_mode="continuous"``.
 
 Other policies come from *loaders* (:class:`PolicyLoader`): each recognises the specs it reads
@@ -41,6 +41,7 @@ import jax
 import jax.numpy as jnp
 from jax import Array
 
+from sgjax.environment.options import MakeOptions
 from sgjax.evaluation.controllers import dwa_controller, orca_controller, social_force_controller
 from sgjax.kernels.geometry import safe_norm
 from sgjax.types import GO, STOP
@@ -141,15 +142,16 @@ _FUNCTION_SPEC = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
 class PolicyLoader:
     """Policies from specs that are neither baselines nor ``module:function``: ``matches(spec)``
     says whether this loader reads ``spec``; ``load(spec, env)`` builds the policy for ``env``
-    (``env`` may be None); ``make_kwargs(spec)`` gives the :func:`sgjax.make` settings the policy
-    needs (a checkpoint's observation and action settings), applied before the caller's own.
-    ``greedy`` says that ``load`` takes ``deterministic=True | False`` (the most likely action
-    every step, or actions sampled from the policy)."""
+    (``env`` may be None); ``options(spec)`` gives the :func:`sgjax.make` options the policy
+    acts in (a checkpoint's: the settings it was trained with), a
+    :class:`~sgjax.environment.options.MakeOptions` (robot counts aside: the evaluation sets
+    them). ``greedy`` says that ``load`` takes ``deterministic=True | False`` (the most likely
+    action every step, or actions sampled from the policy)."""
 
     name: str
     matches: Callable[[str], bool]
     load: Callable[..., Policy | RecurrentPolicy]
-    make_kwargs: Callable[[str], dict[str, Any]] = lambda spec: {}
+    options: Callable[[str], MakeOptions] = lambda spec: MakeOptions()
     greedy: bool = False
 
 
@@ -159,7 +161,7 @@ _discovery: list[str] | None = None  # None until the entry points are read; the
 
 def register_loader(name: str | PolicyLoader, matches: Callable[[str], bool] | None = None,
                     load: Callable[..., Policy | RecurrentPolicy] | None = None,
-                    make_kwargs: Callable[[str], dict[str, Any]] | None = None,
+                    options: Callable[[str], MakeOptions] | None = None,
                     greedy: bool = False) -> PolicyLoader:
     """Register a policy loader (a :class:`PolicyLoader`, or its name and functions); a loader
     of the same name is replaced. Returns the loader."""
@@ -169,7 +171,8 @@ def register_loader(name: str | PolicyLoader, matches: Callable[[str], bool] | N
         if matches is None or load is None:
             raise TypeError("register_loader: give a PolicyLoader, or a name with matches and "
                             "load functions")
-        loader = PolicyLoader(name, matches, load, make_kwargs or (lambda spec: {}), greedy)
+        loader = PolicyLoader(name, matches, load, options or (lambda spec: MakeOptions()),
+                              greedy)
     _LOADERS[loader.name] = loader
     return loader
 
@@ -266,13 +269,20 @@ def _function_policy(spec: str) -> Policy:
     return from_observations(fn)
 
 
-def policy_make_kwargs(spec: Any) -> dict[str, Any]:
-    """The ``sgjax.make`` settings a policy spec needs: continuous actions for the velocity
-    baselines (``orca``), a checkpoint's settings from training (through its loader), else
-    {}."""
+def policy_options(spec: Any) -> MakeOptions:
+    """The :func:`sgjax.make` options a policy spec acts in: continuous actions for the
+    velocity baselines (``orca``, ``dwa``, ``social_force``), a checkpoint's settings from
+    training (through its loader), else the defaults. Robot counts are left at their defaults
+    (the evaluation sets them)."""
     if spec in CONTINUOUS_BASELINES:
-        return {"action_mode": "continuous"}
+        return MakeOptions.from_keywords(f"policy {spec!r}", action_mode="continuous")
     if not isinstance(spec, str) or _FUNCTION_SPEC.match(spec):
-        return {}
+        return MakeOptions()
     loader = find_loader(spec)
-    return {} if loader is None else dict(loader.make_kwargs(spec))
+    if loader is None:
+        return MakeOptions()
+    options = loader.options(spec)
+    if not isinstance(options, MakeOptions):
+        raise TypeError(f"policy {spec!r}: its loader {loader.name!r} gave {options!r}, not "
+                        "the MakeOptions (sgjax.environment.options) it acts in")
+    return options

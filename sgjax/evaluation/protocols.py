@@ -19,10 +19,14 @@ Every key is required except ``time_limit``; unknown keys are an error naming th
 from __future__ import annotations
 
 import dataclasses
+import typing
 from pathlib import Path
 from typing import Any
 
 import yaml
+
+from sgjax.environment.options import MakeOptions
+from sgjax.validation import check_int, check_positive, check_type, suggest
 
 
 @dataclasses.dataclass(frozen=True)
@@ -39,30 +43,41 @@ class Protocol:
 
     def __post_init__(self) -> None:
         where = f"protocol {self.name!r}"
-        if not self.scenarios or not self.num_agents:
-            raise ValueError(f"{where}: scenarios and num_agents must not be empty")
-        if any(n < 1 for n in self.num_agents) or self.episodes < 1:
-            raise ValueError(f"{where}: robot counts and episodes must be at least 1")
-        if self.time_limit is not None and self.time_limit <= 0:
-            raise ValueError(f"{where}: time_limit must be > 0 s, got {self.time_limit}")
+        try:
+            for field, hint in typing.get_type_hints(Protocol).items():
+                check_type(field, getattr(self, field), hint)
+            if not self.scenarios or not self.num_agents:
+                raise ValueError("scenarios and num_agents must not be empty")
+            for i, n in enumerate(self.num_agents):
+                check_int(f"num_agents[{i}]", n)
+            check_int("episodes", self.episodes)
+            if self.time_limit is not None:
+                check_positive("time_limit", self.time_limit)
+        except ValueError as err:
+            raise ValueError(f"{where}: {err}") from None
 
-    def make_kwargs(self) -> dict[str, Any]:
-        """The ``sgjax.make`` settings the protocol fixes."""
-        return {} if self.time_limit is None else {"time_limit": self.time_limit}
+    def options(self, options: MakeOptions | None = None) -> MakeOptions:
+        """``options`` (default: ``MakeOptions()``) with the ``sgjax.make`` settings the
+        protocol fixes (its time limit, when it names one)."""
+        options = options or MakeOptions()
+        return options if self.time_limit is None else options.replace(
+            where=f"protocol {self.name!r}", time_limit=self.time_limit)
 
     def as_dict(self) -> dict[str, Any]:
         return {k: list(v) if isinstance(v, tuple) else v
                 for k, v in dataclasses.asdict(self).items()}
 
 
+# SocialGym 2.0's five social mini-games (paper section VI), the scenarios its benchmark ran.
+MINI_GAMES = ("open", "doorway", "hallway", "intersection", "roundabout")
 # SocialGym 2.0's benchmark (paper section VI): the five mini-games at 3, 4, 5, 7 and 10 robots,
-# 25 trials each, here with evaluation seed 0 and the counterfactual metrics.
-PAPER = Protocol(name="paper", scenarios=("open", "doorway", "hallway", "intersection",
-                                          "roundabout"),
-                 num_agents=(3, 4, 5, 7, 10), episodes=25, seed=0, counterfactual=True)
+# 25 trials each, here with evaluation seed 0 and the counterfactual metrics. The one place these
+# numbers are written: the evaluator's defaults, the command line's and the trainer's read them.
+PAPER = Protocol(name="paper", scenarios=MINI_GAMES, num_agents=(3, 4, 5, 7, 10), episodes=25,
+                 seed=0, counterfactual=True)
 PROTOCOLS = {PAPER.name: PAPER}
-_KEYS = {f.name for f in dataclasses.fields(Protocol)}
-_REQUIRED = _KEYS - {"time_limit"}
+_KEYS = [f.name for f in dataclasses.fields(Protocol)]
+_REQUIRED = set(_KEYS) - {"time_limit"}
 
 
 def load_protocol(name_or_path: str | Path) -> Protocol:
@@ -76,23 +91,16 @@ def load_protocol(name_or_path: str | Path) -> Protocol:
     data = yaml.safe_load(path.read_text())
     if not isinstance(data, dict):
         raise ValueError(f"{path}: a protocol file is a mapping of {sorted(_KEYS)}")
-    unknown, missing = set(data) - _KEYS, _REQUIRED - set(data)
+    unknown, missing = set(data) - set(_KEYS), _REQUIRED - set(data)
     if unknown or missing:
+        near = "".join(suggest(str(key), _KEYS) for key in sorted(unknown, key=str)[:1])
         raise ValueError(f"{path}: " + "; ".join(
-            part for part in (f"unknown keys {sorted(unknown)}" if unknown else "",
+            part for part in (f"unknown keys {sorted(unknown, key=str)}{near}" if unknown else "",
                               f"missing keys {sorted(missing)}" if missing else "") if part))
+    values = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
+    if isinstance(values.get("time_limit"), int) and not isinstance(values["time_limit"], bool):
+        values["time_limit"] = float(values["time_limit"])
     try:
-        return Protocol(
-            name=str(data["name"]), scenarios=tuple(str(s) for s in data["scenarios"]),
-            num_agents=tuple(int(n) for n in data["num_agents"]),
-            episodes=int(data["episodes"]), seed=int(data["seed"]),
-            counterfactual=_flag(data["counterfactual"], path),
-            time_limit=None if data.get("time_limit") is None else float(data["time_limit"]))
-    except (TypeError, ValueError) as err:
-        raise ValueError(f"{path}: {err}") from err
-
-
-def _flag(value: Any, path: Path) -> bool:
-    if not isinstance(value, bool):
-        raise ValueError(f"{path}: counterfactual must be true or false, got {value!r}")
-    return value
+        return Protocol(**values)
+    except ValueError as err:
+        raise ValueError(f"{path}: {err}") from None

@@ -81,21 +81,28 @@ class HumanConfig:
                 raise ValueError(f"HumanConfig.{name} must be >= 1, got {getattr(self, name)}")
 
 
-@struct.dataclass
+@struct.dataclass(kw_only=True)
 class HumanParams:
-    """Pedestrian params (a pytree). ``spawn_*`` and ``wall_points_*`` are compiled by
-    ``sgjax.make`` for the map and radius; the rest may be changed or batched freely."""
+    """Pedestrian params (a pytree; keyword arguments only). ``spawn_*`` and ``wall_points_*``
+    are compiled by ``sgjax.make`` for the map and radius; the rest may be changed or batched
+    freely. The defaults of the constants are the pedestrians of ``socialnav.md`` B1: desired
+    speeds N(1.34, 0.26) m/s clipped to [0.5, 2.0], a 1.3x speed cap."""
 
     num_humans: Array  # int32 scalar: active pedestrians in an episode
     radius: Array  # m (scalar); spawn slots were laid out for the value given to make()
-    speed_mean: Array  # m/s: desired speeds ~ N(mean, std) clipped to [min, max]
-    speed_std: Array
-    speed_min: Array
-    speed_max: Array
-    max_speed_factor: Array  # speed cap = factor x desired speed (PySocialForce: 1.3)
-    waypoint_radius: Array  # m: a waypoint counts as reached this close
-    robot_weight: Array  # how strongly robots repel pedestrians, relative to a pedestrian
-    forces: SocialForceParams
+    speed_mean: Array | float = 1.34  # m/s: desired speeds ~ N(mean, std) clipped to [min, max]
+    speed_std: Array | float = 0.26  # m/s
+    speed_min: Array | float = 0.5  # m/s
+    speed_max: Array | float = 2.0  # m/s
+    # speed cap = factor x desired speed (PySocialForce: 1.3)
+    max_speed_factor: Array | float = 1.3
+    waypoint_radius: Array | float = 0.75  # m: a waypoint counts as reached this close
+    # How strongly robots repel pedestrians, relative to a pedestrian: twice, as the Moussaid
+    # law ignores body sizes and at weight 1 pedestrians graze a standing robot
+    # (tests/kernels/test_humans.py). pedsim gets the same effect by scaling a robot's distance
+    # by robotPosDiffScalingFactor = 1.5. 0: pedestrians that do not see robots.
+    robot_weight: Array | float = 2.0
+    forces: SocialForceParams = SocialForceParams()
     spawn_x: Array  # [S] m: spawn slots
     spawn_y: Array
     spawn_nodes: Array  # [S, 2] int32: ends of the graph edge beside each slot

@@ -12,8 +12,8 @@ from jax import Array
 from sgjax.kernels.geometry import safe_norm
 from sgjax.observations.base import OBSERVATIONS, ObservationTerm
 from sgjax.observations.columns import Columns
-from sgjax.terms.base import check_bool, check_int, check_positive
 from sgjax.terms.queries import gather_bodies, line_of_sight, to_robot_frame
+from sgjax.validation import check_bool, check_int, check_positive
 
 if TYPE_CHECKING:
     from sgjax.terms.contract import TermInput

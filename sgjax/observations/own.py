@@ -10,8 +10,8 @@ from jax import Array
 
 from sgjax.observations.base import OBSERVATIONS, ObservationTerm
 from sgjax.observations.columns import Columns
-from sgjax.terms.base import check_bool, check_choice, check_int, check_positive
 from sgjax.terms.queries import to_robot_frame
+from sgjax.validation import check_bool, check_choice, check_int, check_positive
 
 if TYPE_CHECKING:
     from sgjax.terms.contract import TermInput

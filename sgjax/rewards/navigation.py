@@ -11,8 +11,8 @@ from jax import Array
 
 from sgjax.kernels.geometry import safe_norm
 from sgjax.rewards.base import REWARDS, RewardTerm
-from sgjax.terms.base import check_bool, check_choice, check_positive
 from sgjax.terms.queries import collided
+from sgjax.validation import check_bool, check_choice, check_positive
 
 if TYPE_CHECKING:
     from sgjax.terms.contract import TermInput

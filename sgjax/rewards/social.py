@@ -17,8 +17,8 @@ from jax import Array
 
 from sgjax.kernels.geometry import polynomial_atan2, safe_norm
 from sgjax.rewards.base import REWARDS, RewardTerm
-from sgjax.terms.base import check_bool, check_positive
 from sgjax.terms.queries import body_gaps, gather_bodies, to_robot_frame
+from sgjax.validation import check_bool, check_positive
 
 if TYPE_CHECKING:
     from sgjax.terms.contract import TermInput

@@ -10,7 +10,7 @@ from jax import Array
 
 from sgjax.kernels import zone_books as zn
 from sgjax.rewards.base import REWARDS, RewardTerm
-from sgjax.terms.base import check_bool
+from sgjax.validation import check_bool
 
 if TYPE_CHECKING:
     from sgjax.terms.contract import TermInput

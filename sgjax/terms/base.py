@@ -5,25 +5,19 @@ parser of term specs (:func:`parse_terms`) with errors that list valid names, an
 from __future__ import annotations
 
 import dataclasses
-import difflib
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any, ClassVar, TypeVar
 
 import jax
 
 from sgjax.terms.contract import Term, TermInput
+from sgjax.validation import freeze, suggest
 
 T = TypeVar("T")
 
 
 class ConfigError(ValueError):
     """A bad observation, reward or ender configuration: names where and what was expected."""
-
-
-def suggest(name: str, valid: list[str]) -> str:
-    """``" (did you mean 'x'?)"`` for the closest valid name, or ``""``."""
-    close = difflib.get_close_matches(name, valid, n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 def unknown_name(where: str, kind: str, name: str, valid: list[str]) -> ConfigError:
@@ -80,16 +74,10 @@ def build_dataclass(where: str, cls: type[T], options: Any) -> T:
             raise ConfigError(f"{where}: unknown option {key!r}{suggest(str(key), valid)}; "
                               f"valid options are: {', '.join(valid) or 'none'}")
     try:
-        return cls(**{k: _freeze(v) for k, v in options.items()})
+        # frozen (lists to tuples): terms stay hashable, as static jit arguments
+        return cls(**{k: freeze(v) for k, v in options.items()})
     except (TypeError, ValueError) as err:
         raise ConfigError(f"{where}: {err}") from None
-
-
-def _freeze(value: Any) -> Any:
-    """Lists become tuples, so that terms stay hashable (they are static jit arguments)."""
-    if isinstance(value, list):
-        return tuple(_freeze(v) for v in value)
-    return value
 
 
 def check_unique(section: str, names: list[str]) -> None:
@@ -177,25 +165,3 @@ def _list_item(where: str, item: Any, registry: Registry) -> tuple[str, Any, Any
     raise ConfigError(f"{where}: expected a name or {{name: options}} of one of the "
                       f"{registry.kind}s, got {item!r}")
 
-
-def check_choice(field: str, value: Any, choices: tuple) -> None:
-    if value not in choices:
-        raise ValueError(f"{field} must be one of {choices}, got {value!r}")
-
-
-def check_positive(field: str, value: Any, allow_zero: bool = False) -> None:
-    ok = isinstance(value, int | float) and not isinstance(value, bool) and (
-        value >= 0 if allow_zero else value > 0)
-    if not ok:
-        raise ValueError(f"{field} must be a {'non-negative' if allow_zero else 'positive'} "
-                         f"number, got {value!r}")
-
-
-def check_int(field: str, value: Any, low: int = 1) -> None:
-    if isinstance(value, bool) or not isinstance(value, int) or value < low:
-        raise ValueError(f"{field} must be an integer >= {low}, got {value!r}")
-
-
-def check_bool(field: str, value: Any) -> None:
-    if not isinstance(value, bool):
-        raise ValueError(f"{field} must be true or false, got {value!r}")

@@ -18,18 +18,10 @@ import jax.numpy as jnp
 from flax import struct
 from jax import Array
 
-from sgjax.terms.base import (
-    ConfigError,
-    Registry,
-    TermSet,
-    check_bool,
-    check_choice,
-    check_int,
-    check_positive,
-    parse_terms,
-)
+from sgjax.terms.base import ConfigError, Registry, TermSet, parse_terms
 from sgjax.terms.contract import Term, TermInput
 from sgjax.terms.queries import collided
+from sgjax.validation import check_bool, check_choice, check_int, check_positive
 
 if TYPE_CHECKING:
     from sgjax.types import EnvState

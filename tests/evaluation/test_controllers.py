@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 import sgjax
+from sgjax.environment.options import MakeOptions
 from sgjax.evaluation.controllers import track_velocity
-from sgjax.evaluation.policies import load_policy, policy_make_kwargs
+from sgjax.evaluation.policies import load_policy, policy_options
 
 
 def run_controller(scenario, starts, goals, seconds, robots="socialgym", name="orca"):
@@ -111,7 +112,7 @@ def test_a_robot_reaches_a_goal_in_a_corner(name):
     """The intersection's goal (7.5, -1.5) lies 0.5 m from the end wall and the side wall. DWA
     without its progress term stopped 1.3 m short for ever (standing still kept its clearance
     term whole); every controller gets there within 40 s."""
-    env, params = sgjax.make("intersection", num_agents=1, **policy_make_kwargs(name))
+    env, params = sgjax.make("intersection", options=policy_options(name), num_agents=1)
     policy = load_policy(name, env)
     obs, state = env.reset(jax.random.key(1), params)
     assert np.allclose([state.route.goal_x[0], state.route.goal_y[0]], [7.5, -1.5])
@@ -139,7 +140,7 @@ def test_tracking_turns_in_place_for_a_velocity_behind_and_drives_straight_ahead
 
 def test_orca_is_a_baseline_of_sgjax_evaluate(capsys):
     for name in ("orca", "dwa", "social_force"):
-        assert policy_make_kwargs(name) == {"action_mode": "continuous"}
+        assert policy_options(name) == MakeOptions.from_keywords(action_mode="continuous")
     env, _ = sgjax.make("open", num_agents=2)
     with pytest.raises(ValueError, match="needs action_mode 'continuous'"):
         load_policy("orca", env)

@@ -19,6 +19,7 @@ import sgjax
 import sgjax.evaluation.runner
 from sgjax import command as cli
 from sgjax.command import main
+from sgjax.environment.options import MakeOptions
 from sgjax.evaluation import metrics, policies
 from sgjax.evaluation.evaluate import run_episodes
 from sgjax.evaluation.policies import GO, STOP, load_policy, stop_when_blocked
@@ -108,7 +109,8 @@ def test_every_robot_count_is_evaluated_by_one_compilation():
 
     results = sgjax.evaluation.evaluate.evaluate(["open"], [counted], num_agents=[2, 3, 4],
                                                  episodes=2,
-                                                 make_kwargs={"time_limit": 3.0}, log=None)
+                                                 options=MakeOptions.from_keywords(
+                                                     time_limit=3.0), log=None)
     assert len(traces) == 1
     assert [r.num_agents for r in results] == [2, 3, 4]
     assert all(r.metrics["success"].n == 2 for r in results)
@@ -178,7 +180,8 @@ def test_render_plays_exactly_the_robots_asked_for(tmp_path, capsys, monkeypatch
     ``min_agents``) is rendered with exactly ``--num-agents`` robots, as it is evaluated."""
     policies.register_loader("ranged", matches=lambda spec: spec.endswith(".ranged"),
                              load=lambda spec, env: policies.only_local(env),
-                             make_kwargs=lambda spec: {"min_agents": 1})
+                             options=lambda spec: MakeOptions.from_keywords(
+                                 min_agents=1))
     played = []
 
     def recording(env, params, *args, **kwargs):
@@ -235,13 +238,14 @@ def fresh_loaders(monkeypatch):
 
 FAKE_LOADER = """
 import jax.numpy as jnp
+from sgjax.environment.options import MakeOptions
 from sgjax.evaluation.policies import PolicyLoader
 
 def load(spec, env):
     return lambda obs, key, state, params: jnp.ones(obs.shape[0], jnp.int32)
 
 LOADER = PolicyLoader("fake", matches=lambda spec: spec.endswith(".fake"), load=load,
-                      make_kwargs=lambda spec: {"time_limit": 3.0})
+                      options=lambda spec: MakeOptions.from_keywords(time_limit=3.0))
 """
 
 
@@ -259,8 +263,8 @@ def test_policy_loaders_come_from_the_entry_point_group(tmp_path, monkeypatch, f
     assert load_policy("only_local", env) is not None and policies._discovery is None  # lazy
     policy = load_policy("run.fake", env)
     assert policy(obs, jax.random.key(0), state, params).tolist() == [STOP, STOP]
-    assert policies.policy_make_kwargs("run.fake") == {"time_limit": 3.0}
-    assert policies.policy_make_kwargs("only_local") == {}
+    assert policies.policy_options("run.fake") == MakeOptions.from_keywords(time_limit=3.0)
+    assert policies.policy_options("only_local") == MakeOptions()
     assert "fake" in policies.registered_loaders()
     sys.modules.pop("fake_sgjax_loader", None)
 
@@ -313,12 +317,12 @@ def test_evaluate_command_passes_greedy_and_sampled(monkeypatch):
 
 def test_evaluate_command_passes_the_arrived_world(monkeypatch):
     seen = []
-    monkeypatch.setattr(cli, "evaluate", lambda *a, **k: seen.append(k["make_kwargs"]))
+    monkeypatch.setattr(cli, "evaluate", lambda *a, **k: seen.append(k["options"]))
     cli.main(["evaluate", "--scenario", "open", "--episodes", "1"])
-    assert "arrived" not in seen.pop()  # the checkpoint's setting, else make's default
+    assert seen.pop() == [MakeOptions()]  # the policy's own (a checkpoint's), else make's
     for world in ("settle", "park", "leave"):
         cli.main(["evaluate", "--scenario", "open", "--episodes", "1", "--arrived", world])
-        assert seen.pop()["arrived"] == world
+        assert [o.robots.arrived for o in seen.pop()] == [world]
     with pytest.raises(SystemExit):
         cli.main(["evaluate", "--arrived", "stay"])
 

@@ -85,21 +85,22 @@ def test_listing_1_trains(capsys):
 def test_reproduce_socialgym_profile_is_listing_1_per_run_type(baseline):
     """train.reproduce --profile socialgym: each baseline as the paper's Listing 1 with its run
     type, on every mini-game; Only Local at SocialGym's step and time limit."""
-    from train.reproduce import MINI_GAMES, only_local_settings, socialgym_baseline_config
+    from sgjax.evaluation.protocols import PAPER
+    from train.reproduce import only_local_options, socialgym_baseline_config
 
-    for scenario in MINI_GAMES:
-        config = socialgym_baseline_config(baseline, scenario, 3, 250_000, 0, [3, 4, 5, 7, 10],
-                                           25)
-        env = config.env.make_kwargs()
-        assert env["dt"] == 0.025 and env["time_limit"] == 80.0
+    for scenario in PAPER.scenarios:
+        config = socialgym_baseline_config(baseline, scenario, 3, 250_000, 0, PAPER.num_agents,
+                                           PAPER.episodes)
+        physics = config.env.options.physics
+        assert physics.dt == 0.025 and physics.time_limit == 80.0
         assert config.env.scenarios == (scenario,) and config.num_seeds == 3
         assert config.env.curriculum == ((0, 3), (35 * 3200, 4), (70 * 3200, 5))
         assert config.evaluation.deterministic and config.algorithm.total_steps == 250_000
     assert config.network.kind == ("gru" if baseline == "cadrl_lstm" else "mlp")
-    zones = "zone_order" in str(config.env.make_kwargs()["rewards"])
+    zones = "zone_order" in str(config.env.options.terms.rewards)
     assert zones == (baseline in ("any_order", "enforced_order"))
-    settings = only_local_settings("socialgym", None)
-    assert settings["dt"] == 0.025 and settings["time_limit"] == 80.0
+    settings = only_local_options("socialgym", None).physics
+    assert settings.dt == 0.025 and settings.time_limit == 80.0
     with pytest.raises(ValueError, match="not one"):
         socialgym_baseline_config(baseline, "office", 1, 1000, 0, [3], 1)
 
@@ -112,15 +113,15 @@ def test_only_local_ends_its_episodes_as_the_trained_baselines_do(profile):
     from train.reproduce import (
         BASELINES,
         baseline_config,
-        only_local_settings,
+        only_local_options,
         socialgym_baseline_config,
     )
 
-    mine, _ = sgjax.make("doorway", **only_local_settings(profile, None))
+    mine, _ = sgjax.make("doorway", options=only_local_options(profile, None))
     assert any(type(t).__name__ == "Stuck" for t in mine.config.enders.terms)
     for name in (b for b, run in BASELINES.items() if run is not None):
         config = (baseline_config(name, "doorway", 1, 1, 1, 0, 75.0) if profile == "sgjax"
                   else socialgym_baseline_config(name, "doorway", 1, 1, 0, [3], 1))
-        theirs, _ = sgjax.make("doorway", **config.env.make_kwargs())
+        theirs, _ = sgjax.make("doorway", options=config.env.options)
         assert mine.config.enders == theirs.config.enders, name
         assert mine.config.arrived == theirs.config.arrived

@@ -12,7 +12,8 @@ import pytest
 import yaml
 from flax import serialization
 
-from sgjax.evaluation.policies import load_policy, policy_make_kwargs
+from sgjax.environment.options import MakeOptions
+from sgjax.evaluation.policies import load_policy, policy_options
 from sgjax.terms.base import ConfigError
 from train import checkpoint, ppo
 from train.actor import ActorWeights
@@ -66,14 +67,22 @@ def test_a_tiny_run_learns_to_reach_the_goal():
 @pytest.mark.parametrize("data, message", [
     ({"algorithm": {"totl_steps": 5}}, "did you mean 'total_steps'"),
     ({"algorthm": {}}, "did you mean 'algorithm'"),
-    ({"algorithm": {"num_envs": "many"}}, "algorithm.num_envs: expected int"),
+    ({"algorithm": {"num_envs": "many"}},
+     r"bad.yaml: algorithm.num_envs must be an integer, got 'many'"),
     ({"env": {"curriculum": [[5, 2]]}}, "curriculum must be"),
     ({"network": {"kind": "transformer"}}, "kind must be one of"),
     ({"env": {"num_arcz": 5}}, "env: unknown key 'num_arcz' \\(did you mean 'num_arcs'\\?\\)"),
     ({"env": {"num_agents": 5}}, "unknown key 'num_agents'.*valid keys are: scenarios"),
     ({"env": {"human_model": "orka"}}, "env: human_model must be one of"),
     ({"env": {"dt": -1}}, "env: dt must be a positive number"),
-    ({"algorithm": {"lanes": "parallel"}}, "algorithm: lanes must be one of auto, batched"),
+    ({"algorithm": {"lanes": "parallel"}}, r"algorithm: lanes must be one of \('auto', 'batch"),
+    ({"algorithm": {"gamma": 1.5}}, r"algorithm: gamma must be in \[0, 1\], got 1.5"),
+    ({"env": {"curriculum": [[0, 2.5]]}}, r"env.curriculum\[0\]\[1\] must be an integer"),
+    ({"env": {"options": {"robot": {}}}}, r"env.options: unknown group 'robot' \(did you mean"),
+    ({"env": {"options": {"humans": {"num_human": 2}}}},
+     r"env.options.humans: unknown option 'num_human' \(did you mean 'num_humans'"),
+    ({"env": {"options": {"robots": {"max_agents": 8}}}}, "robot counts are curriculum"),
+    ({"seed": 1.5}, "bad.yaml: seed must be an integer, got 1.5"),
 ])
 def test_the_config_validator_rejects_bad_keys(data, message):
     with pytest.raises(ConfigError, match=message):
@@ -111,7 +120,8 @@ def test_numbers_in_exponent_form_read_as_numbers(tmp_path):
     assert config.env.curriculum == ((0, 3), (100_000, 5))
     assert type(config.env.curriculum[1][0]) is int and config.evaluation.every == 500_000
     for bad, shown in (("2.5", "2.5"), ("2e6x", "'2e6x'"), ("1e-3", "0.001")):
-        with pytest.raises(ConfigError, match=f"algorithm.total_steps: expected int, got {shown}"):
+        with pytest.raises(ConfigError,
+                           match=f"algorithm.total_steps must be an integer, got {shown}"):
             load_config(ROOT / "train/configs/doorway.yaml", [f"algorithm.total_steps={bad}"])
     from train.ablation import load_variants
 
@@ -124,27 +134,66 @@ def test_env_section_takes_every_make_option_and_round_trips():
     config = config_from_dict({"env": {"num_arcs": 7, "human_model": "helbing", "num_humans": 2,
                                        "max_agents": 6, "curriculum": [[0, 3]]}})
     assert config.env.slots == 6
-    assert config.env.make_kwargs() == {"num_arcs": 7, "human_model": "helbing",
-                                        "num_humans": 2, "observations": "navigation"}
+    assert config.env.options == MakeOptions.from_keywords(
+        num_arcs=7, human_model="helbing", num_humans=2, observations="navigation")
     assert config_from_dict(config.to_dict()) == config
-    preset = config_from_dict({"env": {"preset": "cadrl"}}).env.make_kwargs()
-    assert preset["observations"] == preset["rewards"] == "cadrl"
+    # the options travel nested (MakeOptions.to_dict), defaults included
+    assert config.to_dict()["env"]["options"] == config.env.options.to_dict()
+    assert config.to_dict()["env"]["options"]["physics"]["dt"] == 0.1
+    preset = config_from_dict({"env": {"preset": "cadrl"}}).env
+    assert preset.options.terms.observations == preset.options.terms.rewards == "cadrl"
+    assert config_from_dict(config_from_dict({"env": {"preset": "cadrl"}}).to_dict()).env == preset
+    # nested options with flat keys on top; the max_agents of a small curriculum is its own
+    mixed = config_from_dict({"env": {"curriculum": [[0, 2]], "max_agents": 2, "num_humans": 3,
+                                      "options": {"humans": {"num_humans": 1,
+                                                             "human_model": "orca"}}}})
+    assert mixed.env.options.humans.num_humans == 3
+    assert mixed.env.options.humans.human_model == "orca" and mixed.env.slots == 2
+    assert mixed.env.options.terms.observations == "navigation"  # the trainer's default
+
+
+def _checkpoint_with(tmp_path, name, data):
+    payload = {"config": yaml.safe_dump(data), "meta": json.dumps({}), "runner": {}}
+    path = tmp_path / name
+    path.write_bytes(serialization.msgpack_serialize(payload))
+    return path
 
 
 def test_checkpoints_keep_their_world_when_the_default_changes(tmp_path):
-    """A saved config states ``arrived``/``ended`` even at their defaults; a checkpoint written
-    before it did (no ``arrived``) was trained when the default was ``park`` and loads so."""
+    """A saved config states every make option (``arrived``/``ended`` among them) even at its
+    default; a checkpoint written before it stated ``arrived`` was trained when the default was
+    ``park`` and loads so."""
     config = config_from_dict({"env": {"curriculum": [[0, 2]]}})
-    assert config.to_dict()["env"]["arrived"] == "settle"
-    assert config.to_dict()["env"]["ended"] == "leave"
-    old = config.to_dict()
-    del old["env"]["arrived"]
-    payload = {"config": yaml.safe_dump(old), "meta": json.dumps({}), "runner": {}}
-    path = tmp_path / "old.msgpack"
-    path.write_bytes(serialization.msgpack_serialize(payload))
+    robots = config.to_dict()["env"]["options"]["robots"]
+    assert robots["arrived"] == "settle" and robots["ended"] == "leave"
+    path = _checkpoint_with(tmp_path, "new.msgpack", config.to_dict())
+    assert checkpoint.read(path)[0] == config
+    assert checkpoint.training_options(path) == config.env.options
+    old = {**config.to_dict(), "env": {"scenarios": ["doorway"], "curriculum": [[0, 2]],
+                                       "preset": None, "observations": "navigation"}}
+    loaded, _, _ = checkpoint.read(_checkpoint_with(tmp_path, "old.msgpack", old))
+    assert loaded.env.options.robots.arrived == "park"
+    assert loaded.env.options == config.env.options.replace(arrived="park")
+
+
+def test_checkpoints_with_flat_make_options_still_load(tmp_path):
+    """Files written before the options were nested hold them as flat keys of the env section
+    (only those that differ from the defaults, plus the world semantics): they load to the same
+    typed options, and their policy acts in them."""
+    old = {"env": {"scenarios": ["open"], "curriculum": [[0, 2], [100, 3]], "preset": "cadrl",
+                   "arrived": "park", "ended": "leave", "num_arcs": 7, "num_humans": 2,
+                   "human_model": "helbing", "time_limit": 20.0, "max_agents": 4,
+                   "observations": "cadrl", "rewards": "cadrl"},
+           "algorithm": {"num_envs": 8}, "seed": 3, "num_seeds": 1}
+    path = _checkpoint_with(tmp_path, "flat.msgpack", old)
     loaded, _, _ = checkpoint.read(path)
-    assert loaded.env.make.robots.arrived == "park"
-    assert loaded.env.make_kwargs()["arrived"] == "park"
+    assert loaded.env.slots == 4 and loaded.env.preset == "cadrl" and loaded.seed == 3
+    expected = MakeOptions.from_keywords(arrived="park", num_arcs=7, num_humans=2,
+                                         human_model="helbing", time_limit=20.0,
+                                         observations="cadrl", rewards="cadrl")
+    assert loaded.env.options == expected
+    assert policy_options(str(path)) == expected  # through the registered loader
+    assert config_from_dict(loaded.to_dict()) == loaded  # and written again, nested
 
 
 @pytest.fixture(scope="module")
@@ -262,7 +311,7 @@ def test_a_checkpoint_policy_loads_from_the_file_alone(two_seeds, tmp_path, monk
     from_old = checkpoint.load_checkpoint_policy(old, deterministic=True)
     assert len(made) == 1  # the others encoder's layout, from one training environment
     assert checkpoint.actor_layout(old, *checkpoint.read(old)) == trainer.actor
-    assert policy_make_kwargs(str(path)) == config.env.make_kwargs()
+    assert policy_options(str(path)) == config.env.options
     with pytest.raises(ValueError, match="seed index 16 out of range"):
         checkpoint.load_checkpoint_policy(path, env, seed_index=16)
 

@@ -261,9 +261,9 @@ def test_ablation_variant_sets_a_mapping_and_a_bad_one_fails_before_training(tmp
                         "{progress: 1.0, success: 100.0, existence: 0.1}}}\n")
     config = load_config(ROOT / "train/configs/doorway.yaml", [])
     changed = ablation._variant_config(config, ablation.load_variants(variants)["existence"], 2)
-    assert changed.env.make_kwargs()["rewards"] == {
+    assert changed.env.options.terms.rewards == {
         "progress": 1.0, "success": 100.0, "existence": 0.1}
-    assert changed.num_seeds == 2 and config.env.make_kwargs()["rewards"] == "default"
+    assert changed.num_seeds == 2 and config.env.options.terms.rewards == "default"
 
     def no_training(*args, **kwargs):
         raise AssertionError("trained before every variant was checked")
