@@ -30,16 +30,19 @@ the longest per-cell wall list.
 from __future__ import annotations
 
 import dataclasses
+from typing import NamedTuple
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 from flax import struct
 from jax import Array
 
 from sgjax.dynamics.limits import ACKERMANN, RobotParams
-from sgjax.kernels.geometry import point_segment_distance_sq
 from sgjax.maps.arrays import MapArrays
 from sgjax.maps.sampling import Route
+
+_TINY = 1e-12  # m^2: as sgjax.kernels.geometry's floor of squared segment lengths
 
 
 @dataclasses.dataclass(frozen=True)
@@ -157,80 +160,29 @@ def plan(
     local_x, local_y = _robot_frame(cos_h, sin_h, carrot_x - x, carrot_y - y)
     bearing = jnp.arctan2(local_y, local_x)
 
-    # Arc samples: constants in the robot frame, flattened to S = K * M so that the innermost
-    # axis is long (XLA's CPU backend vectorises the innermost axis), placed in the world [R, S].
-    curv_k, s_km, ax_km, ay_km = (jnp.asarray(a, jnp.float32) for a in config.arcs())
-    num_arcs, num_samples = s_km.shape
-    ax_s, ay_s = ax_km.reshape(-1), ay_km.reshape(-1)
-    px = x[:, None] + cos_h[:, None] * ax_s - sin_h[:, None] * ay_s
-    py = y[:, None] + sin_h[:, None] * ax_s + cos_h[:, None] * ay_s
-    # Ackermann robots may only use arcs within their turning limit.
-    allowed = ~ackermann[:, None] | (
-        jnp.abs(curv_k)[None, :] <= 1.0 / robots.min_turn_radius[:, None])
-
-    # Clearance of every sample from the walls listed for the robot's grid cell ([R, Kw, S]
-    # squared distances, reduced over Kw), and whether another robot's disc blocks it.
+    # Arc samples: constants in the robot frame, flattened to the S distinct samples of all arcs
+    # (an arc cut at a quarter turn repeats its last sample: those are tested once) so that the
+    # innermost axis is long (XLA's CPU backend vectorises the innermost axis), placed in the
+    # world [R, S]. The barrier keeps them (and every other per-robot or per-pair quantity below)
+    # computed once: fused into the [R, walls or bodies, S] tests, XLA would recompute the cosine
+    # and sine for every wall and body.
+    table = _arc_table(config)
+    px = x[:, None] + cos_h[:, None] * table.ax - sin_h[:, None] * table.ay
+    py = y[:, None] + sin_h[:, None] * table.ax + cos_h[:, None] * table.ay
+    arrival = pp.prediction * jnp.asarray(table.s)[None, :] / robots.max_speed[:, None]  # [R, S]
     inflate = (robots.radius + pp.obstacle_margin)[:, None]
-    near = m.cell_walls[m.cell_of(x, y)]  # [R, Kw]
-    wx1, wy1, wx2, wy2 = (a[near][:, :, None] for a in (m.wall_x1, m.wall_y1, m.wall_x2, m.wall_y2))
-    d_sq = point_segment_distance_sq(px[:, None, :], py[:, None, :], wx1, wy1, wx2, wy2)
-    d_sq = jnp.where(m.wall_valid[near][:, :, None], d_sq, jnp.inf)
-    wall_clearance = jnp.sqrt(jnp.min(d_sq, axis=1)) - inflate  # [R, S]
-    num_robots = x.shape[0]
-    other = in_world[None, :] & ~jnp.eye(num_robots, dtype=bool)  # [R, R]
-    if velocity is None:
-        velocity = jnp.zeros((num_robots, 2), jnp.float32)
-    body_x, body_y, body_r = x, y, robots.radius
-    body_vx, body_vy = velocity[:, 0], velocity[:, 1]
-    if bodies is not None:
-        bx, by, bvx, bvy, br, bthere = bodies
-        other = jnp.concatenate(
-            [other, jnp.broadcast_to(bthere[None, :], (num_robots, bthere.shape[0]))], axis=1)
-        body_x, body_y = jnp.concatenate([x, bx]), jnp.concatenate([y, by])
-        body_vx, body_vy = jnp.concatenate([body_vx, bvx]), jnp.concatenate([body_vy, bvy])
-        body_r = jnp.concatenate([robots.radius, jnp.broadcast_to(br, bx.shape)])
-    reach_sq = jnp.square(inflate[:, :, None] + body_r[None, :, None])  # [R, 1 + B, 1]
-    # A body blocks a sample that comes within reach of where the body will be when the robot,
-    # at full speed, gets to the sample, and nearer to it than the robot is now (so a robot
-    # already within reach may still move away).
-    now_sq = (jnp.square(x[:, None] - body_x[None, :])
-              + jnp.square(y[:, None] - body_y[None, :]))[:, :, None]  # [R, B, 1]
-    arrival = pp.prediction * s_km.reshape(-1)[None, :] / robots.max_speed[:, None]  # [R, S]
-    gap_x = px[:, None, :] - body_x[None, :, None] - body_vx[None, :, None] * arrival[:, None]
-    gap_y = py[:, None, :] - body_y[None, :, None] - body_vy[None, :, None] * arrival[:, None]
-    gap_sq = jnp.square(gap_x) + jnp.square(gap_y)  # [R, B, S]
-    hit = gap_sq < jnp.minimum(reach_sq, now_sq)
-    body_blocked = jnp.any(other[:, :, None] & hit, axis=1)  # [R, S]
+    px, py, arrival = jax.lax.optimization_barrier((px, py, arrival))
+
+    wall_clearance = _wall_clearance(m, x, y, px, py) - inflate  # [R, S]
+    body_blocked = _body_blocked(x, y, px, py, arrival, inflate, robots.radius, in_world,
+                                 velocity, bodies)  # [R, S]
+    wall_clearance, body_blocked = jax.lax.optimization_barrier((wall_clearance, body_blocked))
     # Keep right: a robot with a body on any of its arcs pays ``pass_bias`` per unit of left
     # curvature (as a fraction of the largest), so two robots meeting pass on the same side.
     meeting = jnp.any(body_blocked, axis=1)
-    blocked = ((wall_clearance < 0.0) | body_blocked).reshape(num_robots, num_arcs, num_samples)
-    wall_clearance = wall_clearance.reshape(num_robots, num_arcs, num_samples)
-    # Walk each arc's samples in order ([R, K] slices: no argmax, gathers or short reductions).
-    still_free = allowed
-    free_len = jnp.zeros(allowed.shape, jnp.float32)
-    end_x = jnp.zeros_like(free_len)
-    end_y = jnp.zeros_like(free_len)
-    free_clear = jnp.full(free_len.shape, 1.0)  # wall clearance along the free part, capped 1 m
-    for k in range(num_samples):
-        still_free = still_free & ~blocked[..., k]
-        free_len = jnp.where(still_free, s_km[:, k], free_len)
-        end_x = jnp.where(still_free, ax_km[:, k], end_x)
-        end_y = jnp.where(still_free, ay_km[:, k], end_y)
-        free_clear = jnp.where(still_free, jnp.minimum(free_clear, wall_clearance[..., k]),
-                               free_clear)
-    free_clear = jnp.where(free_len > 0.0, free_clear, 0.0)
-    to_carrot = jnp.sqrt(
-        jnp.square(end_x - local_x[:, None]) + jnp.square(end_y - local_y[:, None]))
-    left = jnp.maximum(curv_k, 0.0) / config.max_curvature  # [K] in [0, 1]
-    side_cost = jnp.where(meeting[:, None], pp.pass_bias * left[None, :], 0.0)
-    cost = jnp.where(allowed, to_carrot - pp.clearance_weight * free_clear + side_cost, jnp.inf)
-    lowest = jnp.min(cost, axis=1, keepdims=True)
-    arc_index = jnp.arange(config.num_arcs)
-    best = jnp.min(jnp.where(cost <= lowest, arc_index, config.num_arcs), axis=1)  # first minimum
-    is_best = arc_index[None, :] == best[:, None]
-    best_curv = jnp.sum(jnp.where(is_best, curv_k[None, :], 0.0), axis=1)
-    best_free = jnp.sum(jnp.where(is_best, free_len, 0.0), axis=1)
+    blocked = (wall_clearance < 0.0) | body_blocked
+    best_curv, best_free = _choose_arc(config, pp, robots, table, blocked, wall_clearance,
+                                       meeting, local_x, local_y, ackermann)
 
     stop_speed = jnp.sqrt(2.0 * robots.max_decel * jnp.maximum(best_free - pp.stop_margin, 0.0))
     speed = jnp.minimum(robots.max_speed, stop_speed)
@@ -261,6 +213,143 @@ def plan(
     forward = jnp.where(rotate, 0.0, speed)
     turn = jnp.where(rotate, jnp.where(halted, turn_rate, 0.0), arc_turn)
     return forward, turn
+
+
+class _ArcTable(NamedTuple):
+    """The distinct samples of :meth:`PlannerConfig.arcs` as float32 constants: arc lengths
+    ``s`` and robot-frame points ``ax``, ``ay`` ``[S]`` (m), and ``index [K, M]``, the distinct
+    sample of each arc's each sample (an arc cut at a quarter turn repeats its end)."""
+
+    s: np.ndarray
+    ax: np.ndarray
+    ay: np.ndarray
+    index: np.ndarray
+
+
+def _arc_table(config: PlannerConfig) -> _ArcTable:
+    """The sample table of ``config``'s arcs, repeats removed (see :class:`_ArcTable`)."""
+    _, s_km, ax_km, ay_km = config.arcs()
+    index = np.zeros(s_km.shape, np.int32)
+    s, ax, ay = [], [], []
+    for j, k in np.ndindex(*s_km.shape[::-1]):  # sample-major: [R, K] slices per sample
+        if j and s_km[k, j] == s_km[k, j - 1]:  # the same point as the sample before
+            index[k, j] = index[k, j - 1]
+            continue
+        index[k, j] = len(s)
+        s.append(s_km[k, j])
+        ax.append(ax_km[k, j])
+        ay.append(ay_km[k, j])
+    f32 = np.float32
+    return _ArcTable(np.asarray(s, f32), np.asarray(ax, f32), np.asarray(ay, f32), index)
+
+
+def _wall_clearance(m: MapArrays, x: Array, y: Array, px: Array, py: Array) -> Array:
+    """Distance (m) ``[R, S]`` from each robot's samples ``(px, py) [R, S]`` to the nearest
+    wall listed for the robot's grid cell (``inf`` if none). The walls' vectors are computed
+    once per robot and the minimum over the ``Kw`` listed walls is a chain of ``[R, S]``
+    minima (one fused pass, no ``[R, Kw, S]`` tensor), with the arithmetic of
+    :func:`sgjax.kernels.geometry.point_segment_distance_sq`."""
+    near = m.cell_walls[m.cell_of(x, y)]  # [R, Kw]
+    ax, ay, bx, by = (a[near] for a in (m.wall_x1, m.wall_y1, m.wall_x2, m.wall_y2))
+    ex, ey = bx - ax, by - ay
+    inv_length_sq = 1.0 / jnp.maximum(ex * ex + ey * ey, _TINY)
+    walls = jax.lax.optimization_barrier((ax, ay, ex, ey, inv_length_sq, m.wall_valid[near]))
+    d_sq = jnp.full(px.shape, jnp.inf)
+    for k in range(near.shape[1]):
+        ax_k, ay_k, ex_k, ey_k, inv_k, valid_k = (a[:, k, None] for a in walls)
+        qx, qy = px - ax_k, py - ay_k
+        t = jnp.clip((qx * ex_k + qy * ey_k) * inv_k, 0.0, 1.0)
+        ox, oy = qx - t * ex_k, qy - t * ey_k
+        d_sq = jnp.minimum(d_sq, jnp.where(valid_k, ox * ox + oy * oy, jnp.inf))
+    return jnp.sqrt(d_sq)
+
+
+def _body_blocked(
+    x: Array, y: Array, px: Array, py: Array, arrival: Array, inflate: Array, radius: Array,
+    in_world: Array, velocity: Array | None,
+    bodies: tuple[Array, Array, Array, Array, Array, Array] | None,
+) -> Array:
+    """``[R, S]`` bool: whether another robot in the world, or a present body, blocks each
+    sample ``(px, py) [R, S]`` (m): the sample comes within reach (``inflate [R, 1]`` plus the
+    body's radius, m) of where the body will be at the robot's ``arrival [R, S]`` (s), and
+    nearer to it than the robot is now. The per-pair limit (``-inf`` for pairs that are not
+    obstacles) is computed once, at ``[R, B]``; only the gaps are ``[R, B, S]``, reduced over
+    ``B`` in the same pass."""
+    num_robots = x.shape[0]
+    other = in_world[None, :] & ~jnp.eye(num_robots, dtype=bool)  # [R, R]
+    if velocity is None:
+        velocity = jnp.zeros((num_robots, 2), jnp.float32)
+    body_x, body_y, body_r = x, y, radius
+    body_vx, body_vy = velocity[:, 0], velocity[:, 1]
+    if bodies is not None:
+        bx, by, bvx, bvy, br, bthere = bodies
+        other = jnp.concatenate(
+            [other, jnp.broadcast_to(bthere[None, :], (num_robots, bthere.shape[0]))], axis=1)
+        body_x, body_y = jnp.concatenate([x, bx]), jnp.concatenate([y, by])
+        body_vx, body_vy = jnp.concatenate([body_vx, bvx]), jnp.concatenate([body_vy, bvy])
+        body_r = jnp.concatenate([radius, jnp.broadcast_to(br, bx.shape)])
+    reach_sq = jnp.square(inflate + body_r[None, :])  # [R, B]
+    now_sq = jnp.square(x[:, None] - body_x[None, :]) + jnp.square(y[:, None] - body_y[None, :])
+    limit = jnp.where(other, jnp.minimum(reach_sq, now_sq), -jnp.inf)  # never below -inf
+    blocked = jnp.zeros(px.shape, bool)
+    for b in range(body_x.shape[0]):
+        gap_x = px - body_x[b] - body_vx[b] * arrival
+        gap_y = py - body_y[b] - body_vy[b] * arrival
+        blocked = blocked | (jnp.square(gap_x) + jnp.square(gap_y) < limit[:, b, None])
+    return blocked
+
+
+def _choose_arc(
+    config: PlannerConfig, pp: PlannerParams, robots: RobotParams, table: _ArcTable,
+    blocked: Array, wall_clearance: Array, meeting: Array, local_x: Array, local_y: Array,
+    ackermann: Array,
+) -> tuple[Array, Array]:
+    """The best arc's curvature (1/m) and free length (m), ``[R]`` each: each arc's samples are
+    walked in order (``blocked`` and ``wall_clearance`` (m) are ``[R, S]``), and the arc whose
+    free end is closest to the carrot ``(local_x, local_y) [R]`` (robot frame, m), less
+    ``clearance_weight`` per metre of clearance along the free part (capped at 1 m), plus
+    ``pass_bias`` for left arcs while ``meeting [R]``, wins; the first of equal costs wins.
+    The costs are computed for all ``K`` arcs at once (``[R, K]``), so equal arcs tie exactly."""
+    curv_k, s_km, ax_km, ay_km = (jnp.asarray(a, jnp.float32) for a in config.arcs())
+    num_robots, (num_arcs, num_samples) = local_x.shape[0], s_km.shape
+    # Ackermann robots may only use arcs within their turning limit.
+    allowed = ~ackermann[:, None] | (
+        jnp.abs(curv_k)[None, :] <= 1.0 / robots.min_turn_radius[:, None])
+    # Walk each arc's samples in order ([R, K] slices: no argmax, gathers or short reductions).
+    still_free = allowed
+    free_len = jnp.zeros((num_robots, num_arcs), jnp.float32)
+    end_x = jnp.zeros_like(free_len)
+    end_y = jnp.zeros_like(free_len)
+    free_clear = jnp.full(free_len.shape, 1.0)  # wall clearance along the free part, capped 1 m
+    for k in range(num_samples):
+        still_free = still_free & ~_columns(blocked, table.index[:, k])
+        free_len = jnp.where(still_free, s_km[:, k], free_len)
+        end_x = jnp.where(still_free, ax_km[:, k], end_x)
+        end_y = jnp.where(still_free, ay_km[:, k], end_y)
+        free_clear = jnp.where(
+            still_free, jnp.minimum(free_clear, _columns(wall_clearance, table.index[:, k])),
+            free_clear)
+    free_clear = jnp.where(free_len > 0.0, free_clear, 0.0)
+    to_carrot = jnp.sqrt(
+        jnp.square(end_x - local_x[:, None]) + jnp.square(end_y - local_y[:, None]))
+    left = jnp.maximum(curv_k, 0.0) / config.max_curvature  # [K] in [0, 1]
+    side_cost = jnp.where(meeting[:, None], pp.pass_bias * left[None, :], 0.0)
+    cost = jnp.where(allowed, to_carrot - pp.clearance_weight * free_clear + side_cost, jnp.inf)
+    lowest = jnp.min(cost, axis=1, keepdims=True)
+    arc_index = jnp.arange(num_arcs)
+    best = jnp.min(jnp.where(cost <= lowest, arc_index, num_arcs), axis=1)  # first minimum
+    is_best = arc_index[None, :] == best[:, None]
+    best_curv = jnp.sum(jnp.where(is_best, curv_k[None, :], 0.0), axis=1)
+    best_free = jnp.sum(jnp.where(is_best, free_len, 0.0), axis=1)
+    return best_curv, best_free
+
+
+def _columns(a: Array, index: np.ndarray) -> Array:
+    """``a[:, index]`` for a static ``index``, as a concatenation of contiguous slices (XLA's
+    CPU backend runs a gather element by element)."""
+    runs = np.split(index, np.flatnonzero(np.diff(index) != 1) + 1)
+    parts = [a[:, run[0]:run[-1] + 1] for run in runs]
+    return parts[0] if len(parts) == 1 else jnp.concatenate(parts, axis=1)
 
 
 def approach(
