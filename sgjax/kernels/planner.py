@@ -32,7 +32,6 @@ from __future__ import annotations
 import dataclasses
 from typing import NamedTuple
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 from flax import struct
@@ -140,7 +139,7 @@ def plan(
     in_world: Array,
     carrot_x: Array,
     carrot_y: Array,
-    velocity: Array | None = None,
+    velocity: tuple[Array, Array] | None = None,
     bodies: tuple[Array, Array, Array, Array, Array, Array] | None = None,
     speed_limit: Array | None = None,
 ) -> tuple[Array, Array]:
@@ -151,9 +150,9 @@ def plan(
     ``v_forward [R]`` is each robot's current forward speed (m/s) and ``dt`` the step (s).
 
     ``turn`` is a yaw rate (rad/s), or a steering angle (rad) for Ackermann robots.
-    ``in_world [R]`` masks which robots are obstacles and ``velocity [R, 2]`` (m/s, world frame;
-    default at rest) is how they move. ``bodies`` adds discs ``(x, y, vx, vy, radius, present)``,
-    each ``[B]`` (pedestrians).
+    ``in_world [R]`` masks which robots are obstacles and ``velocity = (vx, vy)``, ``[R]`` each
+    (m/s, world frame; default at rest), is how they move. ``bodies`` adds discs
+    ``(x, y, vx, vy, radius, present)``, each ``[B]`` (pedestrians).
     """
     ackermann = robots.model == ACKERMANN
     cos_h, sin_h = jnp.cos(heading), jnp.sin(heading)
@@ -161,22 +160,20 @@ def plan(
     bearing = jnp.arctan2(local_y, local_x)
 
     # Arc samples: constants in the robot frame, flattened to the S distinct samples of all arcs
-    # (an arc cut at a quarter turn repeats its last sample: those are tested once) so that the
-    # innermost axis is long (XLA's CPU backend vectorises the innermost axis), placed in the
-    # world [R, S]. The barrier keeps them (and every other per-robot or per-pair quantity below)
-    # computed once: fused into the [R, walls or bodies, S] tests, XLA would recompute the cosine
-    # and sine for every wall and body.
+    # (an arc cut at a quarter turn repeats its last sample: that one is tested once) so that
+    # the innermost axis is long (XLA's CPU backend vectorises the innermost axis), placed in
+    # the world [R, S]. The wall and body tests are chains of [R, S] operations over the walls
+    # and bodies: XLA fuses each into one pass, where a reduction over a [R, walls or bodies, S]
+    # tensor ran as an elemental reduce that recomputed the samples for every wall or body.
     table = _arc_table(config)
     px = x[:, None] + cos_h[:, None] * table.ax - sin_h[:, None] * table.ay
     py = y[:, None] + sin_h[:, None] * table.ax + cos_h[:, None] * table.ay
     arrival = pp.prediction * jnp.asarray(table.s)[None, :] / robots.max_speed[:, None]  # [R, S]
     inflate = (robots.radius + pp.obstacle_margin)[:, None]
-    px, py, arrival = jax.lax.optimization_barrier((px, py, arrival))
 
     wall_clearance = _wall_clearance(m, x, y, px, py) - inflate  # [R, S]
     body_blocked = _body_blocked(x, y, px, py, arrival, inflate, robots.radius, in_world,
                                  velocity, bodies)  # [R, S]
-    wall_clearance, body_blocked = jax.lax.optimization_barrier((wall_clearance, body_blocked))
     # Keep right: a robot with a body on any of its arcs pays ``pass_bias`` per unit of left
     # curvature (as a fraction of the largest), so two robots meeting pass on the same side.
     meeting = jnp.any(body_blocked, axis=1)
@@ -253,7 +250,7 @@ def _wall_clearance(m: MapArrays, x: Array, y: Array, px: Array, py: Array) -> A
     ax, ay, bx, by = (a[near] for a in (m.wall_x1, m.wall_y1, m.wall_x2, m.wall_y2))
     ex, ey = bx - ax, by - ay
     inv_length_sq = 1.0 / jnp.maximum(ex * ex + ey * ey, _TINY)
-    walls = jax.lax.optimization_barrier((ax, ay, ex, ey, inv_length_sq, m.wall_valid[near]))
+    walls = (ax, ay, ex, ey, inv_length_sq, m.wall_valid[near])
     d_sq = jnp.full(px.shape, jnp.inf)
     for k in range(near.shape[1]):
         ax_k, ay_k, ex_k, ey_k, inv_k, valid_k = (a[:, k, None] for a in walls)
@@ -266,21 +263,19 @@ def _wall_clearance(m: MapArrays, x: Array, y: Array, px: Array, py: Array) -> A
 
 def _body_blocked(
     x: Array, y: Array, px: Array, py: Array, arrival: Array, inflate: Array, radius: Array,
-    in_world: Array, velocity: Array | None,
+    in_world: Array, velocity: tuple[Array, Array] | None,
     bodies: tuple[Array, Array, Array, Array, Array, Array] | None,
 ) -> Array:
     """``[R, S]`` bool: whether another robot in the world, or a present body, blocks each
     sample ``(px, py) [R, S]`` (m): the sample comes within reach (``inflate [R, 1]`` plus the
     body's radius, m) of where the body will be at the robot's ``arrival [R, S]`` (s), and
     nearer to it than the robot is now. The per-pair limit (``-inf`` for pairs that are not
-    obstacles) is computed once, at ``[R, B]``; only the gaps are ``[R, B, S]``, reduced over
-    ``B`` in the same pass."""
+    obstacles) is computed at ``[R, B]``; the test is a chain of ``[R, S]`` ors over the ``B``
+    bodies (one fused pass, no ``[R, B, S]`` tensor or reduction)."""
     num_robots = x.shape[0]
     other = in_world[None, :] & ~jnp.eye(num_robots, dtype=bool)  # [R, R]
-    if velocity is None:
-        velocity = jnp.zeros((num_robots, 2), jnp.float32)
     body_x, body_y, body_r = x, y, radius
-    body_vx, body_vy = velocity[:, 0], velocity[:, 1]
+    body_vx, body_vy = (jnp.zeros(num_robots, jnp.float32),) * 2 if velocity is None else velocity
     if bodies is not None:
         bx, by, bvx, bvy, br, bthere = bodies
         other = jnp.concatenate(
