@@ -16,6 +16,11 @@ timed function; for VMAS, the growth of the process's peak RSS (a coarse upper b
     python bench/throughput.py --num-envs 64 1024 --robots 4 --peers none
     python bench/throughput.py --table pedestrians  # pedestrians {0,10,50,100} x envs {64,1024}
     python bench/throughput.py --table pedestrians --human-models moussaid helbing orca hsfm
+    python bench/throughput.py --table robots --robots 10 --peers jaxmarl --rounds 3
+
+``--rounds N`` times the simulators of each batch size in N alternating rounds and keeps each
+one's best: on a shared machine a burst of load then slows every simulator alike, instead of
+whichever happened to run during it. The load average is printed at the start and the end.
 
 Pedestrian table: pedestrian-steps/s of the whole sgjax step on the hallway (4 robots), beside
 PySocialForce (pip pysocialforce) stepping one scene of as many pedestrians in the same walls.
@@ -24,6 +29,8 @@ PySocialForce (pip pysocialforce) stepping one scene of as many pedestrians in t
 from __future__ import annotations
 
 import argparse
+import itertools
+import os
 import resource
 import time
 from collections.abc import Callable
@@ -51,21 +58,32 @@ def _scan_rollout(step_fn: Callable, sample_fn: Callable, steps: int) -> Callabl
     return jax.jit(rollout)
 
 
-def _time_jax(rollout: Callable, state, steps: int, repeats: int) -> tuple[float, float, int]:
-    """Returns (compile seconds, best seconds per step, peak bytes)."""
+# A prepared benchmark: (compile or set-up seconds, peak bytes, timer); ``timer(repeats)`` runs
+# the timed rollout ``repeats`` times and returns the best seconds per step.
+Prepared = tuple[float, int, Callable[[int], float]]
+
+
+def _prepare_jax(rollout: Callable, state, steps: int) -> Prepared:
+    """Compile ``rollout`` (``steps`` steps per call) and warm it up."""
     key = jax.random.key(1)
     compiled, compile_s, peak = compile_measured(rollout.lower(state, key))
     jax.block_until_ready(compiled(state, key))  # warm-up
-    best = float("inf")
-    for r in range(repeats):
-        t0 = time.perf_counter()
-        jax.block_until_ready(compiled(state, jax.random.key(2 + r)))
-        best = min(best, time.perf_counter() - t0)
-    return compile_s, best / steps, peak
+    seeds = itertools.count(2)
+
+    def timer(repeats: int) -> float:
+        best = float("inf")
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            jax.block_until_ready(compiled(state, jax.random.key(next(seeds))))
+            best = min(best, time.perf_counter() - t0)
+        return best / steps
+
+    return compile_s, peak, timer
 
 
-def bench_sgjax(mode: str, robots: int, num_envs: int, steps: int, repeats: int, scenario: str,
-                humans: int = 0, terms: str = "default", human_model: str = "moussaid"):
+def bench_sgjax(mode: str, robots: int, num_envs: int, steps: int, scenario: str,
+                humans: int = 0, terms: str = "default", human_model: str = "moussaid"
+                ) -> Prepared:
     """``terms``: an observation preset; its reward preset too when one has that name."""
     rewards = terms if terms in REWARD_PRESETS else "default"
     env, params = sgjax.make(scenario, num_agents=robots, action_mode=mode, num_humans=humans,
@@ -87,10 +105,10 @@ def bench_sgjax(mode: str, robots: int, num_envs: int, steps: int, repeats: int,
         def sample(k):
             return jax.random.uniform(k, (num_envs, robots, dim), minval=-1.0, maxval=1.0)
 
-    return _time_jax(_scan_rollout(step_fn, sample, steps), state, steps, repeats)
+    return _prepare_jax(_scan_rollout(step_fn, sample, steps), state, steps)
 
 
-def bench_jaxmarl(robots: int, num_envs: int, steps: int, repeats: int):
+def bench_jaxmarl(robots: int, num_envs: int, steps: int) -> Prepared:
     from jaxmarl import make as jaxmarl_make
 
     env = jaxmarl_make("MPE_simple_spread_v3", num_agents=robots, num_landmarks=robots)
@@ -107,10 +125,10 @@ def bench_jaxmarl(robots: int, num_envs: int, steps: int, repeats: int):
     def sample(k):
         return jax.random.randint(k, (num_envs, robots), 0, num_actions)
 
-    return _time_jax(_scan_rollout(step_fn, sample, steps), state, steps, repeats)
+    return _prepare_jax(_scan_rollout(step_fn, sample, steps), state, steps)
 
 
-def bench_vmas(robots: int, num_envs: int, steps: int, repeats: int):
+def bench_vmas(robots: int, num_envs: int, steps: int) -> Prepared:
     import torch
     import vmas
 
@@ -133,9 +151,9 @@ def bench_vmas(robots: int, num_envs: int, steps: int, repeats: int):
         return time.perf_counter() - t
 
     run(2)
-    best = min(run(steps) for _ in range(repeats))
     rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    return setup_s, best / steps, max(0, rss1 - rss0) * 1024
+    return setup_s, max(0, rss1 - rss0) * 1024, lambda repeats: min(
+        run(steps) for _ in range(repeats)) / steps
 
 
 def bench_pysocialforce(humans: int, steps: int, repeats: int) -> float:
@@ -218,9 +236,9 @@ def pedestrian_table(humans_list, envs_list, robots: int, budget: int, repeats: 
         for model in models:
             for envs in envs_list:
                 steps = int(max(10, min(200, budget // max(1, envs * max(humans, robots)))))
-                compile_s, per_step, peak = bench_sgjax("go_stop", robots, envs, steps,
-                                                        repeats, "hallway", humans,
-                                                        human_model=model)
+                compile_s, peak, timer = bench_sgjax("go_stop", robots, envs, steps, "hallway",
+                                                     humans, human_model=model)
+                per_step = timer(repeats)
                 rate = envs * humans / per_step
                 ours[model, humans] = max(ours.get((model, humans), 0.0), rate)
                 print(f"{'sgjax ' + model:<24}{humans:>6}{envs:>7}{rate:>14,.0f}"
@@ -253,6 +271,30 @@ def _steps_for(num_envs: int, robots: int, budget: int) -> int:
     return int(max(10, min(200, budget // max(1, num_envs * robots))))
 
 
+def _prepare_row(args, robots: int, envs: int, steps: int) -> list[tuple[str, Prepared]]:
+    """Every simulator of one robot count and batch size, compiled and warmed up."""
+    prepared = []
+    for terms in args.terms:
+        for mode in args.modes:
+            name = f"sgjax {mode}" + ("" if terms == "default" else f" [{terms}]")
+            prepared.append((name, bench_sgjax(mode, robots, envs, steps, args.scenario,
+                                               terms=terms)))
+    for peer in args.peers:
+        try:
+            if peer == "jaxmarl":
+                prepared.append(("jaxmarl simple_spread_v3", bench_jaxmarl(robots, envs, steps)))
+            elif peer == "vmas":
+                prepared.append(("vmas navigation (torch cpu)",
+                                 bench_vmas(robots, envs, max(5, min(steps, 50)))))
+        except ImportError as err:
+            print(f"{peer}: skipped ({err})")
+    return prepared
+
+
+def _load() -> str:
+    return "load average " + " ".join(f"{v:.2f}" for v in os.getloadavg())
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--num-envs", type=int, nargs="+", default=list(DEFAULT_ENVS))
@@ -264,6 +306,9 @@ def main() -> None:
     parser.add_argument("--budget", type=int, default=4_000_000,
                         help="agent-steps per timed repeat (sets the scan length)")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--rounds", type=int, default=1,
+                        help="time the simulators of each batch size in this many alternating "
+                             "rounds (of --repeats each) and keep each one's best")
     parser.add_argument("--table", choices=["robots", "pedestrians", "all"], default="all",
                         help="which table to run: robots against JaxMARL/VMAS, pedestrians "
                              "against PySocialForce, or both")
@@ -277,51 +322,37 @@ def main() -> None:
     args = parser.parse_args()
 
     print(f"jax {jax.__version__} on {jax.devices()[0].platform} "
-          f"({len(jax.devices())} device(s)); scenario {args.scenario}")
+          f"({len(jax.devices())} device(s)); scenario {args.scenario}; {_load()}")
     if args.table in ("pedestrians", "all"):
         pedestrian_table(args.pedestrians, args.pedestrian_envs, 4, args.budget, args.repeats,
                          args.human_models)
     if args.table == "pedestrians":
+        print(_load())
         return
     header = (f"{'simulator':<36}{'robots':>7}{'envs':>8}{'agent-steps/s':>15}"
               f"{'env-steps/s':>13}{'compile s':>11}{'peak MB':>10}")
     print(header)
     print("-" * len(header))
     best: dict[tuple[str, int], float] = {}
-
-    def report(name: str, robots: int, envs: int, result) -> None:
-        compile_s, per_step, peak = result
-        agent_sps = envs * robots / per_step
-        best[(name, robots)] = max(best.get((name, robots), 0.0), agent_sps)
-        print(f"{name:<36}{robots:>7}{envs:>8}{agent_sps:>15,.0f}{envs / per_step:>13,.0f}"
-              f"{compile_s:>11.2f}{peak / 2**20:>10.1f}", flush=True)
-
     for robots in args.robots:
         for envs in args.num_envs:
-            steps = _steps_for(envs, robots, args.budget)
-            for terms in args.terms:
-                for mode in args.modes:
-                    name = f"sgjax {mode}" + ("" if terms == "default" else f" [{terms}]")
-                    report(name, robots, envs, bench_sgjax(mode, robots, envs, steps,
-                                                           args.repeats, args.scenario,
-                                                           terms=terms))
-            for peer in args.peers:
-                try:
-                    if peer == "jaxmarl":
-                        result = bench_jaxmarl(robots, envs, steps, args.repeats)
-                        report("jaxmarl simple_spread_v3", robots, envs, result)
-                    elif peer == "vmas":
-                        vsteps = max(5, min(steps, 50))
-                        report("vmas navigation (torch cpu)", robots, envs,
-                               bench_vmas(robots, envs, vsteps, args.repeats))
-                except ImportError as err:
-                    print(f"{peer}: skipped ({err})")
+            prepared = _prepare_row(args, robots, envs, _steps_for(envs, robots, args.budget))
+            per_step = [float("inf")] * len(prepared)
+            for _ in range(args.rounds):
+                for i, (_, (_, _, timer)) in enumerate(prepared):
+                    per_step[i] = min(per_step[i], timer(args.repeats))
+            for (name, (compile_s, peak, _)), seconds in zip(prepared, per_step, strict=True):
+                agent_sps = envs * robots / seconds
+                best[(name, robots)] = max(best.get((name, robots), 0.0), agent_sps)
+                print(f"{name:<36}{robots:>7}{envs:>8}{agent_sps:>15,.0f}{envs / seconds:>13,.0f}"
+                      f"{compile_s:>11.2f}{peak / 2**20:>10.1f}", flush=True)
     print("\nbest agent-steps/s over batch sizes, and ratio to each peer:")
     for (name, robots), sps in sorted(best.items(), key=lambda kv: (kv[0][1], kv[0][0])):
         ratios = [f"{sps / best[(p, robots)]:.1f}x {p.split()[0]}"
                   for p in ("jaxmarl simple_spread_v3", "vmas navigation (torch cpu)")
                   if (p, robots) in best and not name.startswith(p.split()[0])]
         print(f"  {name:<36} {robots:>3} robots {sps:>14,.0f}   " + ", ".join(ratios))
+    print(_load())
 
 
 if __name__ == "__main__":
