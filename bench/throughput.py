@@ -18,9 +18,10 @@ timed function; for VMAS, the growth of the process's peak RSS (a coarse upper b
     python bench/throughput.py --table pedestrians --human-models moussaid helbing orca hsfm
     python bench/throughput.py --table robots --robots 10 --peers jaxmarl --rounds 3
 
-``--rounds N`` times the simulators of each batch size in N alternating rounds and keeps each
-one's best: on a shared machine a burst of load then slows every simulator alike, instead of
-whichever happened to run during it. The load average is printed at the start and the end.
+The robots table compiles every row first and then times them all in turn; ``--rounds N`` does
+that N times and keeps each row's best: on a shared machine a burst of load then slows every
+row alike, instead of whichever happened to run during it. The load average is printed at the
+start and the end.
 
 Pedestrian table: pedestrian-steps/s of the whole sgjax step on the hallway (4 robots), beside
 PySocialForce (pip pysocialforce) stepping one scene of as many pedestrians in the same walls.
@@ -307,8 +308,8 @@ def main() -> None:
                         help="agent-steps per timed repeat (sets the scan length)")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--rounds", type=int, default=1,
-                        help="time the simulators of each batch size in this many alternating "
-                             "rounds (of --repeats each) and keep each one's best")
+                        help="time every row of the robots table in this many rounds (of "
+                             "--repeats each, all rows in turn) and keep each row's best")
     parser.add_argument("--table", choices=["robots", "pedestrians", "all"], default="all",
                         help="which table to run: robots against JaxMARL/VMAS, pedestrians "
                              "against PySocialForce, or both")
@@ -334,18 +335,18 @@ def main() -> None:
     print(header)
     print("-" * len(header))
     best: dict[tuple[str, int], float] = {}
-    for robots in args.robots:
-        for envs in args.num_envs:
-            prepared = _prepare_row(args, robots, envs, _steps_for(envs, robots, args.budget))
-            per_step = [float("inf")] * len(prepared)
-            for _ in range(args.rounds):
-                for i, (_, (_, _, timer)) in enumerate(prepared):
-                    per_step[i] = min(per_step[i], timer(args.repeats))
-            for (name, (compile_s, peak, _)), seconds in zip(prepared, per_step, strict=True):
-                agent_sps = envs * robots / seconds
-                best[(name, robots)] = max(best.get((name, robots), 0.0), agent_sps)
-                print(f"{name:<36}{robots:>7}{envs:>8}{agent_sps:>15,.0f}{envs / seconds:>13,.0f}"
-                      f"{compile_s:>11.2f}{peak / 2**20:>10.1f}", flush=True)
+    rows = [(robots, envs, name, prepared) for robots in args.robots for envs in args.num_envs
+            for name, prepared in _prepare_row(args, robots, envs,
+                                               _steps_for(envs, robots, args.budget))]
+    per_step = [float("inf")] * len(rows)
+    for _ in range(args.rounds):
+        for i, (*_, (_, _, timer)) in enumerate(rows):
+            per_step[i] = min(per_step[i], timer(args.repeats))
+    for (robots, envs, name, (compile_s, peak, _)), seconds in zip(rows, per_step, strict=True):
+        agent_sps = envs * robots / seconds
+        best[(name, robots)] = max(best.get((name, robots), 0.0), agent_sps)
+        print(f"{name:<36}{robots:>7}{envs:>8}{agent_sps:>15,.0f}{envs / seconds:>13,.0f}"
+              f"{compile_s:>11.2f}{peak / 2**20:>10.1f}", flush=True)
     print("\nbest agent-steps/s over batch sizes, and ratio to each peer:")
     for (name, robots), sps in sorted(best.items(), key=lambda kv: (kv[0][1], kv[0][0])):
         ratios = [f"{sps / best[(p, robots)]:.1f}x {p.split()[0]}"
