@@ -34,6 +34,7 @@ axis ran element by element, recomputing the samples for every wall or body: six
 from __future__ import annotations
 
 import dataclasses
+import functools
 from typing import NamedTuple
 
 import jax.numpy as jnp
@@ -111,8 +112,13 @@ def route_progress(route: Route, x: Array, y: Array, progress: Array) -> Array:
     s = route.cum_length[:, :-1] + t * jnp.sqrt(seg_len_sq)
     eligible = (seg_len_sq > 1e-9) & (s >= progress[:, None] - 1.0)
     dist_sq = jnp.where(eligible, dist_sq, jnp.inf)
-    nearest = dist_sq <= jnp.min(dist_sq, axis=1, keepdims=True)  # argmin is slow on the CPU
-    s_best = jnp.max(jnp.where(nearest & eligible, s, -jnp.inf), axis=1)
+    # Reductions over the few segments as chains of [R] operations: argmin is slow on the CPU,
+    # and so are float reductions over a short axis (a library kernel, not XLA's loops).
+    segments = range(dist_sq.shape[1])
+    lowest = functools.reduce(jnp.minimum, (dist_sq[:, j] for j in segments))
+    s_best = functools.reduce(jnp.maximum, (
+        jnp.where((dist_sq[:, j] <= lowest) & eligible[:, j], s[:, j], -jnp.inf)
+        for j in segments))
     return jnp.maximum(progress, s_best)
 
 
