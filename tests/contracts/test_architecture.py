@@ -228,3 +228,22 @@ def test_no_function_in_sgjax_is_over_the_limit():
     for path in sorted((ROOT / "sgjax").rglob("*.py")):
         found |= long_functions(path, MAX_FUNCTION_LINES)
     assert {name: n for name, n in found.items() if name not in LONG_FUNCTIONS} == {}
+
+
+def test_importing_every_module_starts_no_xla_backend():
+    """Importing sgjax and train computes nothing: ``jax.distributed.initialize`` (multi-process
+    sweeps) must come before the first computation, so no module may build an array at import."""
+    import subprocess
+    import sys
+
+    # JaxMARL (the library the adapter wraps) builds arrays when it is imported.
+    third_party = {"sgjax.adapters.jaxmarl": "jaxmarl"}
+    names = sorted(n for n in (modules("sgjax") | modules("train"))
+                   if n not in ("train.__main__", *third_party))
+    program = ("import importlib, jax._src.xla_bridge as xb\n"
+               f"for name in {names!r}:\n"
+               "    importlib.import_module(name)\n"
+               "    assert not xb._backends, f'importing {name} started the XLA backend'\n")
+    out = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True,
+                         cwd=ROOT, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
