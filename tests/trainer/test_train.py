@@ -587,3 +587,10 @@ def test_a_tiny_compacted_run_learns_with_absent_slots():
         runner, logs = chunk(runner)
         rates.append(float(logs["robot_successes"].sum() / max(logs["robots"].sum(), 1)))
     assert rates[0] < 0.35 and rates[-1] > 0.85, rates
+
+
+def test_active_first_is_a_stable_partition():
+    mask = jax.random.bernoulli(jax.random.PRNGKey(0), 0.4, (3, 50))
+    mask = mask.at[0].set(True).at[1].set(False)
+    np.testing.assert_array_equal(ppo._active_first(mask),
+                                  jnp.argsort(~mask, axis=-1, stable=True))
