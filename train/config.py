@@ -176,6 +176,12 @@ class AlgorithmConfig:
     # docs/xla-cpu-learning-layout.md), or "auto" (sequential on a CPU, batched elsewhere).
     # Results agree to float rounding.
     lanes: str = "auto"
+    # The learning phase computes only the transitions that can learn: each minibatch's
+    # active rows (MLP networks; whole agent sequences with an active step for a GRU) in
+    # chunks whose gradients add up to the masked minibatch's, so inactive robot slots
+    # (absent, settled, parked) cost no FLOPs. The same minibatches, losses and optimiser
+    # steps as False (the masked path) up to float rounding (docs/training.md).
+    compact: bool = False
 
     def __post_init__(self) -> None:
         check_choice("name", self.name, ALGORITHMS)
