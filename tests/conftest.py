@@ -66,3 +66,52 @@ def pytest_collection_modifyitems(session, config, items):
     for item in items:
         slow[item.path] = slow.get(item.path, 0) + (item.get_closest_marker("slow") is not None)
     items.sort(key=lambda item: -slow[item.path])
+
+
+# --- Where each test's time goes (opt-in) ---------------------------------------------------
+# SGJAX_TEST_TIME_SPLIT=FILE appends one line per test to FILE (every xdist worker appends):
+# nodeid, wall seconds, and the seconds JAX reported spending in tracing, lowering to MLIR and
+# XLA compiling inside it (jax.monitoring duration events; compiling includes loading from the
+# compilation cache) and the cache's hits and misses; the rest is running and Python.
+# ``python tests/time_split.py FILE`` sums it by file and by phase.
+_SPLIT_ENV = "SGJAX_TEST_TIME_SPLIT"
+_PHASES = {"/jax/core/compile/jaxpr_trace_duration": "trace",
+           "/jax/core/compile/jaxpr_to_mlir_module_duration": "lower",
+           "/jax/core/compile/backend_compile_duration": "compile"}
+_spent: dict[str, float] = {}
+
+
+_COUNTS = {"/jax/compilation_cache/cache_hits": "cache_hits",
+           "/jax/compilation_cache/cache_misses": "cache_misses"}
+
+
+def _listen(event: str, seconds: float, **_kwargs) -> None:
+    phase = _PHASES.get(event)
+    if phase is not None:
+        _spent[phase] = _spent.get(phase, 0.0) + seconds
+
+
+def _count(event: str, **_kwargs) -> None:
+    name = _COUNTS.get(event)
+    if name is not None:
+        _spent[name] = _spent.get(name, 0) + 1
+
+
+if os.environ.get(_SPLIT_ENV):
+    import json
+    import time
+
+    import jax.monitoring
+    import pytest
+
+    jax.monitoring.register_event_duration_secs_listener(_listen)
+    jax.monitoring.register_event_listener(_count)
+
+    @pytest.hookimpl(hookwrapper=True)
+    def pytest_runtest_protocol(item, nextitem):
+        _spent.clear()
+        start = time.perf_counter()
+        yield
+        row = {"test": item.nodeid, "wall": time.perf_counter() - start, **_spent}
+        with open(os.environ[_SPLIT_ENV], "a") as out:
+            out.write(json.dumps(row) + "\n")
