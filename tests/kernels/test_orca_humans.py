@@ -101,10 +101,9 @@ def test_counter_flow_in_a_three_metre_corridor_clears():
 @pytest.mark.parametrize("scenario", ["hallway", "office"])
 def test_long_orca_rollouts_stay_finite_and_out_of_walls(scenario):
     """100 ORCA pedestrians and 4 robots under random GO/STOP for 1000 steps (100 s; one episode
-    per map: the run, not the compile, is this test's cost; bench/pedestrian_invariants.py runs the long
-    horizons): finite, under
-    the speed cap, never inside a wall. (A dense ORCA crowd may jam in a 1 m corridor: its
-    known deadlock; the mean speed is not asserted.)"""
+    per map: the run, not the compile, is this test's cost; bench/pedestrian_invariants.py runs
+    longer horizons): finite, under the speed cap, never inside a wall. (A dense ORCA crowd may
+    jam in a 1 m corridor: its known deadlock; the mean speed is not asserted.)"""
     env, params = sgjax.make(scenario, num_agents=4, num_humans=100, human_model="orca")
     num_envs, steps = 1, 1000
     _, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(jax.random.key(7),
