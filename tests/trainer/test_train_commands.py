@@ -86,6 +86,49 @@ def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
 
 
 @pytest.mark.slow
+def test_final_evaluation_evaluates_like_separate_evaluate_calls_and_records_its_gif(tmp_path):
+    """The final evaluation's one program (the trained policy and only_local at every count as
+    lanes) gives the results of one ``evaluate`` call per policy, its GIF is the evaluated
+    episode (the same states as a separate recording run of it), and the program compiles once
+    per process."""
+    import jax
+    import numpy as np
+    from test_train import tiny
+
+    from sgjax.evaluation.evaluate import evaluate, policy_environment, run_episodes
+    from train.checkpoint import load_checkpoint_policy, save
+    from train.cli import _checkpoint_actor, _evaluate_scenario, final_evaluation
+    from train.ppo import Trainer, seed_keys
+
+    config = tiny(env={"time_limit": 10.0}, evaluation={"episodes": 3, "num_agents": [2, 3]})
+    trainer = Trainer(config)
+    runner = jax.jit(jax.vmap(trainer.init))(seed_keys(config))
+    path = save(tmp_path / "best.msgpack", config, runner, {"best_seed": 0}, trainer.actor)
+    summary = final_evaluation(config, tmp_path, path)
+    seed, options = config.seed + 1, config.env.options
+    separate = (evaluate(["open"], [str(path)], [2, 3], 3, seed=seed, options=options, log=None,
+                         policy_names=["trained (ippo)"])
+                + evaluate(["open"], ["only_local"], [2, 3], 3, seed=seed, log=None,
+                           options=options.replace(action_mode="go_stop")))
+    assert [(r.policy, r.num_agents, r.as_dict()["metrics"]) for r in summary["results"]] == [
+        (r.policy, r.num_agents, r.as_dict()["metrics"]) for r in separate]
+    with Image.open(tmp_path / "eval" / "episode.gif") as gif:
+        assert gif.n_frames > 1
+    # The GIF's episode: episode 0 of the trained policy at 2 robots (the curriculum's count).
+    mine, _, (states, length, params) = _evaluate_scenario(config, _checkpoint_actor(path),
+                                                           "open", 2)
+    assert mine[0].compile_seconds == 0.0  # the final evaluation compiled this program
+    env, _ = policy_environment("open", [2, 3], None, options)
+    replay = run_episodes(env, params, load_checkpoint_policy(path), jax.random.key(seed), 3,
+                          record=True)
+    assert length == replay.values["episode_length"][0] > 0
+    for ours, theirs in zip(jax.tree.leaves(states), jax.tree.leaves(
+            jax.tree.map(lambda leaf: leaf[:, 0], replay.states)), strict=True):
+        np.testing.assert_array_equal(np.asarray(ours), np.asarray(theirs))
+    np.testing.assert_array_equal(states.robots.x[length], replay.states.robots.x[length, 0])
+
+
+@pytest.mark.slow
 def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
     from train.reproduce import reproduce
 
