@@ -158,6 +158,35 @@ def test_time_to_collision_cases():
     assert float(ttc(4.0, 0.5, -1.0, 0.0, 1.0)) == pytest.approx(4.0 - math.sqrt(0.75))
 
 
+def test_touching_within_float_rounding_is_touching():
+    """Bodies the bumpers stopped against each other rest within float32 rounding of touching
+    (~4e-7 m either way): time-to-collision 0, not "never" (TOUCHING = 1e-5 m)."""
+    ttc = metrics.time_to_collision
+    reach = 0.6
+    for gap in (-4e-7, 0.0, 4e-7, 9e-6):
+        assert float(ttc(jnp.float32(reach + gap), 0.0, 0.0, 0.0, reach)) == 0.0, gap
+    assert float(ttc(jnp.float32(reach + 1e-3), 0.0, 0.0, 0.0, reach)) == math.inf  # apart
+
+
+def test_clean_success_counts_collisions_before_arrival_only():
+    """socialnav.md C1: success with no collision *before* reaching the goal. Robot 0 bumps a
+    wall while still driving (not clean); robot 1 bumps one after it arrived, while settling
+    (clean); both arrive."""
+    env, params = room(num_agents=2)
+    frames = [place(env, params, [-3.0, 3.0], [0.0, 0.0]) for _ in range(6)]
+
+    def bumped(frame, counts):
+        return frame.replace(collisions=CollisionCounts(
+            robot=jnp.asarray([0, 0]), wall=jnp.asarray(counts), human=jnp.asarray([0, 0])))
+
+    frames = (frames[:2] + [bumped(f, [1, 0]) for f in frames[2:4]]
+              + [bumped(f, [1, 1]) for f in frames[4:]])
+    robot, episode = play(env, params, frames, arrived={3: [0, 1]})
+    assert robot["success"].tolist() == [1.0, 1.0]
+    assert robot["clean_success"].tolist() == [0.0, 1.0]
+    assert robot["collisions"].tolist() == [1, 1]
+
+
 def test_collision_counts_come_from_the_final_state():
     env, params = room(num_agents=2)
     frames = [place(env, params, [-3.0, 3.0], [0.0, 0.0]) for _ in range(3)]
