@@ -45,12 +45,19 @@ import numpy as np
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluation.evaluate import params_by_count
+from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import format_summary, markdown_table
 from sgjax.evaluation.statistics import summarize
 from sgjax.terms.base import ConfigError
 from sgjax.validation import check_keys, freeze, thaw
 from train.actor import ActorWeights, lane_evaluator
-from train.config import TrainConfig, config_from_dict, load_config, read_yaml
+from train.config import (
+    EVALUATION_SEED_OFFSET,
+    TrainConfig,
+    config_from_dict,
+    load_config,
+    read_yaml,
+)
 from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
 from train.ppo import Trainer
 
@@ -253,7 +260,7 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
     scores: dict[int, dict[str, list[float]]] = {n: {} for n in counts}
     seconds = {"compile and train": 0.0, "evaluate": 0.0}
     scenario = config.env.scenarios[0]
-    key = jax.random.PRNGKey(config.seed + 7)
+    key = jax.random.PRNGKey(config.seed + EVALUATION_SEED_OFFSET)
     for group, trainer in zip(groups.values(), trainers, strict=True):
         labels = [(name, seed) for name in group for seed in range(seeds)]
         share = lane_share(len(labels), processes)
@@ -359,8 +366,13 @@ def main(argv: list[str] | None = None) -> None:
             out = Path(args.out)
             out.mkdir(parents=True, exist_ok=True)
             (out / "ablation.md").write_text(table)
+            made = provenance(config.to_dict(), seeds={
+                "training": [config.seed + i for i in range(args.seeds)],
+                "evaluation": [config.seed + EVALUATION_SEED_OFFSET]},
+                episodes_per_cell=episodes, seconds=result["seconds"])
             (out / "ablation.json").write_text(json.dumps(
-                {"config": config.to_dict(), "seeds": args.seeds, "episodes": episodes,
+                {"provenance": made, "config": config.to_dict(), "seeds": args.seeds,
+                 "episodes": episodes,
                  "robots": counts[0], "team_success": result["scores"],
                  "team_success_by_robots": {str(n): v for n, v in
                                             result["scores_by_robots"].items()},

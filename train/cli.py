@@ -5,7 +5,8 @@ beside the baseline and a GIF of an evaluation episode.
 Writes into ``logging.out`` (or ``--out``): ``config.yaml``, ``progress.csv`` and its
 ``learning_curve.png`` (``train.curves``), TensorBoard events under ``tb/``,
 ``checkpoints/{latest,best}.msgpack``, and ``eval/`` (``metrics.json``,
-``metrics.csv``, ``table.md``, charts, ``episode.gif``). ``--resume`` continues from
+``metrics.csv``, ``table.md``, charts, ``episode.gif``) and ``provenance.json`` (commit,
+versions, machine, command, seeds, phase times). ``--resume`` continues from
 ``checkpoints/latest.msgpack``.
 """
 
@@ -13,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import json
 import math
 import time
 from pathlib import Path
@@ -25,9 +27,11 @@ import yaml
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluation.evaluate import evaluate, lane_results, params_by_count, policy_environment
 from sgjax.evaluation.metrics import DEFAULT_CONSTANTS
+from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.render import episode_frames, save_gif
 from sgjax.evaluation.report import summary_tables, write_all
 from sgjax.evaluation.runner import Episodes
+from sgjax.evaluation.statistics import Summary, paired_difference
 from sgjax.maps.io import load as load_map
 from sgjax.terms.base import ConfigError
 from sgjax.version import __version__
@@ -39,6 +43,9 @@ from train.ppo import Trainer, seed_keys
 from train.sharding import device_mesh, shard_runner
 from train.socialgym_config import convert, is_socialgym_config, read_socialgym_config, table
 
+# The periodic (validation) evaluation's key: it picks the best checkpoint, on episodes that the
+# final evaluation (key ``seed + 1``) never plays.
+VALIDATION_SEED = 1234
 COLUMNS = ("steps", "updates", "wall_s", "env_steps_per_s", "agent_steps_per_s", "num_agents",
            "episodes", "team_success", "robot_success", "mean_return", "policy_loss",
            "value_loss", "entropy", "approx_kl", "eval_team_success", "eval_robot_success")
@@ -235,6 +242,10 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
                "start-up, logs and checkpoints": other_s, **summary["seconds"]}
     print("time: " + ", ".join(f"{k} {v:.0f} s" for k, v in seconds.items())
           + f"; total {time.perf_counter() - start:.0f} s (each phase includes its compiles)")
+    made = provenance(config.to_dict(), seeds=run_seeds(config),
+                      episodes_per_cell=config.evaluation.episodes,
+                      seconds={**seconds, "total": time.perf_counter() - start})
+    (out / "provenance.json").write_text(json.dumps(made, indent=1) + "\n")
     return {**summary, "seconds": seconds}
 
 
@@ -256,8 +267,8 @@ def _row(logs: dict, meta: dict, wall: float, env_rate: float, trainer: Trainer)
 
 def _evaluate_seeds(evaluator, runner, num_agents: int) -> tuple[np.ndarray, np.ndarray]:
     """Team and robot success of every seed with ``num_agents`` robots, ``[num_seeds]`` each."""
-    values, _ = jax.device_get(evaluator(ActorWeights.of(runner), jax.random.PRNGKey(1234),
-                                         num_agents))
+    values, _ = jax.device_get(evaluator(ActorWeights.of(runner),
+                                         jax.random.PRNGKey(VALIDATION_SEED), num_agents))
     return (np.mean(values["team_success"], axis=1),
             np.nanmean(values["success"], axis=1))
 
@@ -282,15 +293,19 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
     actor = _checkpoint_actor(path)
     counts = list(e.num_agents)
     shown = min(counts, key=lambda n: (abs(n - config.env.curriculum[-1][1]), n))
-    trained, baseline, recorded = [], [], None
+    trained, baseline, recorded, paired = [], [], None, {}
     for i, scenario in enumerate(config.env.scenarios):
         record = shown if e.gif and i == 0 else None
-        mine, theirs, episode = _evaluate_scenario(config, actor, scenario, record)
+        mine, theirs, episode, paired[scenario] = _evaluate_scenario(config, actor, scenario,
+                                                                     record)
         trained, baseline = trained + mine, baseline + theirs
         recorded = recorded if episode is None else episode
     results = trained + baseline
-    write_all(results, out / "eval", DEFAULT_CONSTANTS)
+    made = provenance(config.to_dict(), seeds=run_seeds(config),
+                      episodes_per_cell=e.episodes)
+    write_all(results, out / "eval", DEFAULT_CONSTANTS, made)
     print(summary_tables(results))
+    _print_paired(paired, e.baseline, _trained_name(config), e.episodes)
     summary = {(r.policy, r.num_agents, r.scenario): r.metrics["team_success"].mean
                for r in results}
     seconds = {"final evaluation": time.perf_counter() - t0}
@@ -305,7 +320,28 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
         print(f"\n{scenario}, {count} robots: team success {mine:.3f} trained vs {base:.3f} "
               f"{e.baseline}")
     return {"trained_team_success": mine, "baseline_team_success": base, "results": results,
-            "seconds": seconds}
+            "paired": paired, "seconds": seconds}
+
+
+def run_seeds(config: TrainConfig) -> dict[str, list[int]]:
+    """The seeds of a run by role: ``training`` (one per lane), ``validation`` (the periodic
+    evaluation that picks the best checkpoint: its own key, :data:`VALIDATION_SEED`) and
+    ``evaluation`` (the final evaluation: ``seed + 1``; its episodes are never seen by the
+    checkpoint choice)."""
+    return {"training": [config.seed + i for i in range(config.num_seeds)],
+            "validation": [VALIDATION_SEED], "evaluation": [config.seed + 1]}
+
+
+def _print_paired(paired: dict[str, dict[int, Summary]], baseline: str | None, name: str,
+                  episodes: int) -> None:
+    """The paired differences in team success, trained - baseline, one line per scenario."""
+    for scenario, by_count in paired.items():
+        if not by_count:
+            continue
+        cells = ", ".join(f"{n}: {d.mean:+.3f} [{d.ci_low:+.3f}, {d.ci_high:+.3f}]"
+                          for n, d in by_count.items())
+        print(f"{scenario}: team success {name} - {baseline}, paired over the same {episodes} "
+              f"episodes (mean [95% t interval]) by robots: {cells}")
 
 
 def _trained_name(config: TrainConfig) -> str:
@@ -323,12 +359,15 @@ def _checkpoint_actor(path: Path) -> tuple[NetworkConfig, ActorLayout, ActorWeig
 
 
 def _evaluate_scenario(config: TrainConfig, actor: tuple, scenario: str,
-                       record_count: int | None) -> tuple[list, list, Any]:
+                       record_count: int | None) -> tuple[list, list, Any, dict]:
     """The trained policy's and the baseline's results on one scenario at every evaluation
     count: one program, both policies its lanes, called once per count (on the 2-core CPU
     faster than every count as lanes of one call, whose loop waits for the slowest episode of
     all). With ``record_count`` (a robot count) also the trained policy's episode 0 at that
-    count as ``(states [T + 1, ...], length in steps, params)`` (else None)."""
+    count as ``(states [T + 1, ...], length in steps, params)`` (else None). Last, ``{count:
+    Summary}``: the paired difference trained - baseline in team success over the episodes
+    both played (:func:`sgjax.evaluation.statistics.paired_difference`; empty without a
+    baseline in the same environment)."""
     e, (network, layout, weights) = config.evaluation, actor
     counts, seed = list(e.num_agents), config.seed + 1
     env, by_count = policy_environment(scenario, counts, None, config.env.options)
@@ -341,7 +380,7 @@ def _evaluate_scenario(config: TrainConfig, actor: tuple, scenario: str,
     params = by_count[counts[0]]
     evaluator = table_evaluator(network, layout, env, params, names[1:], 1, e.episodes,
                                 e.deterministic, None if record_count is None else [(0, 0)])
-    mine, theirs, recorded = [], [], None
+    mine, theirs, recorded, paired = [], [], None, {}
     for n in counts:
         t0 = time.perf_counter()
         (values, _, states), compile_s = evaluator(weights, jax.random.key(seed), [n])
@@ -351,13 +390,15 @@ def _evaluate_scenario(config: TrainConfig, actor: tuple, scenario: str,
                          run_seconds=time.perf_counter() - t0 - compile_s)
         results = lane_results(scenario, names, [n], seed, params, batch)
         mine, theirs = mine + results[:1], theirs + results[1:]
+        if together:  # [policy, episode]: the same episodes, common random numbers
+            paired[n] = paired_difference(*batch.values["team_success"][:2])
         if n == record_count:
             recorded = (jax.tree.map(lambda leaf: leaf[:, 0], states),
                         int(batch.values["episode_length"][0, 0]), by_count[n])
     if e.baseline is not None and not together:
         theirs = evaluate([scenario], [e.baseline], num_agents=counts, episodes=e.episodes,
                           seed=seed, options=go_stop, log=None)
-    return mine, theirs, recorded
+    return mine, theirs, recorded, paired
 
 
 def _write_gif(scenario: str, states: Any, length: int, params: Any, count: int,

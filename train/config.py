@@ -285,6 +285,11 @@ class TrainConfig:
 
 SECTIONS = {"env": EnvSection, "algorithm": AlgorithmConfig, "network": NetworkConfig,
             "evaluation": EvaluationConfig, "logging": LoggingConfig}
+# The evaluations of train.reproduce and train.ablation play the episodes of key
+# ``seed + EVALUATION_SEED_OFFSET``: never one of the training lanes' keys (``seed + i``, i below
+# the number of seeds).
+EVALUATION_SEED_OFFSET = 1000
+
 TOP_LEVEL = ("seed", "num_seeds")
 
 

@@ -55,12 +55,13 @@ from sgjax.environment.options import MakeOptions
 from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.policies import load_policy, policy_options
 from sgjax.evaluation.protocols import MINI_GAMES, PAPER
+from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import format_summary, markdown_table
 from sgjax.evaluation.runner import EpisodeRunner
 from sgjax.evaluation.statistics import summarize
 from sgjax.terms.presets import REWARD_PRESETS
 from train.actor import ActorWeights, lane_evaluator
-from train.config import TrainConfig, config_from_dict
+from train.config import EVALUATION_SEED_OFFSET, TrainConfig, config_from_dict
 from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
 from train.ppo import Trainer, seed_keys
 
@@ -181,7 +182,7 @@ def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: in
     controllers). One compilation serves every count: the environment has ``max(counts)``
     slots and each count is a params value; the seeds are ``vmap`` lanes of it."""
     out: dict[int, dict[str, list[float]]] = {}
-    key = jax.random.PRNGKey(seed + 1000)
+    key = jax.random.PRNGKey(seed + EVALUATION_SEED_OFFSET)
     if trainer is None:
         options = options.replace(**policy_options(policy).keywords(changed_only=True))
     env, by_count = params_by_count(scenario, counts, options=options)
@@ -368,7 +369,15 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
                    for s in (*scenarios, *(s for s in results if s not in scenarios))
                    if s in results}
         earlier = stored.get("seconds", {})
-        return {**settings, "train_seconds": timing, "cell_seconds": cells,
+        made = provenance(settings, seeds={
+            "training": [seed + i for i in range(seeds)],
+            "evaluation": [seed + EVALUATION_SEED_OFFSET]}, episodes_per_cell=episodes,
+            seconds={k: v + earlier.get(k, 0.0) for k, v in seconds.items()})
+        # A resumed run: the cells kept were made by the earlier runs, whose blocks stay.
+        earlier_runs = [*stored.get("earlier_provenance", []),
+                        *([stored["provenance"]] if "provenance" in stored else [])]
+        return {"provenance": made, "earlier_provenance": earlier_runs, **settings,
+                "train_seconds": timing, "cell_seconds": cells,
                 "seconds": {k: v + earlier.get(k, 0.0) for k, v in seconds.items()},
                 "runs": stored.get("runs", 1 if stored["results"] else 0) + 1,
                 "results": {s: {b: {str(n): m for n, m in c.items()} for b, c in r.items()}

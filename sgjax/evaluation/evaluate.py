@@ -37,6 +37,7 @@ from sgjax.environment.registry import make
 from sgjax.evaluation import metrics
 from sgjax.evaluation.policies import Policy, RecurrentPolicy, load_policy, policy_options
 from sgjax.evaluation.protocols import PAPER
+from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import write_all
 from sgjax.evaluation.runner import STEP_CHUNK, EpisodeRunner, Episodes, LaneRunner
 from sgjax.evaluation.statistics import ConfigResult, Summary, summarize_metrics
@@ -178,7 +179,8 @@ def evaluate(
                     log(_progress_line(result))
                 t0, compile_seconds = time.perf_counter(), 0.0
     if out is not None:
-        paths = write_all(results, Path(out), constants)
+        made = provenance(seeds={"evaluation": [seed]}, episodes_per_cell=episodes)
+        paths = write_all(results, Path(out), constants, made)
         if log is not None:
             log("wrote " + ", ".join(str(p) for p in paths))
     return results

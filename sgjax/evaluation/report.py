@@ -36,19 +36,22 @@ CHARTED = ("team_success", "success", "collisions", "episode_length", "stop_time
 
 
 def write_all(results: Sequence[ConfigResult], out: Path,
-              constants: MetricConstants) -> list[Path]:
-    """Write every output into ``out`` (created); returns the paths written."""
+              constants: MetricConstants, provenance: dict | None = None) -> list[Path]:
+    """Write every output into ``out`` (created); returns the paths written. ``provenance``
+    (:func:`sgjax.evaluation.provenance.provenance`) goes into ``metrics.json``."""
     out.mkdir(parents=True, exist_ok=True)
-    return [write_json(results, out / "metrics.json", constants),
+    return [write_json(results, out / "metrics.json", constants, provenance),
             write_csv(results, out / "metrics.csv"),
             write_table(results, out / "table.md"),
             plot_success(results, out / "success_by_robots.png"),
             plot_metrics(results, out / "metrics_by_robots.png")]
 
 
-def write_json(results: Sequence[ConfigResult], path: Path, constants: MetricConstants) -> Path:
+def write_json(results: Sequence[ConfigResult], path: Path, constants: MetricConstants,
+               provenance: dict | None = None) -> Path:
     document = {
         "sgjax_version": __version__,
+        **({} if provenance is None else {"provenance": provenance}),
         "confidence": CONFIDENCE,
         "interval": "Wilson score for yes/no episode metrics (binary), Student t otherwise, "
                     "clipped to [0, 1] for fractions and at 0 below; "

@@ -62,6 +62,22 @@ def t_interval(values: np.ndarray, confidence: float = CONFIDENCE) -> tuple[floa
     return mean - half, mean + half
 
 
+def paired_difference(a: np.ndarray, b: np.ndarray, confidence: float = CONFIDENCE) -> Summary:
+    """``a - b`` over paired episodes (the same episode played by two policies: common random
+    numbers), ``[E]`` each: the mean difference with its Student-t interval over the
+    per-episode differences. Pairs where either value is NaN are left out; an interval that
+    excludes 0 is what "A beats B" needs."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if a.shape != b.shape:
+        raise ValueError(f"paired_difference: {a.shape} and {b.shape} episodes do not pair")
+    diff = (a - b)[np.isfinite(a) & np.isfinite(b)]
+    if not diff.size:
+        return Summary(math.nan, math.nan, math.nan, math.nan, 0)
+    low, high = t_interval(diff, confidence)
+    std = float(np.std(diff, ddof=1)) if diff.size > 1 else math.nan
+    return Summary(float(np.mean(diff)), low, high, std, int(diff.size))
+
+
 def summarize(values: np.ndarray, binary: bool, fraction: bool = False) -> Summary:
     """Summary over episodes of one metric's per-episode values (NaNs are left out). Every
     metric is non-negative, so the interval is clipped at 0, and at 1 for ``fraction``s."""

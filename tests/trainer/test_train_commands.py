@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 import yaml
 from PIL import Image
+from provenance_checks import check_block
 from test_train import TINY
 
 from train.cli import main as train_main
@@ -72,6 +73,12 @@ def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
     with Image.open(run / "learning_curve.png") as curve:
         assert curve.format == "PNG" and curve.size[0] > 600
     assert (run / "checkpoints" / "best.msgpack").is_file()
+    made = json.loads((run / "provenance.json").read_text())
+    check_block(made)
+    assert made["seeds"] == {"training": [0], "validation": [1234], "evaluation": [1]}
+    assert {"train", "final evaluation", "total"} <= set(made["seconds"])
+    check_block(json.loads((run / "eval" / "metrics.json").read_text())["provenance"])
+    assert "paired over the same 2 episodes" in out
     from sgjax.command import main as sgjax_main
 
     sgjax_main(["evaluate", "--scenario", "open", "--policy", str(run), "--num-agents", "2",
@@ -115,9 +122,13 @@ def test_final_evaluation_evaluates_like_separate_evaluate_calls_and_records_its
     with Image.open(tmp_path / "eval" / "episode.gif") as gif:
         assert gif.n_frames > 1
     # The GIF's episode: episode 0 of the trained policy at 2 robots (the curriculum's count).
-    mine, _, (states, length, params) = _evaluate_scenario(config, _checkpoint_actor(path),
-                                                           "open", 2)
+    mine, theirs, (states, length, params), paired = _evaluate_scenario(
+        config, _checkpoint_actor(path), "open", 2)
     assert mine[0].compile_seconds == 0.0  # the final evaluation compiled this program
+    # The paired difference's mean is the difference of the two means (the same episodes).
+    for n, (a, b) in zip((2, 3), zip(mine, theirs, strict=True), strict=True):
+        assert paired[n].n == 3 and paired[n].mean == pytest.approx(
+            a.metrics["team_success"].mean - b.metrics["team_success"].mean)
     env, _ = policy_environment("open", [2, 3], None, options)
     replay = run_episodes(env, params, load_checkpoint_policy(path), jax.random.key(seed), 3,
                           record=True)
@@ -140,7 +151,10 @@ def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
     assert "| open | cadrl |" in metrics_table and "| open | only_local |" in metrics_table
     assert "| open | dwa |" in metrics_table  # a classical controller as an extra row
     assert "| 2A | 3A | Avg. |" in success_table
-    results = json.loads((tmp_path / "results.json").read_text())["results"]
+    document = json.loads((tmp_path / "results.json").read_text())
+    check_block(document["provenance"])
+    assert document["provenance"]["seeds"] == {"training": [0, 1], "evaluation": [1000]}
+    results = document["results"]
     assert len(results["open"]["cadrl"]["2"]["team_success"]) == 2  # one value per seed
     from train.reproduce import tables_from_results
 
@@ -157,6 +171,7 @@ def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
     assert list(document["results"]["open"]) == ["cadrl", "only_local", "dwa", "social_force"]
     assert {b: document["results"]["open"][b] for b in kept} == kept
     assert document["runs"] == 2 and "open/social_force" in document["cell_seconds"]
+    assert len(document["earlier_provenance"]) == 1  # the first run's block is kept
     assert "| open | social_force |" in (tmp_path / "metrics_table.md").read_text()
     with pytest.raises(ValueError, match="results.json: ran with episodes = 2"):
         reproduce(["open"], ["cadrl"], **{**run, "episodes": 3})
@@ -188,6 +203,7 @@ def test_ablation_command_prints_the_table(tmp_path, capsys):
     assert set(saved["team_success_by_robots"]) == {"2", "3"}
     assert saved["variants"]["team reward"]["settings"] == [["algorithm.team_reward", 1.0]]
     assert "compile and train" in saved["seconds"]
+    check_block(saved["provenance"])
     variants.write_text("baseline: {}\nwrong: {set: {team_reward: 1.0}}\n")
     with pytest.raises(ConfigError, match="wrong.set: expected a mapping of section.key"):
         load_variants(variants)
