@@ -181,7 +181,7 @@ class AlgorithmConfig:
     # chunks whose gradients add up to the masked minibatch's, so inactive robot slots
     # (absent, settled, parked) cost no FLOPs. The same minibatches, losses and optimiser
     # steps as False (the masked path) up to float rounding (docs/training.md).
-    compact: bool = False
+    compact: bool = True
 
     def __post_init__(self) -> None:
         check_choice("name", self.name, ALGORITHMS)
