@@ -84,6 +84,7 @@ def test_runner_agrees_with_a_manual_loop():
             state.robots.succeeded, float).tolist()
 
 
+@pytest.mark.slow
 def test_stopping_once_every_episode_ended_changes_no_result():
     """The runner plays chunks of steps until every episode has ended (``record`` plays every
     step of the time limit): both give the same value of every metric, for episodes that end

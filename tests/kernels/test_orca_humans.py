@@ -131,6 +131,7 @@ def test_long_orca_rollouts_stay_finite_and_out_of_walls(scenario):
     assert float(jnp.min(clearance)) >= -1e-4
 
 
+@pytest.mark.slow
 def test_orca_pedestrians_see_robots_or_not():
     """A robot standing 1 m ahead on a pedestrian's way: seen (the default; the pedestrian does
     all the avoiding) it may approach only at about the gap over the time horizon, (1 m - the

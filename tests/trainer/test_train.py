@@ -343,6 +343,7 @@ def test_mappo_with_lstm_encoder_and_continuous_actions_updates():
     assert kernel.shape[0] == trainer.slots * (trainer.batch.obs_size + 1)  # global state + id
 
 
+@pytest.mark.slow
 def test_others_encoders_learn_shared_or_separate():
     """``network.shared_encoder``: one others encoder (parameters ``encoder``) feeds both
     towers and learns; separate encoders learn as well."""
@@ -471,6 +472,7 @@ def _compact_trainers(network: dict, **algorithm) -> tuple[Trainer, Trainer, ppo
     return trainers[0], trainers[1], rollout
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(COMPACT_NETWORKS))
 def test_compact_minibatch_gradient_equals_the_masked_one(name):
     """``algorithm.compact``: a minibatch's gradient and loss terms, computed over its active
@@ -506,6 +508,7 @@ def test_compact_minibatch_gradient_equals_the_masked_one(name):
 
 @pytest.mark.parametrize(("name", "all_active"), [
     *((name, False) for name in COMPACT_NETWORKS), ("mlp", True)])
+@pytest.mark.slow
 def test_compact_learning_phase_matches_the_masked_one(name, all_active):
     """A whole learning phase (epochs of shuffled minibatches, Adam) gives the masked path's
     parameters and loss terms up to float rounding: with the rollout's own absent slots (every
@@ -528,6 +531,7 @@ def test_compact_learning_phase_matches_the_masked_one(name, all_active):
         np.testing.assert_allclose(c_aux[term], m_aux[term], rtol=1e-3, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_compact_lanes_train_the_same_seeds_batched_or_sequential():
     """Under ``algorithm.lanes: batched`` (one vmap: the lanes' chunk loops run together, to
     the longest) and ``sequential`` the compacted update gives each seed the masked update's
