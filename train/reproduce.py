@@ -58,7 +58,7 @@ from sgjax.evaluation.protocols import MINI_GAMES, PAPER
 from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import format_summary, markdown_table
 from sgjax.evaluation.runner import EpisodeRunner
-from sgjax.evaluation.statistics import summarize
+from sgjax.evaluation.statistics import paired_difference, seed_aggregate, summarize
 from sgjax.terms.presets import REWARD_PRESETS
 from train.actor import ActorWeights, lane_evaluator
 from train.config import EVALUATION_SEED_OFFSET, TrainConfig, config_from_dict
@@ -200,6 +200,7 @@ def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: in
             values, _ = jax.device_get(evaluator(ActorWeights.of(runner), key, params))
         out[n] = {name: [float(np.nanmean(row)) if np.isfinite(row).any() else math.nan
                          for row in v] for name, v in values.items()}
+        out[n][EPISODES_KEY] = np.asarray(values["team_success"], float).tolist()  # [S, E]
     return out
 
 
@@ -272,7 +273,52 @@ def format_tables(results: dict, counts: Sequence[int], table_robots: int, seeds
                                compare_rows)]
     return {"metrics_table.md": "\n".join(rows) + "\n",
             "success_table.md": "\n".join(success) + "\n",
-            "paper_comparison.md": "\n".join(compare) + "\n"}
+            "paper_comparison.md": "\n".join(compare) + "\n",
+            "comparison_table.md": comparison_table(results, counts, seeds)}
+
+
+def _paired_cell(trained: dict, baseline: dict) -> str:
+    """Paired difference in team success (points), trained - baseline, over the episodes both
+    played: each episode's value averaged over the trained seeds, minus the baseline's."""
+    if EPISODES_KEY not in trained or EPISODES_KEY not in baseline:
+        return "n/a"
+    mine = np.nanmean(np.asarray(trained[EPISODES_KEY], float), axis=0)  # [E]
+    theirs = np.asarray(baseline[EPISODES_KEY], float)[0]
+    d = paired_difference(mine, theirs)
+    return f"{100 * d.mean:+.0f} [{100 * d.ci_low:+.0f}, {100 * d.ci_high:+.0f}]"
+
+
+def comparison_table(results: dict, counts: Sequence[int], seeds: int) -> str:
+    """Every trained baseline against only_local, cell by cell: the paired difference in team
+    success over the shared episodes, and the seed aggregate (mean and interquartile mean
+    with percentile-bootstrap intervals over the training seeds,
+    :func:`sgjax.evaluation.statistics.seed_aggregate`). A baseline "beats" only_local in a
+    cell where the paired interval excludes 0."""
+    rows = []
+    for scenario, by_baseline in results.items():
+        reference = by_baseline.get("only_local")
+        for baseline, by_count in by_baseline.items():
+            if baseline not in BASELINES or BASELINES[baseline] is None:
+                continue  # untrained: only_local and the classical controllers
+            for n in counts:
+                agg = seed_aggregate(np.asarray(by_count[n]["team_success"], float))
+                rows.append([scenario, baseline, str(n),
+                             "n/a" if reference is None else _paired_cell(by_count[n],
+                                                                          reference[n]),
+                             f"{100 * agg['mean']:.0f} [{100 * agg['mean_low']:.0f}, "
+                             f"{100 * agg['mean_high']:.0f}]",
+                             f"{100 * agg['iqm']:.0f} [{100 * agg['iqm_low']:.0f}, "
+                             f"{100 * agg['iqm_high']:.0f}]"])
+    text = ["# Trained baselines against Only Local (team success, percentage points)", "",
+            "Paired: each episode's team success averaged over the trained seeds, minus Only "
+            "Local's in the same episode (the same evaluation key), mean [95% Student-t "
+            "interval over episodes]; an interval above 0 is a win in that cell. Seeds: the "
+            f"{seeds} training seeds' own means, mean and interquartile mean [95% "
+            "percentile-bootstrap interval over seeds, 2,000 resamples]. n/a: no per-episode "
+            "values (a results.json written before they were kept) or no Only Local row.", "",
+            *markdown_table(["Scenario", "Baseline", "Robots", "Paired vs only_local",
+                             "Mean over seeds", "IQM over seeds"], rows)]
+    return "\n".join(text) + "\n"
 
 
 def tables_from_results(path: Path, out: Path, table_robots: int = 4) -> dict[str, str]:
@@ -296,12 +342,19 @@ def gather_seeds(by_count: dict[int, dict[str, list[float]]], seeds: int,
     if processes.count == 1:
         return by_count
     counts = sorted(by_count)
-    names = sorted(by_count[counts[0]])
+    names = sorted(m for m in by_count[counts[0]] if m != EPISODES_KEY)
     mine = np.asarray([[by_count[n][m] for m in names] for n in counts])  # [counts, M, seeds]
     every = gather_lanes(np.moveaxis(mine, -1, 0), seeds, processes)  # [seeds, counts, M]
-    return {n: {m: every[:, i, j].tolist() for j, m in enumerate(names)}
+    episodes = np.asarray([by_count[n][EPISODES_KEY] for n in counts])  # [counts, seeds, E]
+    every_episode = gather_lanes(np.moveaxis(episodes, 1, 0), seeds, processes)  # [S, C, E]
+    return {n: {**{m: every[:, i, j].tolist() for j, m in enumerate(names)},
+                EPISODES_KEY: every_episode[:, i].tolist()}
             for i, n in enumerate(counts)}
 
+
+# Per-episode team success of every seed, ``[seeds, episodes]`` (every baseline plays the same
+# episodes: the evaluation key is shared), for the paired comparisons with only_local.
+EPISODES_KEY = "team_success_by_episode"
 
 SETTINGS = ("profile", "seeds", "total_steps", "num_envs", "episodes", "counts", "seed",
             "time_limit")

@@ -78,6 +78,40 @@ def paired_difference(a: np.ndarray, b: np.ndarray, confidence: float = CONFIDEN
     return Summary(float(np.mean(diff)), low, high, std, int(diff.size))
 
 
+def interquartile_mean(values: np.ndarray) -> float:
+    """Mean of the middle half of ``values`` (25% trimmed from each end: rliable's IQM, robust
+    to one outlying seed and less noisy than the median); NaN for no values."""
+    values = np.asarray(values, float)
+    return float(scipy_stats.trim_mean(values, 0.25)) if values.size else math.nan
+
+
+def seed_aggregate(per_seed: np.ndarray, confidence: float = CONFIDENCE, resamples: int = 2000,
+                   seed: int = 0) -> dict[str, float]:
+    """Aggregate of one cell over training seeds (``per_seed [S]``, each seed's mean over its
+    episodes), in the rliable methodology: the mean and the interquartile mean, each with a
+    percentile-bootstrap interval over seeds (``resamples`` resamples, fixed ``seed``; with one
+    cell, the stratified bootstrap is the plain one). Computed with scipy rather than the
+    rliable package, which pulls statsmodels, arch and formulaic in for these few lines. With
+    fewer than two seeds the intervals are NaN."""
+    values = np.asarray(per_seed, float)
+    values = values[np.isfinite(values)]
+    out = {"seeds": int(values.size), "mean": float(np.mean(values)) if values.size else math.nan,
+           "iqm": interquartile_mean(values)}
+    for name, statistic in (("mean", np.mean), ("iqm", interquartile_mean)):
+        low = high = math.nan
+        if values.size > 1 and np.ptp(values) > 0:
+            result = scipy_stats.bootstrap(
+                (values,), lambda v, axis=-1, f=statistic: np.apply_along_axis(f, axis, v),
+                confidence_level=confidence, n_resamples=resamples, method="percentile",
+                random_state=np.random.default_rng(seed))
+            low, high = (float(result.confidence_interval.low),
+                         float(result.confidence_interval.high))
+        elif values.size > 1:  # every seed the same: no spread to resample
+            low = high = float(values[0])
+        out[f"{name}_low"], out[f"{name}_high"] = low, high
+    return out
+
+
 def summarize(values: np.ndarray, binary: bool, fraction: bool = False) -> Summary:
     """Summary over episodes of one metric's per-episode values (NaNs are left out). Every
     metric is non-negative, so the interval is clipped at 0, and at 1 for ``fraction``s."""

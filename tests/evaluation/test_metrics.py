@@ -14,7 +14,14 @@ from sgjax.environment.env import SocialNavEnv
 from sgjax.evaluation import metrics
 from sgjax.evaluation.evaluate import run_episodes
 from sgjax.evaluation.metrics import catalogue
-from sgjax.evaluation.statistics import summarize, t_interval, wilson_interval
+from sgjax.evaluation.statistics import (
+    interquartile_mean,
+    paired_difference,
+    seed_aggregate,
+    summarize,
+    t_interval,
+    wilson_interval,
+)
 from sgjax.kernels.zone_books import update_zones
 from sgjax.types import CollisionCounts
 
@@ -244,6 +251,26 @@ def test_wilson_and_t_intervals_match_hand_values():
 
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "metrics.md"
+
+
+def test_paired_difference_seed_aggregate_and_interquartile_mean():
+    """Paired: the t interval of the per-episode differences, NaN pairs left out; it is narrower
+    than the unpaired one when the episodes' difficulty is shared. Seeds: mean and IQM with
+    percentile-bootstrap intervals that contain them."""
+    a = np.array([1.0, 1.0, 0.0, 1.0, np.nan, 1.0])
+    b = np.array([0.0, 1.0, 0.0, 0.0, 1.0, 0.0])
+    d = paired_difference(a, b)
+    diff = np.array([1.0, 0.0, 0.0, 1.0, 1.0])
+    assert d.n == 5 and d.mean == pytest.approx(0.6)
+    assert (d.ci_low, d.ci_high) == pytest.approx(t_interval(diff))
+    with pytest.raises(ValueError, match="do not pair"):
+        paired_difference(a, b[:3])
+    assert interquartile_mean(np.arange(8.0)) == pytest.approx(3.5)  # middle half: 2, 3, 4, 5
+    agg = seed_aggregate(np.array([0.9, 0.8, 0.95, 0.7, 0.92, 0.1]))
+    assert agg["seeds"] == 6 and agg["iqm"] > agg["mean"]  # the outlying seed weighs less
+    for name in ("mean", "iqm"):
+        assert agg[f"{name}_low"] <= agg[name] <= agg[f"{name}_high"]
+    assert math.isnan(seed_aggregate(np.array([0.5]))["mean_low"])
 
 
 def test_docs_tables_agree_with_the_registry():

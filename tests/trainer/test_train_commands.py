@@ -9,6 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 from PIL import Image
@@ -156,6 +157,12 @@ def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
     assert document["provenance"]["seeds"] == {"training": [0, 1], "evaluation": [1000]}
     results = document["results"]
     assert len(results["open"]["cadrl"]["2"]["team_success"]) == 2  # one value per seed
+    # Per-episode team success of every seed, kept for the paired comparison with only_local.
+    assert np.shape(results["open"]["cadrl"]["2"]["team_success_by_episode"]) == (2, 2)
+    assert np.shape(results["open"]["only_local"]["3"]["team_success_by_episode"]) == (1, 2)
+    comparison = (tmp_path / "comparison_table.md").read_text()
+    assert "| open | cadrl | 2 |" in comparison and "| open | cadrl | 3 |" in comparison
+    assert "only_local |" not in comparison.split("|---")[1]  # untrained rows are not compared
     from train.reproduce import tables_from_results
 
     again = tables_from_results(tmp_path / "results.json", tmp_path / "again", table_robots=2)
