@@ -352,6 +352,10 @@ def gather_seeds(by_count: dict[int, dict[str, list[float]]], seeds: int,
             for i, n in enumerate(counts)}
 
 
+# The results protocol's defaults (docs/results.md): enough seeds and episodes to decide, where
+# the paper ran one seed of 25 episodes.
+RESULTS_SEEDS, RESULTS_EPISODES = 5, 100
+
 # Per-episode team success of every seed, ``[seeds, episodes]`` (every baseline plays the same
 # episodes: the evaluation key is shared), for the paired comparisons with only_local.
 EPISODES_KEY = "team_success_by_episode"
@@ -508,15 +512,18 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--scenarios", nargs="+", default=list(MINI_GAMES))
     parser.add_argument("--baselines", nargs="+", default=list(PAPER_BASELINES),
                         help=f"of {', '.join(BASELINES)} (default: the paper's five)")
-    parser.add_argument("--seeds", type=int, default=3)
+    parser.add_argument("--seeds", type=int, default=RESULTS_SEEDS,
+                        help=f"training seeds per trained baseline (default {RESULTS_SEEDS}: "
+                             "the results protocol, docs/results.md)")
     parser.add_argument("--total-steps", type=int, default=None,
                         help="environment steps per seed (default: 2,000,000 for the sgjax "
                              "profile, Listing 1's 250,000 for socialgym)")
     parser.add_argument("--num-envs", type=int, default=256)
     parser.add_argument("--robots", nargs="+", type=int, default=list(PAPER.num_agents),
                         help="evaluation robot counts (default: the paper's)")
-    parser.add_argument("--episodes", type=int, default=PAPER.episodes,
-                        help="per seed and robot count (default: the paper's)")
+    parser.add_argument("--episodes", type=int, default=RESULTS_EPISODES,
+                        help=f"per seed and robot count (default {RESULTS_EPISODES}, the "
+                             f"results protocol; the paper played {PAPER.episodes})")
     parser.add_argument("--table-robots", type=int, default=4,
                         help="robot count of the metrics table")
     parser.add_argument("--seed", type=int, default=0)
