@@ -283,7 +283,7 @@ def _paired_cell(trained: dict, baseline: dict) -> str:
     if EPISODES_KEY not in trained or EPISODES_KEY not in baseline:
         return "n/a"
     mine = np.nanmean(np.asarray(trained[EPISODES_KEY], float), axis=0)  # [E]
-    theirs = np.asarray(baseline[EPISODES_KEY], float)[0]
+    theirs = np.asarray(baseline[EPISODES_KEY], float)[0, :mine.size]  # its first E: the same
     d = paired_difference(mine, theirs)
     return f"{100 * d.mean:+.0f} [{100 * d.ci_low:+.0f}, {100 * d.ci_high:+.0f}]"
 
@@ -353,15 +353,15 @@ def gather_seeds(by_count: dict[int, dict[str, list[float]]], seeds: int,
 
 
 # The results protocol's defaults (docs/results.md): enough seeds and episodes to decide, where
-# the paper ran one seed of 25 episodes.
-RESULTS_SEEDS, RESULTS_EPISODES = 5, 100
+# the paper ran one seed of 25 episodes; the untrained baselines (one run each) play more.
+RESULTS_SEEDS, RESULTS_EPISODES, RESULTS_BASELINE_EPISODES = 5, 100, 500
 
 # Per-episode team success of every seed, ``[seeds, episodes]`` (every baseline plays the same
 # episodes: the evaluation key is shared), for the paired comparisons with only_local.
 EPISODES_KEY = "team_success_by_episode"
 
-SETTINGS = ("profile", "seeds", "total_steps", "num_envs", "episodes", "counts", "seed",
-            "time_limit")
+SETTINGS = ("profile", "seeds", "total_steps", "num_envs", "episodes", "baseline_episodes",
+            "counts", "seed", "time_limit")
 
 
 def stored_run(path: Path, settings: dict[str, Any]) -> dict[str, Any]:
@@ -371,6 +371,9 @@ def stored_run(path: Path, settings: dict[str, Any]) -> dict[str, Any]:
         document = json.loads(path.read_text())
     except json.JSONDecodeError as err:
         raise ValueError(f"{path}: not a results.json ({err})") from err
+    if "episodes" in document and "baseline_episodes" not in document:
+        # Written before untrained baselines had their own count: they played `episodes`.
+        document["baseline_episodes"] = document["episodes"]
     for key in SETTINGS:
         if key not in document:
             raise ValueError(f"{path}: has no {key!r}; cannot tell whether it ran the same "
@@ -386,16 +389,27 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
               total_steps: int, num_envs: int, counts: Sequence[int], episodes: int,
               table_robots: int, out: Path, seed: int = 0, time_limit: float | None = None,
               processes: Processes | None = None, profile: str = "sgjax",
-              resume: bool = False) -> dict:
+              resume: bool = False, baseline_episodes: int | None = None) -> dict:
     """Train and evaluate every (scenario, baseline); write and print the two tables. Under
     several ``processes`` (``jax.distributed``) each trains its share of the seeds of every
     trained baseline, the values are gathered, and process 0 writes the outputs. ``profile``:
     ``sgjax`` or ``socialgym`` (the module doc); ``time_limit`` (s) overrides the profile's.
 
+    Trained baselines play ``episodes`` episodes per seed and count, untrained ones
+    (only_local, the classical controllers) ``baseline_episodes`` (default ``episodes``), of
+    which the first ``episodes`` are the trained baselines' episodes: the episode keys come from
+    one evaluation key and ``jax.random.split`` gives episode ``e`` the same key whatever the
+    count (prefix-stable), so the paired comparison pairs those.
+
     ``out/results.json`` is written again after every cell, so a killed run loses at most the
     cell it was in; with ``resume`` the cells already there (from a run of the same settings)
     are kept, not run again, and the tables hold them beside the new ones."""
     processes = processes or Processes()
+    baseline_episodes = episodes if baseline_episodes is None else int(baseline_episodes)
+    if baseline_episodes < episodes:
+        raise ValueError(f"--baseline-episodes ({baseline_episodes}) must be at least "
+                         f"--episodes ({episodes}): the trained baselines' episodes are the "
+                         "first of the untrained ones'")
     if profile not in PROFILES:
         raise ValueError(f"unknown profile {profile!r}; choose from {list(PROFILES)}")
     unknown = [b for b in baselines if b not in BASELINES]
@@ -407,7 +421,8 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
     share = lane_share(seeds, processes)
     settings = {"profile": profile, "seeds": seeds, "total_steps": total_steps,
                 "num_envs": num_envs if profile == "sgjax" else "the profile's",
-                "episodes": episodes, "counts": list(counts), "seed": seed,
+                "episodes": episodes, "baseline_episodes": baseline_episodes,
+                "counts": list(counts), "seed": seed,
                 "time_limit": time_limit}
     path = out / "results.json"
     stored: dict[str, Any] = {"results": {}, "train_seconds": {}, "cell_seconds": {}}
@@ -449,7 +464,7 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
             cell = {"compile": 0.0, "train": 0.0}
             if BASELINES[name] is None:
                 t0 = time.perf_counter()
-                by_count = evaluate_seeds(scenario, counts, episodes, seed, None, None,
+                by_count = evaluate_seeds(scenario, counts, baseline_episodes, seed, None, None,
                                           only_local_options(profile, time_limit), name)
                 cell["evaluate"] = time.perf_counter() - t0
                 print(f"{scenario:>12} {name:>15}: not trained", flush=True)
@@ -524,6 +539,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--episodes", type=int, default=RESULTS_EPISODES,
                         help=f"per seed and robot count (default {RESULTS_EPISODES}, the "
                              f"results protocol; the paper played {PAPER.episodes})")
+    parser.add_argument("--baseline-episodes", type=int, default=None,
+                        help="per robot count for the untrained baselines (default: "
+                             f"{RESULTS_BASELINE_EPISODES} or --episodes if more; at least "
+                             "--episodes: the first --episodes of them are the trained "
+                             "baselines' episodes)")
     parser.add_argument("--table-robots", type=int, default=4,
                         help="robot count of the metrics table")
     parser.add_argument("--seed", type=int, default=0)
@@ -554,7 +574,9 @@ def main(argv: list[str] | None = None) -> None:
                                            else 2_000_000)
         reproduce(args.scenarios, args.baselines, args.seeds, total_steps, args.num_envs,
                   args.robots, args.episodes, args.table_robots, Path(args.out), args.seed,
-                  args.time_limit, processes, args.profile, args.resume)
+                  args.time_limit, processes, args.profile, args.resume,
+                  max(RESULTS_BASELINE_EPISODES, args.episodes)
+                  if args.baseline_episodes is None else args.baseline_episodes)
     except ValueError as err:
         raise SystemExit(f"reproduce: {err}") from err
 

@@ -146,7 +146,7 @@ def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
 
     reproduce(["open"], ["cadrl", "only_local", "dwa"], seeds=2, total_steps=8 * 8 * 2,
               num_envs=8, counts=[2, 3], episodes=2, table_robots=2, out=tmp_path,
-              time_limit=10.0)
+              time_limit=10.0, baseline_episodes=3)
     metrics_table = (tmp_path / "metrics_table.md").read_text()
     success_table = (tmp_path / "success_table.md").read_text()
     assert "| open | cadrl |" in metrics_table and "| open | only_local |" in metrics_table
@@ -159,7 +159,14 @@ def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
     assert len(results["open"]["cadrl"]["2"]["team_success"]) == 2  # one value per seed
     # Per-episode team success of every seed, kept for the paired comparison with only_local.
     assert np.shape(results["open"]["cadrl"]["2"]["team_success_by_episode"]) == (2, 2)
-    assert np.shape(results["open"]["only_local"]["3"]["team_success_by_episode"]) == (1, 2)
+    assert np.shape(results["open"]["only_local"]["3"]["team_success_by_episode"]) == (1, 3)
+    # The untrained baseline's first 2 of 3 episodes are the 2 that the trained ones played.
+    from train.reproduce import evaluate_seeds, only_local_options
+
+    two = evaluate_seeds("open", [3], 2, 0, None, None,
+                         only_local_options("sgjax", 10.0), "only_local")[3]
+    three = results["open"]["only_local"]["3"]
+    assert two["team_success_by_episode"][0] == three["team_success_by_episode"][0][:2]
     comparison = (tmp_path / "comparison_table.md").read_text()
     assert "| open | cadrl | 2 |" in comparison and "| open | cadrl | 3 |" in comparison
     assert "only_local |" not in comparison.split("|---")[1]  # untrained rows are not compared
@@ -171,7 +178,8 @@ def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
     # --resume keeps the finished cells and runs only the missing one; other settings refuse.
     kept = dict(results["open"])
     run = dict(seeds=2, total_steps=8 * 8 * 2, num_envs=8, counts=[2, 3], episodes=2,
-               table_robots=2, out=tmp_path, time_limit=10.0, resume=True)
+               table_robots=2, out=tmp_path, time_limit=10.0, resume=True,
+               baseline_episodes=3)
     reproduce(["open"], ["cadrl", "only_local", "social_force"], **run)
     assert "kept from" in capsys.readouterr().out
     document = json.loads((tmp_path / "results.json").read_text())
@@ -182,6 +190,8 @@ def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
     assert "| open | social_force |" in (tmp_path / "metrics_table.md").read_text()
     with pytest.raises(ValueError, match="results.json: ran with episodes = 2"):
         reproduce(["open"], ["cadrl"], **{**run, "episodes": 3})
+    with pytest.raises(ValueError, match="baseline-episodes .1. must be at least"):
+        reproduce(["open"], ["cadrl"], **{**run, "baseline_episodes": 1})
 
 
 @pytest.mark.slow
