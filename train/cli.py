@@ -37,14 +37,21 @@ from sgjax.terms.base import ConfigError
 from sgjax.version import __version__
 from train import checkpoint
 from train.actor import ActorLayout, ActorWeights, lane_evaluator, table_evaluator
-from train.config import NetworkConfig, TrainConfig, apply_overrides, config_from_dict, load_config
+from train.config import (
+    EVALUATION_SEED_OFFSET,
+    NetworkConfig,
+    TrainConfig,
+    apply_overrides,
+    config_from_dict,
+    load_config,
+)
 from train.curves import plot_learning_curves
 from train.ppo import Trainer, seed_keys
 from train.sharding import device_mesh, shard_runner
 from train.socialgym_config import convert, is_socialgym_config, read_socialgym_config, table
 
 # The periodic (validation) evaluation's key: it picks the best checkpoint, on episodes that the
-# final evaluation (key ``seed + 1``) never plays.
+# final evaluation (key ``seed + EVALUATION_SEED_OFFSET``) never plays.
 VALIDATION_SEED = 1234
 COLUMNS = ("steps", "updates", "wall_s", "env_steps_per_s", "agent_steps_per_s", "num_agents",
            "episodes", "team_success", "robot_success", "mean_return", "policy_loss",
@@ -281,7 +288,8 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
     (:func:`train.actor.table_evaluator`), called once per robot count (two programs only where
     the baseline acts in another environment than the policy, e.g. a continuous-action policy
     beside GO/STOP ``only_local``): the same episodes, keys and results as evaluating each
-    policy with :func:`sgjax.evaluation.evaluate.evaluate` (seed ``config.seed + 1``). The
+    policy with :func:`sgjax.evaluation.evaluate.evaluate` (seed ``config.seed +
+    EVALUATION_SEED_OFFSET``, no training lane's). The
     weights are an argument of the program, so the next run of the job finds it in the
     persistent compilation cache, however its training went. The GIF is episode 0
     of the trained policy at the evaluation count nearest the curriculum's last, recorded while
@@ -326,10 +334,11 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
 def run_seeds(config: TrainConfig) -> dict[str, list[int]]:
     """The seeds of a run by role: ``training`` (one per lane), ``validation`` (the periodic
     evaluation that picks the best checkpoint: its own key, :data:`VALIDATION_SEED`) and
-    ``evaluation`` (the final evaluation: ``seed + 1``; its episodes are never seen by the
-    checkpoint choice)."""
+    ``evaluation`` (the final evaluation: ``seed + EVALUATION_SEED_OFFSET``, never a training
+    lane's key; its episodes are never seen by the checkpoint choice)."""
     return {"training": [config.seed + i for i in range(config.num_seeds)],
-            "validation": [VALIDATION_SEED], "evaluation": [config.seed + 1]}
+            "validation": [VALIDATION_SEED],
+            "evaluation": [config.seed + EVALUATION_SEED_OFFSET]}
 
 
 def _print_paired(paired: dict[str, dict[int, Summary]], baseline: str | None, name: str,
@@ -369,7 +378,7 @@ def _evaluate_scenario(config: TrainConfig, actor: tuple, scenario: str,
     both played (:func:`sgjax.evaluation.statistics.paired_difference`; empty without a
     baseline in the same environment)."""
     e, (network, layout, weights) = config.evaluation, actor
-    counts, seed = list(e.num_agents), config.seed + 1
+    counts, seed = list(e.num_agents), config.seed + EVALUATION_SEED_OFFSET
     env, by_count = policy_environment(scenario, counts, None, config.env.options)
     if env.observation_size != layout.obs_size:
         raise ValueError(f"{scenario}: the trained policy reads observations of size "

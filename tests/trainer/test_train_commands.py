@@ -17,6 +17,7 @@ from provenance_checks import check_block
 from test_train import TINY
 
 from train.cli import main as train_main
+from train.config import EVALUATION_SEED_OFFSET
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -76,7 +77,7 @@ def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
     assert (run / "checkpoints" / "best.msgpack").is_file()
     made = json.loads((run / "provenance.json").read_text())
     check_block(made)
-    assert made["seeds"] == {"training": [0], "validation": [1234], "evaluation": [1]}
+    assert made["seeds"] == {"training": [0], "validation": [1234], "evaluation": [1000]}
     assert {"train", "final evaluation", "total"} <= set(made["seconds"])
     check_block(json.loads((run / "eval" / "metrics.json").read_text())["provenance"])
     assert "paired over the same 2 episodes" in out
@@ -113,7 +114,7 @@ def test_final_evaluation_evaluates_like_separate_evaluate_calls_and_records_its
     runner = jax.jit(jax.vmap(trainer.init))(seed_keys(config))
     path = save(tmp_path / "best.msgpack", config, runner, {"best_seed": 0}, trainer.actor)
     summary = final_evaluation(config, tmp_path, path)
-    seed, options = config.seed + 1, config.env.options
+    seed, options = config.seed + EVALUATION_SEED_OFFSET, config.env.options
     separate = (evaluate(["open"], [str(path)], [2, 3], 3, seed=seed, options=options, log=None,
                          policy_names=["trained (ippo)"])
                 + evaluate(["open"], ["only_local"], [2, 3], 3, seed=seed, log=None,
