@@ -23,6 +23,7 @@ progress bar, evaluation and checkpoints.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import jax
@@ -397,12 +398,6 @@ class Trainer:
 
     def _loss(self, params: Any, carry: tuple, traj: Transition, advantages: Array,
               targets: Array) -> tuple[Array, dict]:
-        a = self.config.algorithm
-        _, out, value = self.network.apply(params, carry, traj.actor_in, _critic_in(traj),
-                                           traj.starts)
-        log_std = self._log_std(params)
-        logp = log_prob(out, log_std, traj.action, self.batch.discrete)
-
         def masked_mean(mask: Array) -> Any:
             mask = mask.astype(jnp.float32)
             count = jnp.maximum(jnp.sum(mask), 1.0)
@@ -415,6 +410,19 @@ class Trainer:
         adv_mean = acted(advantages)
         adv_std = jnp.sqrt(acted(jnp.square(advantages - adv_mean)))
         adv = (advantages - adv_mean) / (adv_std + 1e-8)
+        return self._loss_terms(params, carry, traj, adv, targets, mean, acted)
+
+    def _loss_terms(self, params: Any, carry: tuple, traj: Transition, adv: Array,
+                    targets: Array, mean: Callable[[Array], Array],
+                    acted: Callable[[Array], Array]) -> tuple[Array, dict]:
+        """The PPO loss of ``traj`` and its terms, with normalised advantages ``adv``:
+        ``mean`` averages (or, for a chunk, sums into a share of) the critic's terms over
+        the active steps, ``acted`` the actor's over the steps whose action was read."""
+        a = self.config.algorithm
+        _, out, value = self.network.apply(params, carry, traj.actor_in, _critic_in(traj),
+                                           traj.starts)
+        log_std = self._log_std(params)
+        logp = log_prob(out, log_std, traj.action, self.batch.discrete)
         ratio = jnp.exp(logp - traj.logp)
         policy_loss = -acted(jnp.minimum(ratio * adv, jnp.clip(ratio, 1.0 - a.clip_eps,
                                                                1.0 + a.clip_eps) * adv))
@@ -573,26 +581,11 @@ class Trainer:
         transitions' loss terms divided by the whole minibatch's ``counts`` (active, acted),
         with ``adv`` already normalised over the minibatch; the shares of a minibatch's
         chunks add up to its loss."""
-        a = self.config.algorithm
-        _, out, value = self.network.apply(params, carry, traj.actor_in, _critic_in(traj),
-                                           traj.starts)
-        log_std = self._log_std(params)
-        logp = log_prob(out, log_std, traj.action, self.batch.discrete)
         active, acted = counts
-        mean = lambda x: jnp.sum(x * traj.active) / active  # noqa: E731
         acted_mask = traj.active & traj.decides
-        acted_mean = lambda x: jnp.sum(x * acted_mask) / acted  # noqa: E731
-        ratio = jnp.exp(logp - traj.logp)
-        policy_loss = -acted_mean(jnp.minimum(
-            ratio * adv, jnp.clip(ratio, 1.0 - a.clip_eps, 1.0 + a.clip_eps) * adv))
-        clipped = traj.value + jnp.clip(value - traj.value, -a.clip_eps, a.clip_eps)
-        value_loss = 0.5 * mean(jnp.maximum(jnp.square(value - targets),
-                                            jnp.square(clipped - targets)))
-        ent = acted_mean(entropy(out, log_std, self.batch.discrete))
-        total = policy_loss + a.vf_coef * value_loss - a.ent_coef * ent
-        approx_kl = acted_mean((ratio - 1.0) - jnp.log(ratio))
-        return total, {"policy_loss": policy_loss, "value_loss": value_loss, "entropy": ent,
-                       "approx_kl": approx_kl}
+        return self._loss_terms(params, carry, traj, adv, targets,
+                                lambda x: jnp.sum(x * traj.active) / active,
+                                lambda x: jnp.sum(x * acted_mask) / acted)
 
     def _learn_lane(self, params: Any, opt_state: Any, key: Array, rollout: Rollout
                     ) -> tuple[Any, Any, Array, dict]:
