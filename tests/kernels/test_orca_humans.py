@@ -93,6 +93,9 @@ def test_counter_flow_in_a_three_metre_corridor_clears():
     done = np.where(rightward, xs > 5.0, xs < -5.0)  # [T, n]: past the other group
     assert done[-1].all(), xs[-1]
     assert np.argmax(done.all(axis=1)) * dt < 30.0  # measured 21.2 s
+    # Compiled as users compile (SGJAX_TEST_FULL_OPTIMIZATION=1) the float rounding differs,
+    # the 600-step counter-flow takes another path and its closest pair overlaps by 12 mm
+    # (0.4881 m), past this tolerance; the suite's fast compile passes. Not yet explained.
     assert float(jnp.min(gap)) >= 0.5 - OVERLAP_TOLERANCE, float(jnp.min(gap))
     assert float(jnp.min(wall)) >= 0.25 - 1e-3, float(jnp.min(wall))
 
