@@ -26,7 +26,8 @@ LAYERS: dict[str, tuple[str, ...]] = {
     "terms": ("sgjax.terms", "sgjax.observations", "sgjax.rewards"),
     "environment": ("sgjax.environment", "sgjax"),
     "evaluation": ("sgjax.evaluation",),
-    "applications": ("sgjax.adapters", "sgjax.command", "sgjax.compilation_cache"),
+    "applications": ("sgjax.adapters", "sgjax.editor", "sgjax.command",
+                     "sgjax.compilation_cache"),
 }
 # Modules that sit directly in sgjax/ (the rest live in the layer packages).
 TOP_LEVEL_MODULES = {"sgjax.version", "sgjax.validation", "sgjax.types", "sgjax.command",
