@@ -6,9 +6,9 @@ Errors are :func:`sgjax.maps.schema.parse_map_collecting`'s (what ``sgjax.maps.l
 warnings are computed on the map made of the valid elements:
 
 - ``nodes outside the bounds``: a node the drawing (and ``sgjax maps show``) crops away;
-- ``nodes outside every enclosed region``: on a map whose walls enclose some nodes, a node from
-  which a robot-sized disc can roll out of the map without touching a wall (a spawn outside the
-  building, reached through a gap);
+- ``nodes outside every enclosed region``: on a map with walls, the nodes from which a
+  robot-sized disc can roll off the map without touching a wall (one warning naming them: a
+  spawn outside the building, or a building with a gap in its walls);
 - ``zones that no route crosses``: a conflict zone that no robot's shortest path enters;
 - ``open wall ends near the graph``: a wall end that stops less than 0.5 m short of another
   wall (too narrow a gap for a robot: a corner that does not close), within 1.5 m of a node or
@@ -173,7 +173,7 @@ def _outside_bounds(spec: MapSpec) -> list[MapProblem]:
 
 def _not_enclosed(spec: MapSpec, clearance: float) -> list[MapProblem]:
     """Nodes from which a disc of about ``clearance`` radius reaches the outside of the
-    drawing without touching a wall, on a map whose walls enclose some other node."""
+    drawing without touching a wall (on a map with walls; one warning for them all)."""
     if len(spec.walls) == 0 or spec.num_nodes == 0:
         return []
     points = np.concatenate([spec.node_positions, spec.walls[:, :2], spec.walls[:, 2:]])
@@ -194,11 +194,14 @@ def _not_enclosed(spec: MapSpec, clearance: float) -> list[MapProblem]:
     cells = np.clip(np.round((spec.node_positions - low) / cell).astype(int), 0,
                     np.asarray(shape) - 1)
     outside = np.isin(regions[cells[:, 0], cells[:, 1]], border[border > 0])
-    if outside.all():
-        return []  # nothing enclosed: an open world by design
-    return [_node_problem(spec, row, f"node {spec.node_ids[row]} is outside every region the "
-                          "walls enclose: a robot there can leave the map (a gap in the walls?)")
-            for row in np.flatnonzero(outside)]
+    if not outside.any():
+        return []
+    rows = np.flatnonzero(outside)
+    named = ", ".join(str(spec.node_ids[r]) for r in rows[:MAX_TIE_EXAMPLES])
+    more = " ..." if len(rows) > MAX_TIE_EXAMPLES else ""
+    return [_node_problem(spec, int(rows[0]), f"{len(rows)} of {spec.num_nodes} node(s) "
+                          f"({named}{more}) are enclosed by no walls: a robot there can drive "
+                          "off the map (a gap in the walls?)")]
 
 
 def _pair_paths(spec: MapSpec) -> list[tuple[int, int, np.ndarray]]:
