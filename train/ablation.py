@@ -47,6 +47,7 @@ from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import format_summary, markdown_table
+from sgjax.evaluation.result_schema import ABLATION
 from sgjax.evaluation.statistics import summarize
 from sgjax.terms.base import ConfigError
 from sgjax.validation import check_keys, freeze, thaw
@@ -371,7 +372,8 @@ def main(argv: list[str] | None = None) -> None:
                 "evaluation": [config.seed + EVALUATION_SEED_OFFSET]},
                 episodes_per_cell=episodes, seconds=result["seconds"])
             (out / "ablation.json").write_text(json.dumps(
-                {"provenance": made, "config": config.to_dict(), "seeds": args.seeds,
+                {"schema_version": ABLATION, "provenance": made, "config": config.to_dict(),
+                 "seeds": args.seeds,
                  "episodes": episodes,
                  "robots": counts[0], "team_success": result["scores"],
                  "team_success_by_robots": {str(n): v for n, v in

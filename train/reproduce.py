@@ -57,6 +57,7 @@ from sgjax.evaluation.policies import load_policy, policy_options
 from sgjax.evaluation.protocols import MINI_GAMES, PAPER
 from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import format_summary, markdown_table
+from sgjax.evaluation.result_schema import REPRODUCE
 from sgjax.evaluation.runner import EpisodeRunner
 from sgjax.evaluation.statistics import paired_difference, seed_aggregate, summarize
 from sgjax.terms.presets import REWARD_PRESETS
@@ -448,7 +449,8 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
         # A resumed run: the cells kept were made by the earlier runs, whose blocks stay.
         earlier_runs = [*stored.get("earlier_provenance", []),
                         *([stored["provenance"]] if "provenance" in stored else [])]
-        return {"provenance": made, "earlier_provenance": earlier_runs, **settings,
+        return {"schema_version": REPRODUCE, "provenance": made,
+                "earlier_provenance": earlier_runs, **settings,
                 "train_seconds": timing, "cell_seconds": cells,
                 "seconds": {k: v + earlier.get(k, 0.0) for k, v in seconds.items()},
                 "runs": stored.get("runs", 1 if stored["results"] else 0) + 1,

@@ -18,6 +18,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from sgjax.evaluation.metrics import METRICS, MetricConstants
+from sgjax.evaluation.result_schema import EVALUATE
 from sgjax.evaluation.statistics import CONFIDENCE, ConfigResult, Summary
 from sgjax.version import __version__
 
@@ -50,6 +51,7 @@ def write_all(results: Sequence[ConfigResult], out: Path,
 def write_json(results: Sequence[ConfigResult], path: Path, constants: MetricConstants,
                provenance: dict | None = None) -> Path:
     document = {
+        "schema_version": EVALUATE,
         "sgjax_version": __version__,
         **({} if provenance is None else {"provenance": provenance}),
         "confidence": CONFIDENCE,

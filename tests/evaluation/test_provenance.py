@@ -5,7 +5,7 @@ import json
 
 import jsonschema
 import pytest
-from provenance_checks import check_block
+from provenance_checks import check_block, check_document
 
 from sgjax.evaluation import provenance as prov
 
@@ -48,6 +48,32 @@ def test_evaluate_writes_provenance_into_metrics_json(tmp_path):
 
     evaluate(["open"], ["only_local"], num_agents=[2], episodes=2, seed=3, out=tmp_path,
              options=MakeOptions.from_keywords(time_limit=3.0), log=None)
-    block = json.loads((tmp_path / "metrics.json").read_text())["provenance"]
-    check_block(block)
+    document = json.loads((tmp_path / "metrics.json").read_text())
+    check_document(document)
+    block = document["provenance"]
     assert block["seeds"] == {"evaluation": [3]} and block["episodes_per_cell"] == 2
+
+
+def test_result_schemas_reject_what_they_should_and_docs_hold_them(tmp_path):
+    from sgjax.evaluation.result_schema import EVALUATE_SCHEMA, all_schemas, schema_for
+
+    with pytest.raises(ValueError, match="schema_version 'nope/1': not a result file"):
+        schema_for({"schema_version": "nope/1"})
+    good = {"schema_version": "sgjax.evaluate/1", "sgjax_version": "0.1.0",
+            "provenance": prov.provenance({"a": 1}), "confidence": 0.95, "interval": "t",
+            "constants": {}, "definitions": {}, "results": [
+                {"scenario": "open", "policy": "only_local", "num_agents": 2, "episodes": 2,
+                 "seed": 0, "metrics": {"success": {"mean": 0.5, "ci_low": 0.1,
+                                                    "ci_high": 0.9, "std": 0.5, "n": 2}}}]}
+    jsonschema.validate(good, EVALUATE_SCHEMA)
+    for broken in ({**good, "schema_version": "sgjax.evaluate/2"},
+                   {k: v for k, v in good.items() if k != "provenance"},
+                   {**good, "results": [{**good["results"][0], "num_agents": 0}]},
+                   {**good, "results": [{**good["results"][0],
+                                         "metrics": {"success": {"mean": "high"}}}]}):
+        with pytest.raises(jsonschema.ValidationError):
+            jsonschema.validate(broken, EVALUATE_SCHEMA)
+    shipped = json.loads((prov.REPOSITORY / "docs" / "results" / "schema.json").read_text())
+    assert shipped == json.loads(json.dumps(all_schemas())), (
+        "docs/results/schema.json is stale: python -m sgjax.evaluation.result_schema "
+        "--write docs/results/schema.json")

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import yaml
 from PIL import Image
-from provenance_checks import check_block
+from provenance_checks import check_block, check_document
 from test_train import TINY
 
 from train.cli import main as train_main
@@ -79,7 +79,7 @@ def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
     check_block(made)
     assert made["seeds"] == {"training": [0], "validation": [1234], "evaluation": [1000]}
     assert {"train", "final evaluation", "total"} <= set(made["seconds"])
-    check_block(json.loads((run / "eval" / "metrics.json").read_text())["provenance"])
+    check_document(json.loads((run / "eval" / "metrics.json").read_text()))
     assert "paired over the same 2 episodes" in out
     from sgjax.command import main as sgjax_main
 
@@ -154,7 +154,7 @@ def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
     assert "| open | dwa |" in metrics_table  # a classical controller as an extra row
     assert "| 2A | 3A | Avg. |" in success_table
     document = json.loads((tmp_path / "results.json").read_text())
-    check_block(document["provenance"])
+    check_document(document)
     assert document["provenance"]["seeds"] == {"training": [0, 1], "evaluation": [1000]}
     results = document["results"]
     assert len(results["open"]["cadrl"]["2"]["team_success"]) == 2  # one value per seed
@@ -221,7 +221,7 @@ def test_ablation_command_prints_the_table(tmp_path, capsys):
     assert set(saved["team_success_by_robots"]) == {"2", "3"}
     assert saved["variants"]["team reward"]["settings"] == [["algorithm.team_reward", 1.0]]
     assert "compile and train" in saved["seconds"]
-    check_block(saved["provenance"])
+    check_document(saved)
     variants.write_text("baseline: {}\nwrong: {set: {team_reward: 1.0}}\n")
     with pytest.raises(ConfigError, match="wrong.set: expected a mapping of section.key"):
         load_variants(variants)
