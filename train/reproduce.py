@@ -63,6 +63,7 @@ from sgjax.evaluation.statistics import paired_difference, seed_aggregate, summa
 from sgjax.terms.presets import REWARD_PRESETS
 from train.actor import ActorWeights, lane_evaluator
 from train.config import EVALUATION_SEED_OFFSET, TrainConfig, config_from_dict
+from train.marl_eval import to_marl_eval
 from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
 from train.ppo import Trainer, seed_keys
 
@@ -333,6 +334,7 @@ def tables_from_results(path: Path, out: Path, table_robots: int = 4) -> dict[st
     out.mkdir(parents=True, exist_ok=True)
     for name, text in tables.items():
         (out / name).write_text(text)
+    (out / "marl_eval.json").write_text(json.dumps(to_marl_eval(document), indent=1))
     return tables
 
 
@@ -514,6 +516,7 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
         (out / name).write_text(text)
     seconds["write"] = time.perf_counter() - t0
     path.write_text(json.dumps(document(), indent=1))
+    (out / "marl_eval.json").write_text(json.dumps(to_marl_eval(document()), indent=1))
     for text in tables.values():
         print(f"\n{text}")
     print("time: " + ", ".join(f"{k} {v:.0f} s" for k, v in seconds.items())

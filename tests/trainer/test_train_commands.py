@@ -176,6 +176,8 @@ def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
     again = tables_from_results(tmp_path / "results.json", tmp_path / "again", table_robots=2)
     assert again["success_table.md"] == success_table  # the tables come from results.json
     assert (tmp_path / "again" / "paper_comparison.md").is_file()
+    marl = json.loads((tmp_path / "marl_eval.json").read_text())["sgjax"]
+    assert set(marl["open_2robots"]) == {"cadrl", "only_local", "dwa"}
     # --resume keeps the finished cells and runs only the missing one; other settings refuse.
     kept = dict(results["open"])
     run = dict(seeds=2, total_steps=8 * 8 * 2, num_envs=8, counts=[2, 3], episodes=2,
