@@ -48,7 +48,7 @@ from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import format_summary, markdown_table
 from sgjax.evaluation.result_schema import ABLATION
-from sgjax.evaluation.statistics import summarize
+from sgjax.evaluation.statistics import paired_difference, probability_of_improvement, summarize
 from sgjax.terms.base import ConfigError
 from sgjax.validation import check_keys, freeze, thaw
 from train.actor import ActorWeights, lane_evaluator
@@ -295,25 +295,51 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
     return {"scores": by_robots[counts[0]], "scores_by_robots": by_robots, "seconds": seconds}
 
 
+def paired_against_baseline(scores: Mapping[str, list[float]]) -> dict[str, dict]:
+    """Each variant against the baseline over training seeds: the per-seed difference (seed i
+    of both was trained from the same key and evaluated on the same episodes) with its 95%
+    Student-t interval, and the probability of improvement (:mod:`sgjax.evaluation.statistics`).
+    """
+    base = np.asarray(scores[BASELINE], float)
+    return {name: {"difference": paired_difference(np.asarray(values, float), base).as_dict(),
+                   "probability_of_improvement": probability_of_improvement(values, base)}
+            for name, values in scores.items() if name != BASELINE}
+
+
 def format_table(scores: Mapping[str, list[float]], paper: Mapping[str, int | None],
                  scenario: str, robots: int, episodes: int) -> str:
     """The ablation table as markdown: team success over seeds (mean ± 95% Student-t half
-    width), the share of seeds above the baseline's mean, and the paper's share."""
+    width), the share of seeds above the baseline's mean and the paper's share (its measure),
+    and the paired difference from the baseline over seeds with its interval and the
+    probability of improvement."""
     base = float(np.mean(scores[BASELINE]))
+    paired = paired_against_baseline(scores)
     rows = []
     for name, values in scores.items():
         beats = "" if name == BASELINE else f"{100 * np.mean(np.asarray(values) > base):.0f}"
         cited = paper.get(name)
+        difference = probability = ""
+        if name != BASELINE:
+            d = paired[name]["difference"]
+            difference = (f"{100 * d['mean']:+.0f} [{100 * d['ci_low']:+.0f}, "
+                          f"{100 * d['ci_high']:+.0f}]" if d["ci_low"] is not None else
+                          f"{100 * d['mean']:+.0f}")
+            probability = f"{paired[name]['probability_of_improvement']:.2f}"
         rows.append([name, format_summary(summarize(np.asarray(values), binary=False), True),
-                     beats, "" if cited is None else str(cited)])
+                     beats, "" if cited is None else str(cited), difference, probability])
     seeds = len(scores[BASELINE])
     lines = ["# SocialGym 2.0 Table 4 (reward and observation ablation), reproduced with sgjax",
              "", f"Team success (%) on {scenario} with {robots} robots, {episodes} episodes per "
              f"seed: the mean over {seeds} seeds ± the half width of its 95% Student-t interval;"
              " seeds beating the baseline: the % of seeds above the baseline's mean (the "
-             "paper's measure).", "",
+             "paper's measure); paired: the variant's team success minus the baseline's, seed "
+             "by seed (the same training key and evaluation episodes), mean [95% Student-t "
+             "interval over seeds], in points (an interval that excludes 0 is a difference); "
+             "P(improvement): the chance that a random seed of the variant beats a random seed "
+             "of the baseline (ties half).", "",
              *markdown_table(["Variant", "Team success (%)", "Seeds beating the baseline (%)",
-                              "Paper (%)"], rows)]
+                              "Paper (%)", "Paired vs baseline (points)", "P(improvement)"],
+                             rows)]
     return "\n".join(lines) + "\n"
 
 
@@ -378,6 +404,8 @@ def main(argv: list[str] | None = None) -> None:
                  "robots": counts[0], "team_success": result["scores"],
                  "team_success_by_robots": {str(n): v for n, v in
                                             result["scores_by_robots"].items()},
+                 "paired": {str(n): paired_against_baseline(v) for n, v in
+                            result["scores_by_robots"].items()},
                  "variants": {name: dataclasses.asdict(v) for name, v in variants.items()},
                  "seconds": result["seconds"]}, indent=1))
         print("\n" + table)

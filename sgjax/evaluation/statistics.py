@@ -78,6 +78,17 @@ def paired_difference(a: np.ndarray, b: np.ndarray, confidence: float = CONFIDEN
     return Summary(float(np.mean(diff)), low, high, std, int(diff.size))
 
 
+def probability_of_improvement(a: np.ndarray, b: np.ndarray) -> float:
+    """P(A > B) for one run of each drawn at random: the share of pairs ``(a_i, b_j)`` with
+    ``a_i > b_j``, ties counting half (rliable's probability of improvement, the Mann-Whitney
+    U statistic over ``len(a) * len(b)``); NaN values left out, NaN if either side is empty."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    a, b = a[np.isfinite(a)], b[np.isfinite(b)]
+    if not a.size or not b.size:
+        return math.nan
+    return float(np.mean((a[:, None] > b[None]) + 0.5 * (a[:, None] == b[None])))
+
+
 def interquartile_mean(values: np.ndarray) -> float:
     """Mean of the middle half of ``values`` (25% trimmed from each end: rliable's IQM, robust
     to one outlying seed and less noisy than the median); NaN for no values."""

@@ -2,6 +2,7 @@
 seeds; the block follows its JSON schema."""
 
 import json
+import math
 
 import jsonschema
 import pytest
@@ -77,3 +78,13 @@ def test_result_schemas_reject_what_they_should_and_docs_hold_them(tmp_path):
     assert shipped == json.loads(json.dumps(all_schemas())), (
         "docs/results/schema.json is stale: python -m sgjax.evaluation.result_schema "
         "--write docs/results/schema.json")
+
+
+def test_probability_of_improvement_counts_pairs_and_ties_half():
+    from sgjax.evaluation.statistics import probability_of_improvement
+
+    assert probability_of_improvement([1, 2], [0, 0]) == 1.0
+    assert probability_of_improvement([0, 0], [1, 2]) == 0.0
+    assert probability_of_improvement([1, 3], [1, 2]) == pytest.approx((0.5 + 0 + 1 + 1) / 4)
+    assert probability_of_improvement([float("nan"), 1], [0]) == 1.0
+    assert math.isnan(probability_of_improvement([], [1]))

@@ -215,6 +215,7 @@ def test_ablation_command_prints_the_table(tmp_path, capsys):
                    "--robots", "2", "3", "--out", str(tmp_path / "out")])
     out = capsys.readouterr().out
     assert "| no headings |" in out and "Seeds beating the baseline" in out
+    assert "Paired vs baseline (points)" in out and "P(improvement)" in out
     assert "with 2 robots" in out and "with 3 robots" in out  # a table per count
     assert "network mlp)" in out and out.count("trained and evaluated") == 2  # set: own group
     saved = json.loads((tmp_path / "out" / "ablation.json").read_text())
@@ -222,6 +223,12 @@ def test_ablation_command_prints_the_table(tmp_path, capsys):
         "baseline": 2, "no collision penalty": 2, "no headings": 2, "team reward": 2}
     assert set(saved["team_success_by_robots"]) == {"2", "3"}
     assert saved["variants"]["team reward"]["settings"] == [["algorithm.team_reward", 1.0]]
+    paired = saved["paired"]["2"]["no headings"]
+    values, base = saved["team_success_by_robots"]["2"]["no headings"], saved["team_success"][
+        "baseline"]
+    assert paired["difference"]["mean"] == pytest.approx(np.mean(values) - np.mean(base))
+    assert 0.0 <= paired["probability_of_improvement"] <= 1.0 and "baseline" not in saved[
+        "paired"]["2"]
     assert "compile and train" in saved["seconds"]
     check_document(saved)
     variants.write_text("baseline: {}\nwrong: {set: {team_reward: 1.0}}\n")
