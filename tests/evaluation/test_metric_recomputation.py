@@ -1,11 +1,15 @@
 """Metrics recomputed in plain numpy from recorded episode states, from docs/metrics.md's
 definitions, agree with the evaluator's: several scenarios, policies and action modes.
 
-Covered here: success, time_to_goal, path_length, path_irregularity, velocity_change_sum and
-_max, min_distance_robot and _human, the intimate/personal/social space fractions (robots and
-pedestrians), min_ttc, ttc_below_threshold, team_success and episode_length. (The counterfactual
-metrics have their own brute-force test in test_counterfactual.py; collisions, stops, order
-violations and smoothness are checked on hand-built trajectories in test_metrics.py.)
+Covered here: success, clean_success, timeout, time_to_goal, path_length, path_irregularity,
+path_irregularity_per_m, the collision counts (rising edges of the recorded contact flags) and
+collision_episode, stop_time, freezes, deadlock, velocity_change_sum and _max,
+turn_rate_change_sum, acceleration_mean and _max, jerk_mean and _max, min_distance_robot and
+_human, the intimate/personal/social space fractions (robots and pedestrians), min_ttc,
+ttc_below_threshold, team_success, episode_length, aggregated_time and makespan. (The
+counterfactual metrics have their own brute-force test in test_counterfactual.py; order
+violations and flow rate, which need the zone books' priorities, and spl, which needs the
+route's graph length, are checked on hand-built cases in test_metrics.py.)
 """
 
 from __future__ import annotations
@@ -19,10 +23,15 @@ from sgjax.evaluation.evaluate import run_episodes
 from sgjax.evaluation.metrics import DEFAULT_CONSTANTS, SPACE_NAMES
 from sgjax.evaluation.metrics.ttc import TOUCHING
 
-CASES = [  # scenario, policy, make options
-    ("doorway", "only_local", {"num_agents": 4, "num_humans": 3, "time_limit": 20.0}),
+CASES = [  # scenario, policy, make options, metrics that must occur (not all 0 or NaN)
+    ("doorway", "only_local", {"num_agents": 4, "num_humans": 3, "time_limit": 20.0},
+     ("collisions_robot", "stop_time", "clean_success", "timeout")),
     ("intersection", "random", {"num_agents": 3, "action_mode": "continuous",
-                                "time_limit": 12.0}),
+                                "time_limit": 12.0}, ("collisions_wall", "min_ttc")),
+    # waiting in a corridor among pedestrians: freezes, a deadlock, pedestrian contacts, and
+    # one team success (makespan)
+    ("hallway", "stop_when_blocked", {"num_agents": 4, "num_humans": 6, "time_limit": 40.0},
+     ("collisions_human", "freezes", "deadlock", "makespan", "jerk_max")),
 ]
 
 
@@ -98,6 +107,36 @@ def recompute(states, params, episode: int) -> dict[str, np.ndarray]:
         return np.array([reduce(values[was_active[:, i], i]) if was_active[:, i].any()
                          else empty for i in range(num)])
 
+    # Stops (after each counted step: unfinished, speed and turn rate below the thresholds).
+    omega = np.asarray(r.kin.omega, float)
+    running = (steps < length)[:, None]
+    still = active[1:] & running  # [T, R]
+    stopped = still & (np.linalg.norm(vel[1:], axis=-1) < c.stop_speed) & (
+        np.abs(omega[1:]) < c.stop_turn_rate)
+    freeze_steps = max(int(np.ceil(c.freeze_time / dt - 1e-6)), 1)
+    deadlock_steps = max(int(np.ceil(c.deadlock_time / dt - 1e-6)), 1)
+    run_length = np.zeros(num, int)
+    freezes = np.zeros(num)
+    stall, deadlock = 0, False
+    for t in range(max_steps):
+        run_length = np.where(stopped[t], run_length + 1, 0)
+        freezes += was_active[t] & stopped[t] & (run_length == freeze_steps)
+        stalled = still[t].sum() >= 2 and np.all(stopped[t] | ~still[t])
+        stall = stall + 1 if stalled else 0
+        deadlock |= t < length and stall >= deadlock_steps
+    # Smoothness: accelerations per step, jerk between consecutive counted steps.
+    accel = (vel[1:] - vel[:-1]) / dt  # [T, R, 2]
+    accel_norm = np.linalg.norm(accel, axis=-1)
+    jerk = np.linalg.norm(accel[1:] - accel[:-1], axis=-1) / dt  # [T - 1, R]
+    jerk_ok = was_active[1:] & was_active[:-1]
+    jerk_counted = jerk_ok.sum(0)
+    # Collisions: onsets (rising edges) of the recorded contact flags, while counted.
+    onsets = {}
+    for kind in ("robot", "wall", "human"):
+        touching = np.asarray(getattr(states, f"touching_{kind}"))[:, episode]  # [T + 1, R]
+        onsets[kind] = (touching[1:] & ~touching[:-1] & was_active).sum(0)
+    any_onset = onsets["robot"] + onsets["wall"] + onsets["human"]
+
     succeeded = np.asarray(r.succeeded[-1]) & present
     arrival = np.argmax(np.asarray(r.succeeded), axis=0)  # first step it is set
     nearest_robot = gap_robot.min(-1, initial=np.inf)
@@ -116,7 +155,32 @@ def recompute(states, params, episode: int) -> dict[str, np.ndarray]:
         "ttc_below_threshold": fraction_below(ttc, c.ttc_threshold, 1e-4),
         "team_success": float(succeeded[present].all()),
         "episode_length": float(length),
+        "timeout": (present & ~succeeded & ~np.asarray(r.ended[-1])).astype(float),
+        "stop_time": (was_active & stopped).sum(0) * dt,
+        "freezes": freezes,
+        "deadlock": float(deadlock),
+        "turn_rate_change_sum": np.where(was_active, np.abs(omega[1:] - omega[:-1]), 0).sum(0),
+        "acceleration_mean": np.where(was_active, accel_norm, 0).sum(0) / counted,
+        "acceleration_max": over_active(accel_norm, np.max, 0.0),
+        "jerk_mean": np.where(jerk_counted > 0, np.where(jerk_ok, jerk, 0).sum(0)
+                              / np.maximum(jerk_counted, 1), np.nan),
+        "jerk_max": np.where(jerk_counted > 0, np.where(jerk_ok, jerk, 0).max(0, initial=0.0),
+                             np.nan),
+        "collisions": any_onset.astype(float),
+        "collisions_robot": onsets["robot"].astype(float),
+        "collisions_wall": onsets["wall"].astype(float),
+        "collisions_human": onsets["human"].astype(float),
+        "collision_episode": float(any_onset[present].sum() > 0),
     }
+    team = bool(succeeded[present].all())
+    out["aggregated_time"] = out["makespan"] = (
+        float(arrival[present].max() * dt) if team else np.nan)
+    path = out["path_length"]
+    out["path_irregularity_per_m"] = np.where(path > 1e-3, out["path_irregularity"]
+                                              / np.maximum(path, 1e-3), np.nan)
+    # Clean success: arrived with no onset in the steps it started unfinished (arrival
+    # step included).
+    out["clean_success"] = (succeeded & (any_onset == 0)).astype(float)
     for k, space in enumerate(SPACE_NAMES):
         near = c.space_radii[k]
         out[f"{space}_space_robot"] = fraction_below(nearest_robot, near, 1e-5)
@@ -138,11 +202,14 @@ def recompute(states, params, episode: int) -> dict[str, np.ndarray]:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("scenario", "policy", "options"), CASES)
-def test_metrics_recomputed_from_recorded_states(scenario, policy, options):
+@pytest.mark.parametrize(("scenario", "policy", "options", "occurring"), CASES)
+def test_metrics_recomputed_from_recorded_states(scenario, policy, options, occurring):
     env, params = sgjax.make(scenario, **options)
     episodes = 6
     out = run_episodes(env, params, policy, jax.random.key(11), episodes, record=True)
+    for name in occurring:  # the comparison below is not of zeros only
+        values = np.asarray(out.robot[name] if name in out.robot else out.values[name], float)
+        assert np.nansum(np.abs(values)) > 0, f"{scenario}: {name} never occurs"
     for e in range(episodes):
         mine = recompute(out.states, params, e)
         for name, value in mine.items():
