@@ -33,8 +33,12 @@ Two profiles (``--profile``):
 Outputs in ``--out``: ``metrics_table.md`` (the paper's Table 3: length, collisions, stop time,
 max delta-V and team success per scenario and baseline, at ``--table-robots``),
 ``success_table.md`` (its Table 4: team success % by robot count, with the average),
-``paper_comparison.md`` (ours beside the paper's Table 4), ``results.json`` (every seed's
-value of every metric, per configuration; ``--from-results`` writes the tables again from it).
+``paper_comparison.md`` (ours beside the paper's Table 4), ``comparison_table.md`` (each
+trained baseline against Only Local, paired over the shared episodes, with seed aggregates),
+``play_modes.md`` (trained policies playing greedily and sampling), ``results.json`` (every
+seed's value of every metric, per configuration, schema ``sgjax.reproduce/1``;
+``--from-results`` writes the tables again from it) and ``marl_eval.json`` (the same results
+for marl-eval, :mod:`train.marl_eval`).
 """
 
 from __future__ import annotations
@@ -191,9 +195,10 @@ def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: in
     first = by_count[counts[0]]
     if trainer is None:
         run = EpisodeRunner(env, load_policy(policy, env), episodes, int(first.max_steps)).run
-    else:
-        evaluator = lane_evaluator(trainer.config.network, trainer.actor, env, first, episodes,
-                                   trainer.config.evaluation.deterministic)
+    else:  # the profile's play mode, and the other one for PLAY_MODE_KEYS
+        greedy = trainer.config.evaluation.deterministic
+        evaluator, other = (lane_evaluator(trainer.config.network, trainer.actor, env, first,
+                                           episodes, mode) for mode in (greedy, not greedy))
     for n in counts:
         params = by_count[n]
         if trainer is None:
@@ -203,6 +208,11 @@ def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: in
         out[n] = {name: [float(np.nanmean(row)) if np.isfinite(row).any() else math.nan
                          for row in v] for name, v in values.items()}
         out[n][EPISODES_KEY] = np.asarray(values["team_success"], float).tolist()  # [S, E]
+        if trainer is not None:
+            flipped, _ = jax.device_get(other(ActorWeights.of(runner), key, params))
+            modes = {greedy: values["team_success"], not greedy: flipped["team_success"]}
+            for mode, key_name in ((True, PLAY_MODE_KEYS[0]), (False, PLAY_MODE_KEYS[1])):
+                out[n][key_name] = np.nanmean(np.asarray(modes[mode], float), axis=1).tolist()
     return out
 
 
@@ -276,7 +286,34 @@ def format_tables(results: dict, counts: Sequence[int], table_robots: int, seeds
     return {"metrics_table.md": "\n".join(rows) + "\n",
             "success_table.md": "\n".join(success) + "\n",
             "paper_comparison.md": "\n".join(compare) + "\n",
-            "comparison_table.md": comparison_table(results, counts, seeds)}
+            "comparison_table.md": comparison_table(results, counts, seeds),
+            "play_modes.md": play_mode_table(results, counts, seeds)}
+
+
+def play_mode_table(results: dict, counts: Sequence[int], seeds: int) -> str:
+    """Team success of every trained baseline playing greedily and sampling, with the paired
+    difference over seeds (the same seed's weights and evaluation episodes both ways)."""
+    rows = []
+    for scenario, by_baseline in results.items():
+        for baseline, by_count in by_baseline.items():
+            for n in counts:
+                cell = by_count.get(n, {})
+                if not all(k in cell for k in PLAY_MODE_KEYS):
+                    continue
+                greedy, sampled = (np.asarray(cell[k], float) for k in PLAY_MODE_KEYS)
+                d = paired_difference(greedy, sampled)
+                interval = ("" if not np.isfinite(d.ci_low) else
+                            f" [{100 * d.ci_low:+.0f}, {100 * d.ci_high:+.0f}]")
+                rows.append([scenario, baseline, str(n), f"{100 * np.nanmean(greedy):.0f}",
+                             f"{100 * np.nanmean(sampled):.0f}",
+                             f"{100 * d.mean:+.0f}{interval}"])
+    text = ["# Greedy and sampled play (team success %)", "",
+            f"The mean over {seeds} training seeds of each seed's team success when its policy "
+            "takes its most likely action (greedy) and when it samples; greedy - sampled: "
+            "paired over seeds, mean [95% Student-t interval].", "",
+            *markdown_table(["Scenario", "Baseline", "Robots", "Greedy", "Sampled",
+                             "Greedy - sampled"], rows)]
+    return "\n".join(text) + "\n"
 
 
 def _paired_cell(trained: dict, baseline: dict) -> str:
@@ -362,6 +399,9 @@ RESULTS_SEEDS, RESULTS_EPISODES, RESULTS_BASELINE_EPISODES = 5, 100, 500
 # Per-episode team success of every seed, ``[seeds, episodes]`` (every baseline plays the same
 # episodes: the evaluation key is shared), for the paired comparisons with only_local.
 EPISODES_KEY = "team_success_by_episode"
+# A trained policy's team success per seed when it plays greedily and when it samples (the
+# tables' other metrics come from the profile's mode: sampled for sgjax, greedy for socialgym)
+PLAY_MODE_KEYS = ("team_success_greedy", "team_success_sampled")
 
 SETTINGS = ("profile", "seeds", "total_steps", "num_envs", "episodes", "baseline_episodes",
             "counts", "seed", "time_limit")

@@ -158,6 +158,12 @@ def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
     assert document["provenance"]["seeds"] == {"training": [0, 1], "evaluation": [1000]}
     results = document["results"]
     assert len(results["open"]["cadrl"]["2"]["team_success"]) == 2  # one value per seed
+    # trained policies play both ways; the tables' metrics are the profile's (sampled) play
+    cell = results["open"]["cadrl"]["2"]
+    assert cell["team_success_sampled"] == cell["team_success"]
+    assert len(cell["team_success_greedy"]) == 2 and "team_success_greedy" not in results[
+        "open"]["only_local"]["2"]
+    assert "| open | cadrl | 2 |" in (tmp_path / "play_modes.md").read_text()
     # Per-episode team success of every seed, kept for the paired comparison with only_local.
     assert np.shape(results["open"]["cadrl"]["2"]["team_success_by_episode"]) == (2, 2)
     assert np.shape(results["open"]["only_local"]["3"]["team_success_by_episode"]) == (1, 3)
