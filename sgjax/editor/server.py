@@ -12,6 +12,7 @@ import mimetypes
 import sys
 import threading
 import traceback
+from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib import resources
 from typing import Any
@@ -83,6 +84,19 @@ class EditorHandler(BaseHTTPRequestHandler):
             super().log_message(format, *args)
 
     # --- answers ---------------------------------------------------------------------------
+
+    def send_error(self, code: int, message: str | None = None,
+                   explain: str | None = None) -> None:
+        """http.server's own errors (an unsupported method such as PUT, a malformed request
+        line) as JSON too."""
+        body = json.dumps({"error": message or HTTPStatus(code).phrase}).encode()
+        self.send_response(code, message)
+        self.send_header("Content-Type", "application/json")
+        self.send_header("Connection", "close")
+        self.send_header("Content-Length", str(len(body)))
+        self.end_headers()
+        if self.command != "HEAD" and code >= 200 and code not in (204, 304):
+            self.wfile.write(body)
 
     def _send(self, status: int, body: bytes, content_type: str) -> None:
         self.send_response(status)

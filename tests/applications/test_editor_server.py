@@ -271,3 +271,11 @@ def test_play_runs_a_batch_and_returns_an_episode(server):
     status, body = call(server + "/api/play", {"map": ROOMS, "policy": "nope", "robots": 2,
                                                "episodes": 2})
     assert status == 400 and "nope" in json.loads(body)["error"]
+
+
+def test_unsupported_methods_answer_json_too(server):
+    for method in ("PUT", "DELETE", "PATCH"):
+        request = urllib.request.Request(server + "/api/save", data=b"{}", method=method)
+        with pytest.raises(urllib.error.HTTPError) as err:
+            urllib.request.urlopen(request, timeout=30)
+        assert err.value.code == 501 and "error" in json.loads(err.value.read())
