@@ -49,6 +49,7 @@ from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import format_summary, markdown_table
 from sgjax.evaluation.result_schema import ABLATION
 from sgjax.evaluation.statistics import paired_difference, probability_of_improvement, summarize
+from sgjax.files import write_atomic
 from sgjax.terms.base import ConfigError
 from sgjax.validation import check_keys, freeze, thaw
 from train.actor import ActorWeights, lane_evaluator
@@ -397,7 +398,7 @@ def main(argv: list[str] | None = None) -> None:
                 "training": [config.seed + i for i in range(args.seeds)],
                 "evaluation": [config.seed + EVALUATION_SEED_OFFSET]},
                 episodes_per_cell=episodes, seconds=result["seconds"])
-            (out / "ablation.json").write_text(json.dumps(
+            write_atomic(out / "ablation.json", json.dumps(
                 {"schema_version": ABLATION, "provenance": made, "config": config.to_dict(),
                  "seeds": args.seeds,
                  "episodes": episodes,

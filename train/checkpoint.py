@@ -21,7 +21,6 @@ is registered with ``sgjax.evaluation.policies`` when this module is imported, a
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +33,7 @@ from flax import serialization
 from sgjax.environment.options import MakeOptions
 from sgjax.environment.registry import make
 from sgjax.evaluation.policies import register_loader
+from sgjax.files import write_atomic
 from train.actor import ActorLayout, ActorWeights, acting_policy
 from train.config import TrainConfig, config_from_dict
 from train.networks import others_layout
@@ -53,10 +53,7 @@ def save(path: str | Path, config: TrainConfig, runner: Any, meta: dict[str, Any
         "meta": json.dumps(meta),
         "runner": serialization.to_state_dict(jax.device_get(runner)),
     }
-    temporary = path.with_name(path.name + ".tmp")
-    temporary.write_bytes(serialization.msgpack_serialize(payload))
-    os.replace(temporary, path)
-    return path
+    return write_atomic(path, serialization.msgpack_serialize(payload))
 
 
 def read(path: str | Path) -> tuple[TrainConfig, dict[str, Any], dict[str, Any]]:

@@ -32,6 +32,7 @@ from sgjax.evaluation.render import episode_frames, save_gif
 from sgjax.evaluation.report import summary_tables, write_all
 from sgjax.evaluation.runner import Episodes
 from sgjax.evaluation.statistics import Summary, paired_difference
+from sgjax.files import write_atomic
 from sgjax.maps.io import load as load_map
 from sgjax.terms.base import ConfigError
 from sgjax.version import __version__
@@ -252,7 +253,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
     made = provenance(config.to_dict(), seeds=run_seeds(config),
                       episodes_per_cell=config.evaluation.episodes,
                       seconds={**seconds, "total": time.perf_counter() - start})
-    (out / "provenance.json").write_text(json.dumps(made, indent=1) + "\n")
+    write_atomic(out / "provenance.json", json.dumps(made, indent=1) + "\n")
     return {**summary, "seconds": seconds}
 
 

@@ -64,6 +64,7 @@ from sgjax.evaluation.report import format_summary, markdown_table
 from sgjax.evaluation.result_schema import REPRODUCE
 from sgjax.evaluation.runner import EpisodeRunner
 from sgjax.evaluation.statistics import paired_difference, seed_aggregate, summarize
+from sgjax.files import write_atomic
 from sgjax.terms.presets import REWARD_PRESETS
 from train.actor import ActorWeights, lane_evaluator
 from train.config import EVALUATION_SEED_OFFSET, TrainConfig, config_from_dict
@@ -371,7 +372,7 @@ def tables_from_results(path: Path, out: Path, table_robots: int = 4) -> dict[st
     out.mkdir(parents=True, exist_ok=True)
     for name, text in tables.items():
         (out / name).write_text(text)
-    (out / "marl_eval.json").write_text(json.dumps(to_marl_eval(document), indent=1))
+    write_atomic(out / "marl_eval.json", json.dumps(to_marl_eval(document), indent=1))
     return tables
 
 
@@ -542,7 +543,7 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
                                                           for n, t in team.items()))
             if processes.is_main:  # a killed run keeps every finished cell
                 out.mkdir(parents=True, exist_ok=True)
-                path.write_text(json.dumps(document(), indent=1))
+                write_atomic(path, json.dumps(document(), indent=1))
     if not processes.is_main:
         print(f"process {processes.index}: done; process 0 writes the tables")
         return results
@@ -555,8 +556,8 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
     for name, text in tables.items():
         (out / name).write_text(text)
     seconds["write"] = time.perf_counter() - t0
-    path.write_text(json.dumps(document(), indent=1))
-    (out / "marl_eval.json").write_text(json.dumps(to_marl_eval(document()), indent=1))
+    write_atomic(path, json.dumps(document(), indent=1))
+    write_atomic(out / "marl_eval.json", json.dumps(to_marl_eval(document()), indent=1))
     for text in tables.values():
         print(f"\n{text}")
     print("time: " + ", ".join(f"{k} {v:.0f} s" for k, v in seconds.items())

@@ -11,6 +11,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from sgjax.files import write_atomic
 from sgjax.maps.check import MapProblem, check_map
 
 
@@ -126,7 +127,7 @@ class EditorSession:
 
     def autosave(self, data: dict[str, Any]) -> Path:
         path = self.autosave_path
-        path.write_text(map_text(data))
+        write_atomic(path, map_text(data))
         return path
 
     def check(self, data: Any) -> list[MapProblem]:
@@ -145,7 +146,7 @@ class EditorSession:
                               problems=[p.as_dict() for p in errors])
         text = self.text if self.text is not None and data == self.data else map_text(data)
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text)
+        write_atomic(path, text)
         if self.autosave_path.is_file():
             self.autosave_path.unlink()
         self.data, self.text, self.file = data, text, str(path.relative_to(self.root))

@@ -20,6 +20,7 @@ from matplotlib.figure import Figure
 from sgjax.evaluation.metrics import METRICS, MetricConstants
 from sgjax.evaluation.result_schema import EVALUATE
 from sgjax.evaluation.statistics import CONFIDENCE, ConfigResult, Summary
+from sgjax.files import write_atomic
 from sgjax.version import __version__
 
 # The paper's Table 3 columns, then success.
@@ -64,7 +65,7 @@ def write_json(results: Sequence[ConfigResult], path: Path, constants: MetricCon
                                  "source": m.source} for m in METRICS},
         "results": [r.as_dict() for r in results],
     }
-    path.write_text(json.dumps(document, indent=1))
+    write_atomic(path, json.dumps(document, indent=1))
     return path
 
 

@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[2]
 # module belongs to the layer of the longest prefix that contains it. A module under no prefix
 # fails the test (place every new module in a layer's package).
 LAYERS: dict[str, tuple[str, ...]] = {
-    "kernels": ("sgjax.version", "sgjax.validation", "sgjax.kernels", "sgjax.maps",
+    "kernels": ("sgjax.version", "sgjax.validation", "sgjax.files", "sgjax.kernels", "sgjax.maps",
                 "sgjax.dynamics", "sgjax.humans"),
     "types": ("sgjax.types",),
     "terms": ("sgjax.terms", "sgjax.observations", "sgjax.rewards"),
@@ -30,7 +30,8 @@ LAYERS: dict[str, tuple[str, ...]] = {
                      "sgjax.compilation_cache"),
 }
 # Modules that sit directly in sgjax/ (the rest live in the layer packages).
-TOP_LEVEL_MODULES = {"sgjax.version", "sgjax.validation", "sgjax.types", "sgjax.command",
+TOP_LEVEL_MODULES = {"sgjax.version", "sgjax.validation", "sgjax.files", "sgjax.types",
+                     "sgjax.command",
                      "sgjax.compilation_cache"}
 # The longest function allowed in sgjax/ (lines from ``def`` to its last line), and the ones
 # allowed to be longer, with the reason.
