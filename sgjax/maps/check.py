@@ -53,6 +53,7 @@ JOINED = 0.05  # m: wall ends closer than this to another wall are joined to it 
 TIE_TOLERANCE = 1e-6  # relative: paths this close in length are equally short
 TIE_ANGLE = 1e-3  # rad: predecessors arriving from directions this close are one path
 MAX_TIE_EXAMPLES = 3
+MAX_WALL_SAMPLES = 4000  # points per wall for the open-end search
 
 
 @dataclasses.dataclass(frozen=True)
@@ -248,9 +249,11 @@ def _open_wall_ends(spec: MapSpec) -> list[MapProblem]:
     graph = np.concatenate([pos[:, [0, 1, 0, 1]],
                             np.concatenate([pos[spec.edges[:, 0]], pos[spec.edges[:, 1]]], 1)])
     ends = np.concatenate([walls[:, :2], walls[:, 2:]])  # [2W, 2]: end k of wall k % W
-    # candidate walls near each end from points sampled every 0.25 m along every wall
-    spacing = 0.25
-    counts = np.ceil(np.hypot(*(walls[:, 2:] - walls[:, :2]).T) / spacing).astype(int) + 1
+    # candidate walls near each end from points sampled along every wall, every 0.25 m (at
+    # most MAX_WALL_SAMPLES per wall: a wall of any length costs a bounded amount)
+    lengths = np.hypot(*(walls[:, 2:] - walls[:, :2]).T)
+    counts = np.minimum(np.ceil(lengths / 0.25) + 1, MAX_WALL_SAMPLES).astype(int)
+    spacing = float(np.max(lengths / np.maximum(counts - 1, 1)))
     owner = np.repeat(np.arange(len(walls)), counts)
     t = np.concatenate([np.linspace(0.0, 1.0, n) for n in counts])[:, None]
     samples = walls[owner, :2] + t * (walls[owner, 2:] - walls[owner, :2])

@@ -40,6 +40,7 @@ from sgjax.validation import suggest
 TOP_LEVEL_REQUIRED = ("name", "description", "bounds", "walls", "nodes", "edges")
 TOP_LEVEL_OPTIONAL = ("groups", "routes", "zones", "pedestrian_groups")
 DEFAULT_CLEARANCE = 0.25  # m: default robot radius every node must keep from every wall
+MAX_COORDINATE = 1e5  # m: float32 resolves 1 cm up to about 1.3e5 m
 
 
 class MapError(ValueError):
@@ -117,10 +118,15 @@ def _type_name(value: Any) -> str:
 
 
 def _expect_number(source: str, path: str, value: Any) -> float:
+    """A coordinate (m): a finite number within :data:`MAX_COORDINATE` of the origin."""
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise MapError(source, path, f"expected a number, got {_type_name(value)} {value!r}")
     if not math.isfinite(value):
         raise MapError(source, path, f"expected a finite number, got {value!r}")
+    if abs(value) > MAX_COORDINATE:
+        raise MapError(source, path, f"{value!r} m is beyond +-{MAX_COORDINATE:g} m: the "
+                                     "simulator computes in float32, whose steps there exceed "
+                                     "a centimetre")
     return float(value)
 
 
