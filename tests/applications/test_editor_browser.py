@@ -44,6 +44,10 @@ try:
 except ImportError:  # pragma: no cover - depends on the machine
     webdriver = None
 
+# About a minute in all (Chromium, 27 maps opened and saved): the quick tier leaves it to CI,
+# which runs it, and the slow mark sends the file to a worker early (tests/conftest.py).
+pytestmark = pytest.mark.slow
+
 REPO = Path(__file__).resolve().parents[2]
 SHIPPED = sorted((REPO / "maps").glob("*.json"))
 SG2MAPS = REPO.parent / "shared" / "sg2maps"  # SocialGym 2.0's maps, beside the checkout
