@@ -116,10 +116,13 @@ def map_warnings(spec: MapSpec, clearance: float = DEFAULT_CLEARANCE) -> list[Ma
     found: list[MapProblem] = []
     found += _outside_bounds(spec)
     found += _not_enclosed(spec, clearance)
-    paths = _pair_paths(spec)
-    found += _zones_uncrossed(spec, paths)
+    if spec.num_nodes:  # shortest paths once (Floyd-Warshall), for zones and ties
+        length, next_hop = all_pairs_shortest_paths(spec.node_positions, spec.edges)
+        if spec.zones:
+            found += _zones_uncrossed(spec, _pair_paths(spec, next_hop))
     found += _open_wall_ends(spec)
-    found += _ties(spec)
+    if spec.num_nodes and len(spec.edges):
+        found += _ties(spec, length)
     return found
 
 
@@ -205,11 +208,9 @@ def _not_enclosed(spec: MapSpec, clearance: float) -> list[MapProblem]:
                           "off the map (a gap in the walls?)")]
 
 
-def _pair_paths(spec: MapSpec) -> list[tuple[int, int, np.ndarray]]:
-    """The robots' (start row, goal row, path points [P, 2]) of every allowed pair."""
-    if spec.num_nodes == 0:
-        return []
-    _, next_hop = all_pairs_shortest_paths(spec.node_positions, spec.edges)
+def _pair_paths(spec: MapSpec, next_hop: np.ndarray) -> list[tuple[int, int, np.ndarray]]:
+    """The robots' (start row, goal row, path points [P, 2]) of every allowed pair
+    (``next_hop``: :func:`all_pairs_shortest_paths`'s)."""
     pairs = {(s, g) for starts, goals in spawn_groups(spec) for s in starts for g in goals
              if s != g and next_hop[s, g] != NO_PATH}
     return [(s, g, spec.node_positions[path_nodes(next_hop, s, g)]) for s, g in sorted(pairs)]
@@ -299,10 +300,8 @@ def tied_goals(spec: MapSpec, start: int, length: np.ndarray) -> np.ndarray:
     return tied
 
 
-def _ties(spec: MapSpec) -> list[MapProblem]:
-    if spec.num_nodes == 0 or len(spec.edges) == 0:
-        return []
-    length, _ = all_pairs_shortest_paths(spec.node_positions, spec.edges)
+def _ties(spec: MapSpec, length: np.ndarray) -> list[MapProblem]:
+    """Groups and routes with tied pairs (``length [N, N]``: shortest path lengths, m)."""
     tied_from: dict[int, np.ndarray] = {}
     out = []
     for field, items in (("groups", [(g[0], g[1]) for g in spec.groups]),
