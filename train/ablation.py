@@ -61,7 +61,7 @@ from train.config import (
     read_yaml,
 )
 from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
-from train.ppo import Trainer
+from train.ppo import Trainer, observation_mask
 
 
 @dataclasses.dataclass(frozen=True)
@@ -77,40 +77,25 @@ class Variant:
     settings: tuple[tuple[str, Any], ...] = ()  # ("section.key", value): other config keys
 
 
-def observation_mask(env: Any, hide: Sequence[str]) -> np.ndarray:
-    """``[D]`` ones, with zeros on the hidden columns of ``env``'s observation, found in its
-    column layout (``env.config.observer.columns``)."""
-    mask = np.ones(env.observation_size, np.float32)
-    columns = env.config.observer.columns(env.config.layout)
-    for item in hide:
-        term, _, feature = item.partition(".")
-        if term not in columns:
-            raise ConfigError(f"hide {item!r}: no observation term {term!r}; this "
-                              f"observation has {list(columns.slices)}")
-        try:
-            mask[columns.indices(item)] = 0.0
-        except ValueError:
-            raise ConfigError(
-                f"hide {item!r}: {term!r} has no feature {feature!r}; its features are "
-                f"{', '.join(columns[term].feature_names)} (hide a term, or <term>.<feature>)"
-            ) from None
-    return mask
-
-
 def variant_inputs(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
                    ) -> tuple[jax.Array, dict, jax.Array, list[tuple[str, int]]]:
-    """Keys, term weights and masks stacked over lanes (variant x seed), and the lane labels."""
+    """Keys, term weights and masks stacked over lanes (variant x seed), and the lane labels
+    (a variant's terms off and features hidden on top of the config's ``term_weights`` and
+    ``hide``)."""
     names = trainer.batch.reward_term_names()
+    configured = trainer.term_weights()
+    hidden = trainer.config.algorithm.hide
     keys, weights, masks, labels = [], [], [], []
     for label, variant in variants.items():
         for off in variant.rewards_off:
             if off not in names:
                 raise ConfigError(f"variant {label!r}: no reward term {off!r}; this "
                                   f"configuration pays {list(names)}")
-        mask = observation_mask(trainer.batch.env, variant.hide)
+        mask = observation_mask(trainer.batch.env, (*hidden, *variant.hide))
         for seed in range(seeds):
             keys.append(jax.random.PRNGKey(trainer.config.seed + seed))
-            weights.append({n: 0.0 if n in variant.rewards_off else 1.0 for n in names})
+            weights.append({n: 0.0 if n in variant.rewards_off else float(configured[n])
+                            for n in names})
             masks.append(mask)
             labels.append((label, seed))
     stacked = {n: jnp.asarray([w[n] for w in weights]) for n in names}
@@ -362,7 +347,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--robots", type=int, nargs="+", default=None,
                         help="evaluation robot count(s) (default: the curriculum's last); "
                              "a table per count")
-    parser.add_argument("--out", default=None, help="folder for ablation.md and ablation.json")
+    parser.add_argument("--out", default=None,
+                        help="folder for ablation.md and ablation.json (written atomically "
+                             "at the end; a killed run does not resume: its lanes train in "
+                             "one call, so run it again, or use train.sweep's grid, which "
+                             "resumes)")
     add_cache_arguments(parser)
     add_arguments(parser)
     args = parser.parse_args(argv)

@@ -83,6 +83,12 @@ def restore(path: str | Path, trainer: Any, contents: tuple | None = None
 
     _, meta, raw = contents if contents is not None else read(path)
     template = jax.eval_shape(jax.vmap(trainer.init), seed_keys(trainer.config))
+    if isinstance(raw, dict) and "hyper" not in raw:
+        # Saved before the runner state held its lane settings (2026-11-25): the run used the
+        # configured values, as a fresh run's state holds them.
+        seeds = trainer.config.num_seeds
+        raw = {**raw, "hyper": {name: np.full(seeds, value, np.float32) for name, value
+                                in trainer.default_hyper().items()}}
     try:
         runner = serialization.from_state_dict(template, raw)
     except (KeyError, ValueError) as err:

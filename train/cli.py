@@ -40,6 +40,7 @@ from train import checkpoint
 from train.actor import ActorLayout, ActorWeights, lane_evaluator, table_evaluator
 from train.config import (
     EVALUATION_SEED_OFFSET,
+    VALIDATION_SEED,
     NetworkConfig,
     TrainConfig,
     apply_overrides,
@@ -51,9 +52,6 @@ from train.ppo import Trainer, seed_keys
 from train.sharding import device_mesh, shard_runner
 from train.socialgym_config import convert, is_socialgym_config, read_socialgym_config, table
 
-# The periodic (validation) evaluation's key: it picks the best checkpoint, on episodes that the
-# final evaluation (key ``seed + EVALUATION_SEED_OFFSET``) never plays.
-VALIDATION_SEED = 1234
 COLUMNS = ("steps", "updates", "wall_s", "env_steps_per_s", "agent_steps_per_s", "num_agents",
            "episodes", "team_success", "robot_success", "mean_return", "policy_loss",
            "value_loss", "entropy", "approx_kl", "eval_team_success", "eval_robot_success")

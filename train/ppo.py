@@ -23,11 +23,12 @@ progress bar, evaluation and checkpoints.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 import optax
 from flax import struct
 from jax import Array
@@ -61,6 +62,13 @@ LOSS_TERMS = ("policy_loss", "value_loss", "entropy", "approx_kl")  # learn's au
 # partly padded with units that cannot learn; more chunks pad less but run more, smaller
 # products).
 COMPACT_CHUNKS = 8
+# Algorithm settings held as numbers in the runner state (``RunnerState.hyper``), which the
+# compiled program reads there when its Trainer is told that lanes vary them (``varied``), so
+# that the lanes of one call may differ in them: ``train.sweep`` trains trials that differ only
+# in these (and in reward-term weights and observation masks) side by side. Every other
+# setting is part of the program.
+LANE_SETTINGS = ("learning_rate", "ent_coef", "vf_coef", "clip_eps", "gamma", "gae_lambda",
+                 "team_reward")
 
 
 class EnvBatch:
@@ -156,6 +164,26 @@ def share_rewards(reward: Array, acted: Array, share: float) -> Array:
     return jnp.where(acted, (1.0 - share) * reward + share * team, 0.0)
 
 
+def observation_mask(env: Any, hide: Sequence[str]) -> np.ndarray:
+    """``[D]`` ones, with zeros on the hidden columns of ``env``'s observation, found in its
+    column layout (``env.config.observer.columns``)."""
+    mask = np.ones(env.observation_size, np.float32)
+    columns = env.config.observer.columns(env.config.layout)
+    for item in hide:
+        term, _, feature = item.partition(".")
+        if term not in columns:
+            raise ConfigError(f"hide {item!r}: no observation term {term!r}; this "
+                              f"observation has {list(columns.slices)}")
+        try:
+            mask[columns.indices(item)] = 0.0
+        except ValueError:
+            raise ConfigError(
+                f"hide {item!r}: {term!r} has no feature {feature!r}; its features are "
+                f"{', '.join(columns[term].feature_names)} (hide a term, or <term>.<feature>)"
+            ) from None
+    return mask
+
+
 @struct.dataclass
 class RunnerState:
     params: Any
@@ -172,6 +200,9 @@ class RunnerState:
     steps: Array  # int32: environment steps so far (whole batch)
     term_weights: dict  # {reward term: multiplier} on info["reward_terms"] (1: as configured)
     obs_mask: Array  # [D] multiplier on every observation (1: all features seen)
+    # {LANE_SETTINGS name: float32, "gamma_lambda"}: this lane's algorithm numbers, which the
+    # program reads for the settings its Trainer's ``varied`` names (Trainer.setting)
+    hyper: dict
 
 
 @struct.dataclass
@@ -203,7 +234,18 @@ class Rollout:
 class Trainer:
     """Builds the environment batch, the network and the optimiser from a ``TrainConfig``."""
 
-    def __init__(self, config: TrainConfig):
+    def __init__(self, config: TrainConfig, varied: Sequence[str] = ()):
+        """``varied``: the :data:`LANE_SETTINGS` that lanes of one call may set differently
+        from ``config`` (``train.sweep`` names them): the program reads those from each
+        lane's runner state (``RunnerState.hyper``) and the others as constants of the
+        config (:meth:`setting`), so a run that varies nothing is the program it always was.
+        With ``team_reward`` among them every lane mixes its rewards (by its own share, 0
+        included); else only a config with a share above 0 does."""
+        unknown = sorted(set(varied) - set(LANE_SETTINGS))
+        if unknown:
+            raise ConfigError(f"Trainer(varied=...): {unknown} are not lane settings "
+                              f"{list(LANE_SETTINGS)}")
+        self.varied = frozenset(varied)
         self.config = config
         a = config.algorithm
         self.batch = EnvBatch(config)
@@ -261,22 +303,92 @@ class Trainer:
         return flat(actor), flat(critic)
 
     # ------------------------------------------------------------------ init
-    def init(self, key: Array, term_weights: dict | None = None, obs_mask: Array | None = None
-             ) -> RunnerState:
-        """A fresh run. ``term_weights`` ({reward term: multiplier}, default 1 each) and
-        ``obs_mask`` (``[D]``, default ones) are arrays in the state, so a ``vmap`` over them
-        trains reward and observation ablations at once (``notebooks/ablation.ipynb``)."""
+    def setting(self, hyper: dict | None, name: str) -> Any:
+        """A lane setting (:data:`LANE_SETTINGS`, or ``gamma_lambda``) as the program reads it:
+        the lane's number from ``hyper`` (runner state) where lanes vary it (``varied``), else
+        the config's value as a constant of the program (as before lane settings existed, so
+        that a run that varies nothing compiles, and rounds, as it always did)."""
+        a = self.config.algorithm
+        lane = (self.varied & {"gamma", "gae_lambda"} if name == "gamma_lambda"
+                else name in self.varied)
+        if hyper is not None and lane:
+            return hyper[name]
+        return a.gamma * a.gae_lambda if name == "gamma_lambda" else getattr(a, name)
+
+    def default_hyper(self) -> dict[str, Array]:
+        """The configured values of :data:`LANE_SETTINGS` (``algorithm`` section), float32,
+        and ``gamma_lambda``, GAE's ``gamma x gae_lambda`` (rounded to float32 once, from the
+        float64 product: as a product of two Python numbers was before the settings became
+        lane values)."""
+        a = self.config.algorithm
+        hyper = {name: jnp.float32(getattr(a, name)) for name in LANE_SETTINGS}
+        hyper["gamma_lambda"] = jnp.float32(a.gamma * a.gae_lambda)
+        return hyper
+
+    def term_weights(self) -> dict[str, Array]:
+        """Every reward term's multiplier as configured (``algorithm.term_weights``; 1 for a
+        term it does not name), float32."""
         names = self.batch.reward_term_names()
-        weights = {name: jnp.float32(1.0) for name in names}
+        configured = self.config.algorithm.term_weights
+        for name in configured:
+            if name not in names:
+                raise ConfigError(f"algorithm.term_weights: unknown reward term {name!r}; this "
+                                  f"configuration pays {list(names)}")
+        return {name: jnp.float32(configured.get(name, 1.0)) for name in names}
+
+    def observation_mask(self) -> np.ndarray:
+        """``[D]``: zeros on the features ``algorithm.hide`` names, ones elsewhere."""
+        try:
+            return observation_mask(self.batch.env, self.config.algorithm.hide)
+        except ConfigError as err:
+            raise ConfigError(f"algorithm.hide: {err}") from None
+
+    def init(self, key: Array, term_weights: dict | None = None, obs_mask: Array | None = None,
+             hyper: dict | None = None) -> RunnerState:
+        """A fresh run. ``term_weights`` ({reward term: multiplier}, default the config's),
+        ``obs_mask`` (``[D]``, default :meth:`observation_mask`) and ``hyper``
+        ({:data:`LANE_SETTINGS` name: value}, default the config's) are arrays in the state,
+        so a ``vmap`` over them trains
+        reward and observation ablations (``notebooks/ablation.ipynb``) and hyper-parameter
+        trials (``train.sweep``) at once."""
+        weights = self.term_weights()
         for name, value in (term_weights or {}).items():
             if name not in weights:
                 raise ConfigError(f"term_weights: unknown reward term {name!r}; this "
-                                  f"configuration pays {list(names)}")
+                                  f"configuration pays {list(weights)}")
             weights[name] = jnp.asarray(value, jnp.float32)
-        mask = jnp.ones(self.batch.obs_size) if obs_mask is None else jnp.asarray(obs_mask)
-        return self._fresh_run(key, weights, mask)
+        mask = jnp.asarray(self.observation_mask() if obs_mask is None else obs_mask)
+        settings = self.default_hyper()
+        for name, value in (hyper or {}).items():
+            if name not in settings:
+                raise ConfigError(f"hyper: {name!r} is not a lane setting; lanes may differ "
+                                  f"in {list(LANE_SETTINGS)}")
+            settings[name] = jnp.asarray(value, jnp.float32)
+        if {"gamma", "gae_lambda"} & set(hyper or {}) and "gamma_lambda" not in hyper:
+            settings["gamma_lambda"] = settings["gamma"] * settings["gae_lambda"]
+        return self._fresh_run(key, weights, mask, settings)
 
-    def _start(self, key: Array, weights: dict, mask: Array) -> RunnerState:
+    def lane_hyper(self, values: dict[str, float]) -> dict[str, np.ndarray]:
+        """A lane's ``hyper`` for :meth:`init` (float32 numpy): the configured settings with
+        ``values`` ({:data:`LANE_SETTINGS` name: value}) on top, and their ``gamma_lambda``
+        rounded once from the float64 product, as :meth:`default_hyper` does (so a lane with
+        the configured values trains exactly as the config alone)."""
+        a = self.config.algorithm
+        merged = {name: float(getattr(a, name)) for name in LANE_SETTINGS}
+        for name, value in values.items():
+            if name not in merged:
+                raise ConfigError(f"hyper: {name!r} is not a lane setting; lanes may differ "
+                                  f"in {list(LANE_SETTINGS)}")
+            if name not in self.varied and float(value) != merged[name]:
+                raise ConfigError(f"hyper: {name} = {value} differs from the config's "
+                                  f"{merged[name]}, but this Trainer reads {name} from the "
+                                  f"config: build it with Trainer(config, varied=[{name!r}])")
+            merged[name] = float(value)
+        out = {name: np.float32(value) for name, value in merged.items()}
+        out["gamma_lambda"] = np.float32(merged["gamma"] * merged["gae_lambda"])
+        return out
+
+    def _start(self, key: Array, weights: dict, mask: Array, hyper: dict) -> RunnerState:
         """``init``'s body, compiled (``_fresh_run``): called eagerly, the network and
         environment initialisation ran op by op (seconds per call on a CPU)."""
         k_net, k_env, k_run = jax.random.split(key, 3)
@@ -294,7 +406,7 @@ class Trainer:
             params=params, opt_state=self.optimizer.init(params), obs_stats=obs_stats,
             return_stats=RunningStats.start(1), returns=zeros, episode_return=zeros,
             env_states=states, obs=obs, carry=carry, starts=starts, key=k_run, steps=steps,
-            term_weights=weights, obs_mask=mask)
+            term_weights=weights, obs_mask=mask, hyper=hyper)
 
     # ------------------------------------------------------------------ rollout
     def _log_std(self, params: Any) -> Array | None:
@@ -326,11 +438,13 @@ class Trainer:
         obs = obs * runner.obs_mask
         reward = sum(runner.term_weights[name] * value
                      for name, value in info["reward_terms"].items())
-        if a.team_reward:
+        if "team_reward" in self.varied:  # a lane value (train.sweep)
+            reward = share_rewards(reward, info["was_active"], runner.hyper["team_reward"])
+        elif a.team_reward:
             reward = share_rewards(reward, info["was_active"], a.team_reward)
 
         done = term | trunc
-        returns = runner.returns * a.gamma + reward
+        returns = runner.returns * self.setting(runner.hyper, "gamma") + reward
         return_stats = runner.return_stats
         if a.normalize_rewards:
             return_stats = return_stats.update(returns.reshape(-1, 1), active.reshape(-1))
@@ -381,15 +495,17 @@ class Trainer:
                                       starts[None], method=ActorCritic.value)
         return value[0]
 
-    def _advantages(self, traj: Transition, last_value: Array) -> tuple[Array, Array]:
-        a = self.config.algorithm
+    def _advantages(self, traj: Transition, last_value: Array, hyper: dict | None = None
+                    ) -> tuple[Array, Array]:
+        gamma = self.setting(hyper, "gamma")
+        gamma_lambda = self.setting(hyper, "gamma_lambda")
 
         def back(carry, t):
             advantage, next_value = carry
             bootstrap = jnp.where(t.truncated, t.final_value, next_value)
-            delta = t.reward + a.gamma * bootstrap * (1.0 - t.terminated) - t.value
+            delta = t.reward + gamma * bootstrap * (1.0 - t.terminated) - t.value
             done = (t.terminated | t.truncated).astype(jnp.float32)
-            advantage = delta + a.gamma * a.gae_lambda * (1.0 - done) * advantage
+            advantage = delta + gamma_lambda * (1.0 - done) * advantage
             return (advantage, t.value), advantage
 
         _, advantages = jax.lax.scan(back, (jnp.zeros_like(last_value), last_value), traj,
@@ -397,7 +513,7 @@ class Trainer:
         return advantages, advantages + traj.value
 
     def _loss(self, params: Any, carry: tuple, traj: Transition, advantages: Array,
-              targets: Array) -> tuple[Array, dict]:
+              targets: Array, hyper: dict | None = None) -> tuple[Array, dict]:
         def masked_mean(mask: Array) -> Any:
             mask = mask.astype(jnp.float32)
             count = jnp.maximum(jnp.sum(mask), 1.0)
@@ -410,27 +526,30 @@ class Trainer:
         adv_mean = acted(advantages)
         adv_std = jnp.sqrt(acted(jnp.square(advantages - adv_mean)))
         adv = (advantages - adv_mean) / (adv_std + 1e-8)
-        return self._loss_terms(params, carry, traj, adv, targets, mean, acted)
+        return self._loss_terms(params, carry, traj, adv, targets, mean, acted, hyper)
 
     def _loss_terms(self, params: Any, carry: tuple, traj: Transition, adv: Array,
                     targets: Array, mean: Callable[[Array], Array],
-                    acted: Callable[[Array], Array]) -> tuple[Array, dict]:
+                    acted: Callable[[Array], Array], hyper: dict | None = None
+                    ) -> tuple[Array, dict]:
         """The PPO loss of ``traj`` and its terms, with normalised advantages ``adv``:
         ``mean`` averages (or, for a chunk, sums into a share of) the critic's terms over
-        the active steps, ``acted`` the actor's over the steps whose action was read."""
-        a = self.config.algorithm
+        the active steps, ``acted`` the actor's over the steps whose action was read
+        (``hyper``: the lane's clip range and coefficients, default the config's)."""
+        clip_eps = self.setting(hyper, "clip_eps")
         _, out, value = self.network.apply(params, carry, traj.actor_in, _critic_in(traj),
                                            traj.starts)
         log_std = self._log_std(params)
         logp = log_prob(out, log_std, traj.action, self.batch.discrete)
         ratio = jnp.exp(logp - traj.logp)
-        policy_loss = -acted(jnp.minimum(ratio * adv, jnp.clip(ratio, 1.0 - a.clip_eps,
-                                                               1.0 + a.clip_eps) * adv))
-        clipped = traj.value + jnp.clip(value - traj.value, -a.clip_eps, a.clip_eps)
+        policy_loss = -acted(jnp.minimum(ratio * adv, jnp.clip(ratio, 1.0 - clip_eps,
+                                                               1.0 + clip_eps) * adv))
+        clipped = traj.value + jnp.clip(value - traj.value, -clip_eps, clip_eps)
         value_loss = 0.5 * mean(jnp.maximum(jnp.square(value - targets),
                                             jnp.square(clipped - targets)))
         ent = acted(entropy(out, log_std, self.batch.discrete))
-        total = policy_loss + a.vf_coef * value_loss - a.ent_coef * ent
+        total = (policy_loss + self.setting(hyper, "vf_coef") * value_loss
+                 - self.setting(hyper, "ent_coef") * ent)
         approx_kl = acted((ratio - 1.0) - jnp.log(ratio))
         return total, {"policy_loss": policy_loss, "value_loss": value_loss, "entropy": ent,
                        "approx_kl": approx_kl}
@@ -444,14 +563,15 @@ class Trainer:
         actor_in, critic_in = self.inputs(runner.obs_stats, runner.obs)
         last_value = self._value(runner.params, runner.carry, actor_in, critic_in,
                                  runner.starts.reshape(-1))
-        advantages, targets = self._advantages(traj, last_value)
+        advantages, targets = self._advantages(traj, last_value, runner.hyper)
         return runner, Rollout(memory, traj, advantages, targets), logs
 
-    def learn(self, params: Any, opt_state: Any, key: Array, rollout: Rollout
-              ) -> tuple[Any, Any, Array, dict]:
+    def learn(self, params: Any, opt_state: Any, key: Array, rollout: Rollout,
+              hyper: dict | None = None) -> tuple[Any, Any, Array, dict]:
         """The learning half of an update: ``update_epochs`` passes of ``num_minibatches``
         minibatches of agent sequences. Returns the new parameters, optimiser state and key,
-        and the loss terms ``[epochs, minibatches]``.
+        and the loss terms ``[epochs, minibatches]``. ``hyper``: the lane's
+        :data:`LANE_SETTINGS` (default the config's).
 
         Each epoch shuffles the agents once and cuts ``num_minibatches`` minibatches of
         ``num_agents / num_minibatches`` agents x ``num_steps`` steps. ``algorithm.compact``
@@ -459,7 +579,9 @@ class Trainer:
         transition is computed and the inactive ones masked out (:meth:`_masked_step`). The
         minibatches and the optimiser steps are the same either way."""
         a = self.config.algorithm
-        step = self._compact_step if a.compact else self._masked_step
+        hyper = self.default_hyper() if hyper is None else hyper
+        method = self._compact_step if a.compact else self._masked_step
+        step = lambda carry, batch: method(carry, batch, hyper)  # noqa: E731
         cut = self._compact_batches if a.compact else self._masked_batches
 
         def epoch(carry, key):
@@ -490,15 +612,24 @@ class Trainer:
             lambda c: c.reshape((minibatches, size) + c.shape[1:]), memory)
         return (memory,) + jax.tree.map(cut_time_major, data)
 
-    def _masked_step(self, carry: tuple, batch: tuple) -> tuple[tuple, dict]:
+    def _masked_step(self, carry: tuple, batch: tuple, hyper: dict) -> tuple[tuple, dict]:
         """One optimiser step on one minibatch, every transition computed, the inactive ones
         masked out of the losses (:meth:`_loss`)."""
         params, opt_state = carry
         memory, sub, adv, target = batch
         (_, aux), grads = jax.value_and_grad(self._loss, has_aux=True)(
-            params, memory, sub, adv, target)
+            params, memory, sub, adv, target, hyper)
+        return self._apply(params, opt_state, grads, hyper), aux
+
+    def _apply(self, params: Any, opt_state: Any, grads: Any, hyper: dict) -> tuple[Any, Any]:
+        """One optimiser step at the lane's learning rate: Adam's step is proportional to its
+        learning rate, so the configured schedule's step is scaled by ``hyper learning rate /
+        algorithm.learning_rate`` (exactly 1 when the lane keeps the configured rate)."""
         updates, opt_state = self.optimizer.update(grads, opt_state, params)
-        return (optax.apply_updates(params, updates), opt_state), aux
+        if "learning_rate" in self.varied:
+            scale = hyper["learning_rate"] / jnp.float32(self.config.algorithm.learning_rate)
+            updates = jax.tree.map(lambda u: u * scale, updates)
+        return optax.apply_updates(params, updates), opt_state
 
     # ------------------------------------------------------------------ learning, compacted
     @property
@@ -539,15 +670,15 @@ class Trainer:
                               rollout.memory)  # memoryless: the network ignores it
         return (memory,) + data + (jnp.sum(live, axis=1),)
 
-    def _compact_step(self, carry: tuple, batch: tuple) -> tuple[tuple, dict]:
+    def _compact_step(self, carry: tuple, batch: tuple, hyper: dict) -> tuple[tuple, dict]:
         """One optimiser step on one minibatch of :meth:`_compact_batches`
         (:meth:`_compact_grads`)."""
         params, opt_state = carry
-        grads, aux = self._compact_grads(params, batch)
-        updates, opt_state = self.optimizer.update(grads, opt_state, params)
-        return (optax.apply_updates(params, updates), opt_state), aux
+        grads, aux = self._compact_grads(params, batch, hyper)
+        return self._apply(params, opt_state, grads, hyper), aux
 
-    def _compact_grads(self, params: Any, batch: tuple) -> tuple[Any, dict]:
+    def _compact_grads(self, params: Any, batch: tuple, hyper: dict | None = None
+                       ) -> tuple[Any, dict]:
         """The loss gradient and terms of one minibatch of :meth:`_compact_batches`, computing
         only its first units, those that can learn: ``ceil(count / chunk)`` chunks of ``chunk =
         U / COMPACT_CHUNKS`` units (a loop whose trip count is the data's), each chunk's
@@ -568,7 +699,7 @@ class Trainer:
 
         def add(i: Array, total: tuple) -> tuple:
             grads, aux = grad_fn(params, piece(i, memory, 0),
-                                 *piece(i, (sub, adv, target), 1), counts)
+                                 *piece(i, (sub, adv, target), 1), counts, hyper)
             return jax.tree.map(jnp.add, total, (grads, aux))
 
         zero = (jax.tree.map(jnp.zeros_like, params),
@@ -576,7 +707,8 @@ class Trainer:
         return jax.lax.fori_loop(0, (count + chunk - 1) // chunk, add, zero)
 
     def _chunk_loss(self, params: Any, carry: tuple, traj: Transition, adv: Array,
-                    targets: Array, counts: tuple[Array, Array]) -> tuple[Array, dict]:
+                    targets: Array, counts: tuple[Array, Array], hyper: dict | None = None
+                    ) -> tuple[Array, dict]:
         """A chunk's share of :meth:`_loss` (``traj [T', C, ...]``): the sums of its
         transitions' loss terms divided by the whole minibatch's ``counts`` (active, acted),
         with ``adv`` already normalised over the minibatch; the shares of a minibatch's
@@ -585,17 +717,18 @@ class Trainer:
         acted_mask = traj.active & traj.decides
         return self._loss_terms(params, carry, traj, adv, targets,
                                 lambda x: jnp.sum(x * traj.active) / active,
-                                lambda x: jnp.sum(x * acted_mask) / acted)
+                                lambda x: jnp.sum(x * acted_mask) / acted, hyper)
 
-    def _learn_lane(self, params: Any, opt_state: Any, key: Array, rollout: Rollout
-                    ) -> tuple[Any, Any, Array, dict]:
+    def _learn_lane(self, params: Any, opt_state: Any, key: Array, rollout: Rollout,
+                    hyper: dict | None = None) -> tuple[Any, Any, Array, dict]:
         """``learn`` for one lane, as the lane mode compiles it: written as a batch of one
         when sequential (the same values; XLA:CPU then hands every product of the backward
         pass, the weight gradients included, to its fast matmul fusions:
         docs/xla-cpu-learning-layout.md), as is when batched (a ``vmap`` adds the lanes)."""
+        hyper = self.default_hyper() if hyper is None else hyper
         if not self.sequential_lanes:
-            return self.learn(params, opt_state, key, rollout)
-        one = jax.tree.map(lambda x: x[None], (params, opt_state, key, rollout))
+            return self.learn(params, opt_state, key, rollout, hyper)
+        one = jax.tree.map(lambda x: x[None], (params, opt_state, key, rollout, hyper))
         return jax.tree.map(lambda x: x[0], jax.vmap(self.learn)(*one))
 
     def _finish(self, runner: RunnerState, learned: tuple, logs: dict
@@ -614,7 +747,7 @@ class Trainer:
 
     def _update(self, runner: RunnerState, learn: Any) -> tuple[RunnerState, dict]:
         runner, rollout, logs = self.collect(runner)
-        learned = learn(runner.params, runner.opt_state, runner.key, rollout)
+        learned = learn(runner.params, runner.opt_state, runner.key, rollout, runner.hyper)
         return self._finish(runner, learned, logs)
 
     def update_lanes(self, runners: RunnerState) -> tuple[RunnerState, dict]:
@@ -627,7 +760,8 @@ class Trainer:
             return jax.vmap(lambda r: self._update(r, self.learn))(runners)
         runners, rollouts, logs = jax.vmap(self.collect)(runners)
         learned = jax.lax.map(lambda x: self._learn_lane(*x),
-                              (runners.params, runners.opt_state, runners.key, rollouts))
+                              (runners.params, runners.opt_state, runners.key, rollouts,
+                               runners.hyper))
         return jax.vmap(self._finish)(runners, learned, logs)
 
     def update_chunk(self, runner: RunnerState, count: int) -> tuple[RunnerState, dict]:

@@ -404,8 +404,8 @@ def test_masks_and_the_others_encoder_read_the_observation_column_layout():
     observation's published column layout (no term internals): ``pose.heading``,
     ``others.<feature>``, or any ``term.feature`` the layout names."""
     import sgjax
-    from train.ablation import observation_mask
     from train.networks import OthersLayout, most_seen, others_layout
+    from train.ppo import observation_mask
 
     env, _ = sgjax.make("open", num_agents=2, max_agents=3, observations="socialgym")
     columns = env.config.observer.columns(env.config.layout)
