@@ -313,7 +313,9 @@ def build_parser() -> argparse.ArgumentParser:
                          "file fixing scenarios, robot counts, episodes, seed, time limit and "
                          "counterfactual lanes (sgjax.evaluation.protocols)")
     _add_action_choice(ev)
-    ev.add_argument("--out", default="runs/eval", help="output folder")
+    ev.add_argument("--out", default="runs/eval",
+                    help="output folder (its files written atomically when the evaluation "
+                         "ends; a killed evaluation does not resume: run it again)")
     _add_environment_options(ev)
     ev.set_defaults(run=run_evaluate)
 

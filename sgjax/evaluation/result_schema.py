@@ -29,6 +29,7 @@ from sgjax.evaluation.provenance import PROVENANCE_SCHEMA
 EVALUATE = "sgjax.evaluate/1"
 REPRODUCE = "sgjax.reproduce/1"
 ABLATION = "sgjax.ablation/1"
+SWEEP = "sgjax.sweep/1"
 
 _NUMBER_OR_NULL = {"type": ["number", "null"]}
 _SUMMARY = {
@@ -130,8 +131,38 @@ ABLATION_SCHEMA: dict[str, Any] = {
     },
 }
 
+SWEEP_SCHEMA: dict[str, Any] = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "title": "sgjax train.sweep sweep.json",
+    "type": "object",
+    "required": ["schema_version", "provenance", "study", "space", "direction", "best",
+                 "trials"],
+    "properties": {
+        "schema_version": {"const": SWEEP},
+        "provenance": PROVENANCE_SCHEMA,
+        "study": {"type": "string"},
+        "space": {"type": "object", "required": ["objective", "trial", "sweep", "params"]},
+        "direction": {"enum": ["maximize", "minimize"]},
+        "best": {"type": ["object", "null"], "required": ["number", "value", "params"]},
+        "trials": {"type": "array", "items": {
+            "type": "object",
+            "required": ["number", "state", "value", "params", "intermediate", "user_attrs"],
+            "properties": {
+                "number": {"type": "integer", "minimum": 0},
+                "state": {"enum": ["running", "waiting", "complete", "pruned", "fail"]},
+                "value": _NUMBER_OR_NULL,
+                "params": {"type": "object"},
+                # evaluation index (1, 2, ...) -> the objective at that evaluation
+                "intermediate": {"type": "object", "patternProperties": {
+                    _COUNT_KEY: {"type": "number"}}, "additionalProperties": False},
+                "user_attrs": {"type": "object"}}}},
+        "plots": {"type": "array", "items": {"type": "string"}},
+    },
+}
+
 RESULT_SCHEMAS: dict[str, dict[str, Any]] = {
-    EVALUATE: EVALUATE_SCHEMA, REPRODUCE: REPRODUCE_SCHEMA, ABLATION: ABLATION_SCHEMA}
+    EVALUATE: EVALUATE_SCHEMA, REPRODUCE: REPRODUCE_SCHEMA, ABLATION: ABLATION_SCHEMA,
+    SWEEP: SWEEP_SCHEMA}
 
 
 def schema_for(document: Any) -> dict[str, Any]:

@@ -43,8 +43,12 @@ def test_lanes_play_the_episodes_of_separate_runs(at_once):
             alone = run_episodes(env, by_count[n], policy, jax.random.key(SEED), EPISODES,
                                  record=(p, n) == record[:2])
             for name, per_episode in alone.values.items():
-                np.testing.assert_array_equal(values[name][p, k], per_episode,
-                                              err_msg=f"{policy} at {n} robots: {name}")
+                # The same episodes (states equal below, to the bit); a metric that sums
+                # floats over steps may round differently in the two programs (XLA fuses
+                # them differently: jerk_mean once differed by 1 ulp), so those agree to
+                # float32 rounding.
+                np.testing.assert_allclose(values[name][p, k], per_episode, rtol=1e-6,
+                                           atol=0, err_msg=f"{policy} at {n} robots: {name}")
             if alone.states is not None:
                 leaves_equal(states, jax.tree.map(lambda leaf: leaf[:, record[2]],
                                                   alone.states))
@@ -53,7 +57,15 @@ def test_lanes_play_the_episodes_of_separate_runs(at_once):
     assert [(r.policy, r.num_agents) for r in results] == [
         (r.policy, r.num_agents) for r in separate]
     for mine, theirs in zip(results, separate, strict=True):
-        assert mine.as_dict()["metrics"] == theirs.as_dict()["metrics"]
+        ours, others = mine.as_dict()["metrics"], theirs.as_dict()["metrics"]
+        assert ours.keys() == others.keys()
+        for name in ours:
+            for field, value in ours[name].items():
+                if isinstance(value, float):
+                    assert value == pytest.approx(others[name][field], rel=1e-6, abs=1e-9,
+                                                  nan_ok=True), (name, field)
+                else:
+                    assert value == others[name][field], (name, field)
         assert mine.steps_played >= theirs.steps_played
     assert results[0].compile_seconds > 0
     assert all(r.compile_seconds == 0.0 for r in results[1:])  # one program for them all

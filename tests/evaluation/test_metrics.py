@@ -282,7 +282,7 @@ def test_docs_tables_agree_with_the_registry():
         "docs/metrics.md is out of date: run python -m sgjax.evaluation.metrics.catalogue")
     for info in metrics.METRICS:
         assert text.count(f"| `{info.name}` |") == 1, info.name
-    assert len(set(metrics.METRICS.names())) == len(metrics.METRICS) == 49
+    assert len(set(metrics.METRICS.names())) == len(metrics.METRICS) == 50
     assert catalogue.main([str(DOCS), "--check"]) == 0
 
 
@@ -351,7 +351,7 @@ def test_a_metric_registered_from_outside_reaches_run_episodes(toy_metric):
     np.testing.assert_allclose(batch.values["toy_seconds"],
                                batch.values["episode_length"] * DT, rtol=1e-6)
     metrics.unregister_metric(ToyMetric)
-    assert "toy_seconds" not in metrics.METRICS and len(metrics.METRICS) == 49
+    assert "toy_seconds" not in metrics.METRICS and len(metrics.METRICS) == 50
     metrics.register_metric(ToyMetric)  # for the fixture to remove
 
 
@@ -369,3 +369,29 @@ def test_the_docs_example_registers_and_unregisters():
         assert metrics.METRICS["close_calls"].reduce == "sum"
     finally:
         metrics.unregister_metric("close_calls")
+
+
+def test_invalid_actions_count_the_steps_a_policy_sent_nan():
+    """A policy whose robot 0 sends NaN commands (inside jit, where the environment takes the
+    neutral action and flags it) shows it in the evaluator: invalid_actions of robot 0 is the
+    number of steps it was active, 0 for the others, and the episode's value their sum."""
+    import jax.numpy as jnp
+
+    import sgjax
+    from sgjax.evaluation.evaluate import run_episodes
+
+    env, params = sgjax.make("open", num_agents=2, action_mode="continuous", time_limit=4.0)
+
+    def nan_for_robot_zero(obs, key, state, params):
+        actions = jnp.zeros((env.max_agents, env.config.action_dim))
+        return actions.at[0].set(jnp.nan)
+
+    episodes = run_episodes(env, params, nan_for_robot_zero, jax.random.PRNGKey(0), 3,
+                            record=True)
+    counts = episodes.robot["invalid_actions"]
+    active = np.asarray(episodes.states.robots.active)  # [T + 1, E, R], the reset first
+    assert np.all(counts[:, 1] == 0)
+    # robot 0 never moves, so every episode runs to its time limit: active before each step
+    np.testing.assert_array_equal(counts[:, 0], active[:-1, :, 0].sum(axis=0))
+    np.testing.assert_array_equal(episodes.values["invalid_actions"], counts.sum(axis=1))
+    assert counts[:, 0].min() > 0
