@@ -348,9 +348,9 @@ class Trainer:
         """A fresh run. ``term_weights`` ({reward term: multiplier}, default the config's),
         ``obs_mask`` (``[D]``, default :meth:`observation_mask`) and ``hyper``
         ({:data:`LANE_SETTINGS` name: value}, default the config's) are arrays in the state,
-        so a ``vmap`` over them trains
-        reward and observation ablations (``notebooks/ablation.ipynb``) and hyper-parameter
-        trials (``train.sweep``) at once."""
+        so a ``vmap`` over them trains reward and observation ablations
+        (``notebooks/ablation.ipynb``) and hyper-parameter trials (``train.sweep``) at once
+        (the program reads ``hyper`` for the settings its ``varied`` names)."""
         weights = self.term_weights()
         for name, value in (term_weights or {}).items():
             if name not in weights:

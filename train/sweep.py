@@ -307,8 +307,12 @@ class Sweep:
         self.seconds = {"compile": 0.0, "start lanes": 0.0, "train": 0.0, "evaluate": 0.0,
                         "storage": 0.0, "checkpoint": 0.0}
         self.checkpoint = out / "workers" / f"{worker}.msgpack"
+        # what a worker's checkpoint must agree with (the study's size may change between
+        # runs: more trials continue it)
+        fixed = space.to_dict()
+        fixed["sweep"].pop("trials")
         self.space_hash = hashlib.sha256(json.dumps(
-            [space.to_dict(), thaw(self.data)], sort_keys=True, default=str).encode()).hexdigest()
+            [fixed, thaw(self.data)], sort_keys=True, default=str).encode()).hexdigest()
         self.bar = None
         if progress:
             from tqdm.auto import tqdm
