@@ -314,8 +314,10 @@ def format_table(scores: Mapping[str, list[float]], paper: Mapping[str, int | No
         rows.append([name, format_summary(summarize(np.asarray(values), binary=False), True),
                      beats, "" if cited is None else str(cited), difference, probability])
     seeds = len(scores[BASELINE])
-    lines = ["# SocialGym 2.0 Table 4 (reward and observation ablation), reproduced with sgjax",
-             "", f"Team success (%) on {scenario} with {robots} robots, {episodes} episodes per "
+    title = ("SocialGym 2.0 Table 4 (reward and observation ablation), reproduced with sgjax"
+             if paper else "Variants against the baseline")
+    lines = [f"# {title}", "",
+             f"Team success (%) on {scenario} with {robots} robots, {episodes} episodes per "
              f"seed: the mean over {seeds} seeds ± the half width of its 95% Student-t interval;"
              " seeds beating the baseline: the % of seeds above the baseline's mean (the "
              "paper's measure); paired: the variant's team success minus the baseline's, seed "

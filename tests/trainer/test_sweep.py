@@ -19,7 +19,7 @@ import yaml
 
 from sgjax.terms.base import ConfigError
 from train.config import config_from_dict, load_config
-from train.ppo import LANE_SETTINGS, Trainer
+from train.ppo import LANE_SETTINGS, Trainer, observation_mask
 from train.search_space import is_lane_key, load_space
 from train.sweep import Sweep, open_study, with_values, write_outputs
 
@@ -111,10 +111,13 @@ def test_every_shipped_space_fits_its_config():
         for p in space.params:
             for value in (p.choices if p.kind == "categorical" else (p.low, p.high)):
                 config_from_dict(with_values(data, {p.key: value}), f"{path} {p.key}")
-        names = Trainer(config_from_dict(data)).batch.reward_term_names()
+        trainer = Trainer(config_from_dict(data))
+        names = trainer.batch.reward_term_names()
         for key in space.keys:
             if key.startswith("term_weights."):
                 assert key.partition(".")[2] in names, (path, key)
+            if key.startswith("hide."):  # a feature of this config's observation
+                assert observation_mask(trainer.batch.env, [key.partition(".")[2]]).min() == 0
 
 
 # ---------------------------------------------------------------------- lanes
