@@ -6,6 +6,7 @@ JSON value, a key dropped or added, an item duplicated) and every result is a cl
 import copy
 import json
 
+from fuzzing import JSON_VALUES, places
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -25,31 +26,12 @@ VALID = {
     "pedestrian_groups": [{"starts": [0], "goals": [3]}],
 }
 
-JSON_VALUES = st.recursive(
-    st.none() | st.booleans() | st.integers(-10**6, 10**6)
-    | st.floats(allow_nan=True, allow_infinity=True) | st.text(max_size=5),
-    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=5), inner,
-                                                                max_size=3),
-    max_leaves=6)
-
-
-def _places(value, path=()):
-    """Every (path, value) in a JSON tree."""
-    yield path, value
-    if isinstance(value, dict):
-        for key, item in value.items():
-            yield from _places(item, (*path, key))
-    elif isinstance(value, list):
-        for i, item in enumerate(value):
-            yield from _places(item, (*path, i))
-
-
 @st.composite
 def corrupted(draw):
     data = copy.deepcopy(VALID)
     for _ in range(draw(st.integers(1, 3))):
-        places = list(_places(data))[1:]
-        path, _ = draw(st.sampled_from(places))
+        places_ = list(places(data))[1:]
+        path, _ = draw(st.sampled_from(places_))
         parent = data
         for step in path[:-1]:
             parent = parent[step]

@@ -5,12 +5,12 @@ of the vectormap dropped, garbled or cut) and protocol files, and every result i
 
 from __future__ import annotations
 
-import copy
 import json
 import shutil
 from pathlib import Path
 
 import pytest
+from fuzzing import JSON_VALUES, places, replaced
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -21,37 +21,10 @@ from sgjax.maps.socialgym import import_socialgym
 SG2MAPS = Path(__file__).resolve().parents[3] / "shared" / "sg2maps"
 DOOR = SG2MAPS / "door"
 
-JSON_VALUES = st.recursive(
-    st.none() | st.booleans() | st.integers(-10**6, 10**6)
-    | st.floats(allow_nan=True, allow_infinity=True) | st.text(max_size=5),
-    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=5), inner,
-                                                                max_size=2),
-    max_leaves=5)
 FAST = settings(max_examples=50, deadline=None, suppress_health_check=[
     HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 
 pytestmark = pytest.mark.skipif(not DOOR.is_dir(), reason=f"SocialGym 2.0's maps not at {DOOR}")
-
-
-def _places(value, path=()):
-    yield path, value
-    if isinstance(value, dict):
-        for key, item in value.items():
-            yield from _places(item, (*path, key))
-    elif isinstance(value, list):
-        for i, item in enumerate(value[:3]):
-            yield from _places(item, (*path, i))
-
-
-def _replaced(tree, path, new):
-    if not path:
-        return new
-    tree = copy.deepcopy(tree)
-    target = tree
-    for key in path[:-1]:
-        target = target[key]
-    target[path[-1]] = new
-    return tree
 
 
 def _folder(tmp_path: Path) -> Path:
@@ -77,8 +50,8 @@ def test_a_corrupted_navigation_file_is_a_map_error_naming_it(tmp_path, data, ne
     folder = _folder(tmp_path)
     nav = folder / "door.navigation.json"
     graph = json.loads(nav.read_text())
-    path, _ = data.draw(st.sampled_from(list(_places(graph))))
-    nav.write_text(json.dumps(_replaced(graph, path, new)))
+    path, _ = data.draw(st.sampled_from(list(places(graph, items=3))))
+    nav.write_text(json.dumps(replaced(graph, path, new)))
     _imports_or_names(folder)
 
 
@@ -97,8 +70,8 @@ def test_a_corrupted_vectormap_is_a_map_error_naming_it(tmp_path, data):
         (folder / "door.vectormap.txt").unlink()
         walls = folder / "door.vectormap.json"
         lines = json.loads(walls.read_text())
-        path, _ = data.draw(st.sampled_from(list(_places(lines))))
-        walls.write_text(json.dumps(_replaced(lines, path, data.draw(JSON_VALUES))))
+        path, _ = data.draw(st.sampled_from(list(places(lines, items=3))))
+        walls.write_text(json.dumps(replaced(lines, path, data.draw(JSON_VALUES))))
     else:
         walls = folder / data.draw(st.sampled_from(["door.vectormap.txt",
                                                     "door.navigation.json"]))
@@ -115,9 +88,9 @@ PROTOCOL = {"name": "mine", "scenarios": ["doorway", "hallway"], "num_agents": [
     HealthCheck.function_scoped_fixture])
 @given(data=st.data(), new=JSON_VALUES)
 def test_a_corrupted_protocol_file_is_an_error_naming_it(tmp_path, data, new):
-    path, _ = data.draw(st.sampled_from(list(_places(PROTOCOL))))
+    path, _ = data.draw(st.sampled_from(list(places(PROTOCOL))))
     file = tmp_path / "protocol.yaml"
-    text = json.dumps(_replaced(PROTOCOL, path, new))
+    text = json.dumps(replaced(PROTOCOL, path, new))
     if data.draw(st.booleans()):
         text = text[:data.draw(st.integers(0, len(text)))]
     file.write_text(text)

@@ -6,11 +6,11 @@ exception."""
 
 from __future__ import annotations
 
-import copy
 from pathlib import Path
 
 import pytest
 import yaml
+from fuzzing import JSON_VALUES, places, replaced
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -23,43 +23,17 @@ ROOT = Path(__file__).resolve().parents[2]
 BASE = load_config(ROOT / "train" / "configs" / "doorway.yaml").to_dict()
 SPACE = yaml.safe_load((ROOT / "train" / "configs" / "sweeps" / "intersection.yaml").read_text())
 
-VALUES = st.recursive(
-    st.none() | st.booleans() | st.integers(-10**9, 10**9)
-    | st.floats(allow_nan=True, allow_infinity=True) | st.text(max_size=6),
-    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=6), inner,
-                                                                max_size=2),
-    max_leaves=5)
 FAST = settings(max_examples=60, deadline=None,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 
 
-def _places(value, path=()):
-    yield path, value
-    if isinstance(value, dict):
-        for key, item in value.items():
-            yield from _places(item, (*path, key))
-
-
-def _replaced(tree, path, new):
-    tree = copy.deepcopy(tree)
-    if not path:
-        return new
-    target = tree
-    for key in path[:-1]:
-        target = target[key]
-    target[path[-1]] = new
-    return tree
-
-
 @FAST
-@given(data=st.data(), new=VALUES)
+@given(data=st.data(), new=JSON_VALUES)
 def test_a_corrupted_train_config_is_a_config_error_naming_the_source(data, new):
-    places = list(_places(BASE))
-    path, _ = data.draw(st.sampled_from(places))
-    corrupted = _replaced(BASE, path, new)
+    path, _ = data.draw(st.sampled_from(list(places(BASE))))
+    corrupted = replaced(BASE, path, new)
     try:
-        config = config_from_dict(corrupted, "fuzzed.yaml") if isinstance(
-            corrupted, dict) else config_from_dict(corrupted, "fuzzed.yaml")
+        config = config_from_dict(corrupted, "fuzzed.yaml")
     except ConfigError as err:
         assert "fuzzed.yaml" in str(err), str(err)
     else:
@@ -79,10 +53,10 @@ def test_any_set_override_is_applied_or_named(key, value):
 
 
 @FAST
-@given(data=st.data(), new=VALUES)
+@given(data=st.data(), new=JSON_VALUES)
 def test_a_corrupted_space_file_is_a_config_error_naming_the_file(data, new):
-    path, _ = data.draw(st.sampled_from(list(_places(SPACE))))
-    corrupted = _replaced(SPACE, path, new)
+    path, _ = data.draw(st.sampled_from(list(places(SPACE))))
+    corrupted = replaced(SPACE, path, new)
     try:
         space_from_dict(corrupted, "fuzzed-space.yaml")
     except ConfigError as err:

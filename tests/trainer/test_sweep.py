@@ -16,6 +16,8 @@ import jax
 import numpy as np
 import pytest
 import yaml
+from postgres import postgres_server
+from provenance_checks import check_document
 
 from sgjax.terms.base import ConfigError
 from train.config import config_from_dict, load_config
@@ -24,10 +26,6 @@ from train.search_space import is_lane_key, load_space
 from train.sweep import Sweep, open_study, with_values, write_outputs
 
 optuna = pytest.importorskip("optuna", reason="train.sweep needs optuna (the dev extra)")
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from postgres import postgres_server  # noqa: E402
-from provenance_checks import check_document  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 TINY = {
