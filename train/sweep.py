@@ -258,7 +258,7 @@ def open_study(space: SearchSpace, storage: str, name: str, worker: int) -> Any:
     # Each worker draws its own sequence, and a study continued (a restarted worker, a second
     # run of the command) does not replay the draws of its first trials.
     kwargs = {"connect_args": {"timeout": 60}} if storage.startswith("sqlite") else {}
-    rdb = optuna.storages.RDBStorage(storage, engine_kwargs=kwargs)
+    rdb = _storage(storage, kwargs)
     try:
         existing = len(rdb.get_all_trials(rdb.get_study_id_from_name(name), deepcopy=False))
     except KeyError:
@@ -279,6 +279,23 @@ def open_study(space: SearchSpace, storage: str, name: str, worker: int) -> Any:
         pruner = optuna.pruners.NopPruner()
     return optuna.create_study(storage=rdb, study_name=name, sampler=sampler, pruner=pruner,
                                direction=space.objective.direction, load_if_exists=True)
+
+
+def _storage(url: str, engine_kwargs: dict, attempts: int = 5) -> Any:
+    """Optuna's RDB storage at ``url``. Processes started together on a fresh database race to
+    create Optuna's tables (PostgreSQL: a unique-key violation in its catalogue); the loser
+    tries again once the tables exist."""
+    import sqlalchemy.exc
+
+    optuna = _optuna()
+    for attempt in range(attempts):
+        try:
+            return optuna.storages.RDBStorage(url, engine_kwargs=engine_kwargs)
+        except sqlalchemy.exc.DBAPIError:
+            if attempt == attempts - 1:
+                raise
+            time.sleep(0.5 * (attempt + 1))
+    raise AssertionError("unreachable")
 
 
 def counted(trials: Sequence[Any]) -> list[Any]:
