@@ -13,6 +13,11 @@ learning phases one lane after another).
     python bench/train_throughput.py --num-envs 256 --robots 4 --seeds 1 3 6
     python bench/train_throughput.py --num-envs 256 --robots 4 --seeds 1 3 \\
         --lanes batched sequential
+    python bench/train_throughput.py --num-envs 256 --robots 5 --compact off on
+
+``--compact`` times the learning phase with ``algorithm.compact`` off (every robot slot
+computed, the inactive ones masked) and on (only the transitions that can learn), back to
+back.
 """
 
 from __future__ import annotations
@@ -57,21 +62,25 @@ def main() -> None:
     parser.add_argument("--network", default="mlp", choices=["mlp", "gru"])
     parser.add_argument("--others", default="none", choices=["none", "attention", "lstm"],
                         help="others encoder (lstm: the reproduce benchmark's CADRL(L))")
+    parser.add_argument("--compact", nargs="+", default=["off"], choices=["off", "on"],
+                        help="algorithm.compact: compute only the transitions that can learn")
     parser.add_argument("--lanes", nargs="+", default=["auto"],
                         choices=list(LANE_MODES),
                         help="algorithm.lanes: how the seed lanes run the learning phase")
     args = parser.parse_args()
     print(f"jax {jax.__version__} on {jax.devices()[0].platform}, {args.scenario}, IPPO "
           f"{args.network}/{args.others}, 64 steps x 4 epochs x 4 minibatches per update")
-    print(f"{'lanes':>11}{'robots':>7}{'envs':>7}{'seeds':>6}{'agent-steps/s':>15}{'env-steps/s':>13}"
-          f"{'compile s':>11}{'peak MB':>9}{'lane cost':>11}")
-    for lanes, robots, envs in itertools.product(args.lanes, args.robots, args.num_envs):
+    print(f"{'compact':>8}{'lanes':>11}{'robots':>7}{'envs':>7}{'seeds':>6}"
+          f"{'agent-steps/s':>15}{'env-steps/s':>13}{'compile s':>11}"
+          f"{'peak MB':>9}{'lane cost':>11}")
+    for robots, envs, lanes, compact in itertools.product(args.robots, args.num_envs,
+                                                          args.lanes, args.compact):
         one_seed = None
         for seeds in args.seeds:
             config = {
                 "env": {"scenarios": [args.scenario], "curriculum": [[0, robots]]},
                 "algorithm": {"num_envs": envs, "num_steps": 64, "total_steps": 10**8,
-                              "lanes": lanes},
+                              "lanes": lanes, "compact": compact == "on"},
                 "network": {"kind": args.network, "others_encoder": args.others}}
             seconds, compile_s, peak = time_updates(config, seeds, args.updates)
             if seeds == 1:
@@ -79,8 +88,9 @@ def main() -> None:
             lane = ("" if one_seed is None or seeds == 1
                     else f"{seconds / (seeds * one_seed):.2f}x")
             env_rate = seeds * args.updates * 64 * envs / seconds
-            print(f"{lanes:>11}{robots:>7}{envs:>7}{seeds:>6}{env_rate * robots:>15,.0f}"
-                  f"{env_rate:>13,.0f}{compile_s:>11.1f}{peak:>9.1f}{lane:>11}", flush=True)
+            print(f"{compact:>8}{lanes:>11}{robots:>7}{envs:>7}{seeds:>6}"
+                  f"{env_rate * robots:>15,.0f}{env_rate:>13,.0f}{compile_s:>11.1f}"
+                  f"{peak:>9.1f}{lane:>11}", flush=True)
 
 
 if __name__ == "__main__":

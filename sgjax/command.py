@@ -1,4 +1,5 @@
-"""The ``sgjax`` command: ``sgjax evaluate ...``, ``sgjax render ...`` and ``sgjax maps show ...``.
+"""The ``sgjax`` command: ``sgjax evaluate ...``, ``sgjax render ...``, ``sgjax maps show ...``,
+``sgjax maps check ...`` and ``sgjax edit ...``.
 
 Examples::
 
@@ -7,6 +8,8 @@ Examples::
     sgjax render --scenario doorway --policy only_local --out episode.gif
     sgjax maps show doorway --out doorway.png
     sgjax maps show path/to/SocialGym2/door --socialgym-scenario envs_door
+    sgjax maps check mygame.json other.json
+    sgjax edit --new mygame
 """
 
 from __future__ import annotations
@@ -197,6 +200,93 @@ def run_maps_show(args: argparse.Namespace) -> None:
         print(f"wrote {save_png(draw_scenario(spec, width_px=args.width), Path(args.out))}")
 
 
+def run_maps_check(args: argparse.Namespace) -> None:
+    from sgjax.maps.check import check_file
+
+    errors = warnings = 0
+    for name in args.files:
+        problems = check_file(name, clearance=args.clearance)
+        for problem in problems:
+            print(problem)
+        found = sum(p.severity == "error" for p in problems)
+        errors, warnings = errors + found, warnings + len(problems) - found
+        if not problems:
+            print(f"{name}: ok")
+    print(f"{len(args.files)} file(s): {errors} error(s), {warnings} warning(s)")
+    if errors:
+        raise SystemExit(1)
+
+
+def run_edit(args: argparse.Namespace) -> None:
+    from sgjax.editor.server import serve
+    from sgjax.editor.session import EditorError, EditorSession
+
+    if args.host not in ("127.0.0.1", "localhost", "::1"):
+        print(f"sgjax edit: warning: serving on {args.host}: anyone who reaches this machine "
+              "can read the map and save inside its folder")
+    try:
+        session = EditorSession.open(args.map, new=args.new, root=args.root)
+    except EditorError as err:
+        raise ValueError(str(err)) from None
+    for line in session.import_report:
+        print(line)
+    serve(session, args.host, args.port, browser=not args.no_browser)
+
+
+def _add_maps_commands(commands: Any) -> None:
+    """``sgjax maps show`` and ``sgjax maps check``."""
+    maps = commands.add_parser("maps", help="inspect maps").add_subparsers(
+        dest="maps_command", required=True)
+    show = maps.add_parser(
+        "show", help="what a map offers (walls, graph, groups, zones, robots that fit), drawn",
+        description="Describe a shipped map, a map .json file or a SocialGym 2.0 map folder "
+                    "(imported as sgjax.maps.import_socialgym does, with its import report)")
+    show.add_argument("map", help=f"a shipped id ({', '.join(registered())}), a .json map or "
+                                  "a SocialGym 2.0 folder")
+    show.add_argument("--socialgym-scenario", default=None,
+                      help="for a SocialGym folder: one of its own scenarios (e.g. envs_door) "
+                           "whose robot paths and zone to use (default: one group per "
+                           "connected part)")
+    show.add_argument("--robots", default="socialgym",
+                      help="robot preset for the clearance and capacity count")
+    show.add_argument("--out", default=None, help="PNG picture of the map")
+    show.add_argument("--width", type=int, default=640, help="picture width in pixels")
+    add_cache_arguments(show)
+    show.set_defaults(run=run_maps_show)
+    check = maps.add_parser(
+        "check", help="every error and warning of map files, in one pass",
+        description="Check map .json files: every error (what loading refuses) and warning "
+                    "(what loads but is probably wrong), each with its JSON path; exit status "
+                    "1 if any file has an error")
+    check.add_argument("files", nargs="+", help="map .json files")
+    check.add_argument("--clearance", type=float, default=0.25,
+                       help="the largest robot radius every node must keep from walls (m)")
+    add_cache_arguments(check)
+    check.set_defaults(run=run_maps_check)
+
+
+
+def _add_edit_command(commands: Any) -> None:
+    """``sgjax edit``."""
+    edit = commands.add_parser(
+        "edit", help="draw and edit a map in the browser, check it, play it, save it",
+        description="Start the map editor (a local web page; docs/editor.md)")
+    edit.add_argument("map", nargs="?", default=None,
+                      help="a map .json file or a SocialGym 2.0 map folder to open")
+    edit.add_argument("--new", default=None, metavar="NAME",
+                      help="start an empty map saved as NAME.json")
+    edit.add_argument("--root", default=None,
+                      help="the folder saves may go to (default: the map's folder, or the "
+                           "current folder with --new)")
+    edit.add_argument("--host", default="127.0.0.1",
+                      help="address to serve on (default 127.0.0.1: this machine only)")
+    edit.add_argument("--port", type=int, default=8765,
+                      help="port (the next free one if taken; default 8765)")
+    edit.add_argument("--no-browser", action="store_true", help="do not open a browser")
+    add_cache_arguments(edit)
+    edit.set_defaults(run=run_edit)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="sgjax", description=__doc__.split("\n\n")[0])
     commands = parser.add_subparsers(dest="command", required=True)
@@ -223,7 +313,9 @@ def build_parser() -> argparse.ArgumentParser:
                          "file fixing scenarios, robot counts, episodes, seed, time limit and "
                          "counterfactual lanes (sgjax.evaluation.protocols)")
     _add_action_choice(ev)
-    ev.add_argument("--out", default="runs/eval", help="output folder")
+    ev.add_argument("--out", default="runs/eval",
+                    help="output folder (its files written atomically when the evaluation "
+                         "ends; a killed evaluation does not resume: run it again)")
     _add_environment_options(ev)
     ev.set_defaults(run=run_evaluate)
 
@@ -242,24 +334,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_environment_options(rd)
     rd.set_defaults(run=run_render)
 
-    maps = commands.add_parser("maps", help="inspect maps").add_subparsers(
-        dest="maps_command", required=True)
-    show = maps.add_parser(
-        "show", help="what a map offers (walls, graph, groups, zones, robots that fit), drawn",
-        description="Describe a shipped map, a map .json file or a SocialGym 2.0 map folder "
-                    "(imported as sgjax.maps.import_socialgym does, with its import report)")
-    show.add_argument("map", help=f"a shipped id ({', '.join(registered())}), a .json map or "
-                                  "a SocialGym 2.0 folder")
-    show.add_argument("--socialgym-scenario", default=None,
-                      help="for a SocialGym folder: one of its own scenarios (e.g. envs_door) "
-                           "whose robot paths and zone to use (default: one group per "
-                           "connected part)")
-    show.add_argument("--robots", default="socialgym",
-                      help="robot preset for the clearance and capacity count")
-    show.add_argument("--out", default=None, help="PNG picture of the map")
-    show.add_argument("--width", type=int, default=640, help="picture width in pixels")
-    add_cache_arguments(show)
-    show.set_defaults(run=run_maps_show)
+    _add_maps_commands(commands)
+    _add_edit_command(commands)
     return parser
 
 

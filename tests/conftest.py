@@ -12,11 +12,20 @@ generated code: the tests compile with ``--xla_backend_optimization_level=0`` (a
 and ``--xla_cpu_use_fusion_emitters=false`` (XLA:CPU's older elemental emitters: the same
 arithmetic, half the compile time again; doorway step 2.2 s -> 0.9 s, a tiny trainer update
 5 s -> 2.5 s on the 2-core machine), appended to ``XLA_FLAGS`` so that subprocesses inherit
-them. No result a test checks changes. ``SGJAX_TEST_FULL_OPTIMIZATION=1`` compiles as users do.
+them. ``SGJAX_TEST_FULL_OPTIMIZATION=1`` compiles as users do (one test's margin depends on it:
+tests/kernels/test_orca_humans.py's corridor counter-flow overlaps by 12 mm, tolerance 10 mm,
+when fully optimised; see the note there).
+
+Tracing allocates millions of short-lived Python objects, and the cyclic garbage collector
+walks every live one (JAX's caches included) each time its counters trip: the objects alive
+after collection are frozen out of its sight and its first threshold raised from 700 to 200,000
+allocations (a test file 6% faster; turning it off entirely saved 11% but grew a worker past
+1.7 GB in a dozen tests).
 """
 
 from __future__ import annotations
 
+import gc
 import os
 import shutil
 import tempfile
@@ -36,6 +45,9 @@ _OWNED_ENV = "SGJAX_TEST_COMPILATION_CACHE_OWNED"
 
 
 def pytest_configure(config):
+    gc.collect()
+    gc.freeze()
+    gc.set_threshold(200_000, 50, 1000)
     if os.environ.get("SGJAX_TEST_NO_CACHE") == "1":
         return
     if _CACHE_ENV not in os.environ:  # the controller (or a plain run) makes the folder
@@ -66,3 +78,52 @@ def pytest_collection_modifyitems(session, config, items):
     for item in items:
         slow[item.path] = slow.get(item.path, 0) + (item.get_closest_marker("slow") is not None)
     items.sort(key=lambda item: -slow[item.path])
+
+
+# --- Where each test's time goes (opt-in) ---------------------------------------------------
+# SGJAX_TEST_TIME_SPLIT=FILE appends one line per test to FILE (every xdist worker appends):
+# nodeid, wall seconds, and the seconds JAX reported spending in tracing, lowering to MLIR and
+# XLA compiling inside it (jax.monitoring duration events; compiling includes loading from the
+# compilation cache) and the cache's hits and misses; the rest is running and Python.
+# ``python tests/time_split.py FILE`` sums it by file and by phase.
+_SPLIT_ENV = "SGJAX_TEST_TIME_SPLIT"
+_PHASES = {"/jax/core/compile/jaxpr_trace_duration": "trace",
+           "/jax/core/compile/jaxpr_to_mlir_module_duration": "lower",
+           "/jax/core/compile/backend_compile_duration": "compile"}
+_spent: dict[str, float] = {}
+
+
+_COUNTS = {"/jax/compilation_cache/cache_hits": "cache_hits",
+           "/jax/compilation_cache/cache_misses": "cache_misses"}
+
+
+def _listen(event: str, seconds: float, **_kwargs) -> None:
+    phase = _PHASES.get(event)
+    if phase is not None:
+        _spent[phase] = _spent.get(phase, 0.0) + seconds
+
+
+def _count(event: str, **_kwargs) -> None:
+    name = _COUNTS.get(event)
+    if name is not None:
+        _spent[name] = _spent.get(name, 0) + 1
+
+
+if os.environ.get(_SPLIT_ENV):
+    import json
+    import time
+
+    import jax.monitoring
+    import pytest
+
+    jax.monitoring.register_event_duration_secs_listener(_listen)
+    jax.monitoring.register_event_listener(_count)
+
+    @pytest.hookimpl(hookwrapper=True)
+    def pytest_runtest_protocol(item, nextitem):
+        _spent.clear()
+        start = time.perf_counter()
+        yield
+        row = {"test": item.nodeid, "wall": time.perf_counter() - start, **_spent}
+        with open(os.environ[_SPLIT_ENV], "a") as out:
+            out.write(json.dumps(row) + "\n")

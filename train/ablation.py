@@ -45,14 +45,23 @@ import numpy as np
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluation.evaluate import params_by_count
+from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import format_summary, markdown_table
-from sgjax.evaluation.statistics import summarize
+from sgjax.evaluation.result_schema import ABLATION
+from sgjax.evaluation.statistics import paired_difference, probability_of_improvement, summarize
+from sgjax.files import write_atomic
 from sgjax.terms.base import ConfigError
 from sgjax.validation import check_keys, freeze, thaw
 from train.actor import ActorWeights, lane_evaluator
-from train.config import TrainConfig, config_from_dict, load_config, read_yaml
+from train.config import (
+    EVALUATION_SEED_OFFSET,
+    TrainConfig,
+    config_from_dict,
+    load_config,
+    read_yaml,
+)
 from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
-from train.ppo import Trainer
+from train.ppo import Trainer, observation_mask
 
 
 @dataclasses.dataclass(frozen=True)
@@ -68,40 +77,25 @@ class Variant:
     settings: tuple[tuple[str, Any], ...] = ()  # ("section.key", value): other config keys
 
 
-def observation_mask(env: Any, hide: Sequence[str]) -> np.ndarray:
-    """``[D]`` ones, with zeros on the hidden columns of ``env``'s observation, found in its
-    column layout (``env.config.observer.columns``)."""
-    mask = np.ones(env.observation_size, np.float32)
-    columns = env.config.observer.columns(env.config.layout)
-    for item in hide:
-        term, _, feature = item.partition(".")
-        if term not in columns:
-            raise ConfigError(f"hide {item!r}: no observation term {term!r}; this "
-                              f"observation has {list(columns.slices)}")
-        try:
-            mask[columns.indices(item)] = 0.0
-        except ValueError:
-            raise ConfigError(
-                f"hide {item!r}: {term!r} has no feature {feature!r}; its features are "
-                f"{', '.join(columns[term].feature_names)} (hide a term, or <term>.<feature>)"
-            ) from None
-    return mask
-
-
 def variant_inputs(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
                    ) -> tuple[jax.Array, dict, jax.Array, list[tuple[str, int]]]:
-    """Keys, term weights and masks stacked over lanes (variant x seed), and the lane labels."""
+    """Keys, term weights and masks stacked over lanes (variant x seed), and the lane labels
+    (a variant's terms off and features hidden on top of the config's ``term_weights`` and
+    ``hide``)."""
     names = trainer.batch.reward_term_names()
+    configured = trainer.term_weights()
+    hidden = trainer.config.algorithm.hide
     keys, weights, masks, labels = [], [], [], []
     for label, variant in variants.items():
         for off in variant.rewards_off:
             if off not in names:
                 raise ConfigError(f"variant {label!r}: no reward term {off!r}; this "
                                   f"configuration pays {list(names)}")
-        mask = observation_mask(trainer.batch.env, variant.hide)
+        mask = observation_mask(trainer.batch.env, (*hidden, *variant.hide))
         for seed in range(seeds):
             keys.append(jax.random.PRNGKey(trainer.config.seed + seed))
-            weights.append({n: 0.0 if n in variant.rewards_off else 1.0 for n in names})
+            weights.append({n: 0.0 if n in variant.rewards_off else float(configured[n])
+                            for n in names})
             masks.append(mask)
             labels.append((label, seed))
     stacked = {n: jnp.asarray([w[n] for w in weights]) for n in names}
@@ -253,7 +247,7 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
     scores: dict[int, dict[str, list[float]]] = {n: {} for n in counts}
     seconds = {"compile and train": 0.0, "evaluate": 0.0}
     scenario = config.env.scenarios[0]
-    key = jax.random.PRNGKey(config.seed + 7)
+    key = jax.random.PRNGKey(config.seed + EVALUATION_SEED_OFFSET)
     for group, trainer in zip(groups.values(), trainers, strict=True):
         labels = [(name, seed) for name in group for seed in range(seeds)]
         share = lane_share(len(labels), processes)
@@ -287,25 +281,53 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
     return {"scores": by_robots[counts[0]], "scores_by_robots": by_robots, "seconds": seconds}
 
 
+def paired_against_baseline(scores: Mapping[str, list[float]]) -> dict[str, dict]:
+    """Each variant against the baseline over training seeds: the per-seed difference (seed i
+    of both was trained from the same key and evaluated on the same episodes) with its 95%
+    Student-t interval, and the probability of improvement (:mod:`sgjax.evaluation.statistics`).
+    """
+    base = np.asarray(scores[BASELINE], float)
+    return {name: {"difference": paired_difference(np.asarray(values, float), base).as_dict(),
+                   "probability_of_improvement": probability_of_improvement(values, base)}
+            for name, values in scores.items() if name != BASELINE}
+
+
 def format_table(scores: Mapping[str, list[float]], paper: Mapping[str, int | None],
                  scenario: str, robots: int, episodes: int) -> str:
     """The ablation table as markdown: team success over seeds (mean ± 95% Student-t half
-    width), the share of seeds above the baseline's mean, and the paper's share."""
+    width), the share of seeds above the baseline's mean and the paper's share (its measure),
+    and the paired difference from the baseline over seeds with its interval and the
+    probability of improvement."""
     base = float(np.mean(scores[BASELINE]))
+    paired = paired_against_baseline(scores)
     rows = []
     for name, values in scores.items():
         beats = "" if name == BASELINE else f"{100 * np.mean(np.asarray(values) > base):.0f}"
         cited = paper.get(name)
+        difference = probability = ""
+        if name != BASELINE:
+            d = paired[name]["difference"]
+            difference = (f"{100 * d['mean']:+.0f} [{100 * d['ci_low']:+.0f}, "
+                          f"{100 * d['ci_high']:+.0f}]" if d["ci_low"] is not None else
+                          f"{100 * d['mean']:+.0f}")
+            probability = f"{paired[name]['probability_of_improvement']:.2f}"
         rows.append([name, format_summary(summarize(np.asarray(values), binary=False), True),
-                     beats, "" if cited is None else str(cited)])
+                     beats, "" if cited is None else str(cited), difference, probability])
     seeds = len(scores[BASELINE])
-    lines = ["# SocialGym 2.0 Table 4 (reward and observation ablation), reproduced with sgjax",
-             "", f"Team success (%) on {scenario} with {robots} robots, {episodes} episodes per "
+    title = ("SocialGym 2.0 Table 4 (reward and observation ablation), reproduced with sgjax"
+             if paper else "Variants against the baseline")
+    lines = [f"# {title}", "",
+             f"Team success (%) on {scenario} with {robots} robots, {episodes} episodes per "
              f"seed: the mean over {seeds} seeds ± the half width of its 95% Student-t interval;"
              " seeds beating the baseline: the % of seeds above the baseline's mean (the "
-             "paper's measure).", "",
+             "paper's measure); paired: the variant's team success minus the baseline's, seed "
+             "by seed (the same training key and evaluation episodes), mean [95% Student-t "
+             "interval over seeds], in points (an interval that excludes 0 is a difference); "
+             "P(improvement): the chance that a random seed of the variant beats a random seed "
+             "of the baseline (ties half).", "",
              *markdown_table(["Variant", "Team success (%)", "Seeds beating the baseline (%)",
-                              "Paper (%)"], rows)]
+                              "Paper (%)", "Paired vs baseline (points)", "P(improvement)"],
+                             rows)]
     return "\n".join(lines) + "\n"
 
 
@@ -327,7 +349,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--robots", type=int, nargs="+", default=None,
                         help="evaluation robot count(s) (default: the curriculum's last); "
                              "a table per count")
-    parser.add_argument("--out", default=None, help="folder for ablation.md and ablation.json")
+    parser.add_argument("--out", default=None,
+                        help="folder for ablation.md and ablation.json (written atomically "
+                             "at the end; a killed run does not resume: its lanes train in "
+                             "one call, so run it again, or use train.sweep's grid, which "
+                             "resumes)")
     add_cache_arguments(parser)
     add_arguments(parser)
     args = parser.parse_args(argv)
@@ -359,11 +385,19 @@ def main(argv: list[str] | None = None) -> None:
             out = Path(args.out)
             out.mkdir(parents=True, exist_ok=True)
             (out / "ablation.md").write_text(table)
-            (out / "ablation.json").write_text(json.dumps(
-                {"config": config.to_dict(), "seeds": args.seeds, "episodes": episodes,
+            made = provenance(config.to_dict(), seeds={
+                "training": [config.seed + i for i in range(args.seeds)],
+                "evaluation": [config.seed + EVALUATION_SEED_OFFSET]},
+                episodes_per_cell=episodes, seconds=result["seconds"])
+            write_atomic(out / "ablation.json", json.dumps(
+                {"schema_version": ABLATION, "provenance": made, "config": config.to_dict(),
+                 "seeds": args.seeds,
+                 "episodes": episodes,
                  "robots": counts[0], "team_success": result["scores"],
                  "team_success_by_robots": {str(n): v for n, v in
                                             result["scores_by_robots"].items()},
+                 "paired": {str(n): paired_against_baseline(v) for n, v in
+                            result["scores_by_robots"].items()},
                  "variants": {name: dataclasses.asdict(v) for name, v in variants.items()},
                  "seconds": result["seconds"]}, indent=1))
         print("\n" + table)

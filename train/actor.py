@@ -2,6 +2,12 @@
 (:class:`ActorWeights`) and the one function that turns both into a policy
 (:func:`acting_policy`), used by ``Trainer.policy``, checkpoint loading and the evaluators.
 
+The evaluators (:func:`lane_evaluator`: the seeds or variants of a run; :func:`table_evaluator`:
+the actor and baselines at every robot count, one program) take the weights as an argument, so
+their programs do not change with training: each is built once per process (and compiled once
+per shape: :func:`compiled_once`), and JAX's persistent compilation cache finds it again in
+the next run of the same job.
+
 A checkpoint keeps the layout in its meta, so a saved actor is rebuilt from the file alone: the
 network configuration, the parameters, the observation normalisation statistics and mask, and
 the layout; no ``Trainer`` and no training environments.
@@ -10,6 +16,9 @@ the layout; no ``Trainer`` and no training environments.
 from __future__ import annotations
 
 import dataclasses
+import functools
+import time
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import jax
@@ -18,8 +27,8 @@ import numpy as np
 from flax import struct
 from jax import Array
 
-from sgjax.evaluation.policies import RecurrentPolicy
-from sgjax.evaluation.runner import EpisodeRunner, check_steps
+from sgjax.evaluation.policies import RecurrentPolicy, load_policy
+from sgjax.evaluation.runner import EpisodeRunner, LaneRunner, check_steps
 from train.config import NetworkConfig
 from train.networks import ActorCritic, OthersLayout, greedy, initial_carry, sample
 from train.normalize import RunningStats
@@ -128,28 +137,119 @@ def acting_policy(network: NetworkConfig, layout: ActorLayout, weights: ActorWei
     return RecurrentPolicy(init=init, step=step)
 
 
-def lane_evaluator(network: NetworkConfig, layout: ActorLayout, env: Any, env_params: Any,
-                   episodes: int, deterministic: bool = False):
-    """A ``(weights, key, params=env_params) -> (values, robot)`` evaluating every lane (seed or
-    variant) of lane-batched :class:`ActorWeights` at once, ``vmap``-ed over the lanes:
-    ``values`` is ``{metric: [lanes, episodes]}``, ``robot`` ``{metric: [lanes, episodes, R]}``.
-    Compiled once per shape: the weights and the environment params are arguments, so every
-    robot count up to ``env.max_agents`` (same time limit) reuses one compilation. Each lane
-    is played by an :class:`sgjax.evaluation.runner.EpisodeRunner` (chunks of steps until
-    every episode has ended)."""
-    num_steps = int(env_params.max_steps)
+def _cached(build: Callable, *key: Any) -> Any:
+    """``build(*key)``, kept for the process (and built again when ``key`` is unhashable)."""
+    try:
+        hash(key)
+    except TypeError:
+        return build.__wrapped__(*key)
+    return build(*key)
+
+
+@functools.lru_cache(maxsize=16)
+def _seed_lanes_program(network: NetworkConfig, layout: ActorLayout, env: Any, episodes: int,
+                        num_steps: int, deterministic: bool) -> Callable:
+    """``jit(vmap(one lane's episodes))`` over lane-batched weights (see :func:`lane_evaluator`);
+    one per static setting in a process."""
 
     def one(weights: ActorWeights, key: Array, params: Any) -> tuple[dict, dict]:
         policy = acting_policy(network, layout, weights, deterministic)
         values, robot, _ = EpisodeRunner(env, policy, episodes, num_steps).episodes(key, params)
         return values, robot
 
-    compiled = jax.jit(jax.vmap(one, in_axes=(0, None, None)))
+    return jax.jit(jax.vmap(one, in_axes=(0, None, None)))
+
+
+def lane_evaluator(network: NetworkConfig, layout: ActorLayout, env: Any, env_params: Any,
+                   episodes: int, deterministic: bool = False):
+    """A ``(weights, key, params=env_params) -> (values, robot)`` evaluating every lane (seed or
+    variant) of lane-batched :class:`ActorWeights` at once, ``vmap``-ed over the lanes:
+    ``values`` is ``{metric: [lanes, episodes]}``, ``robot`` ``{metric: [lanes, episodes, R]}``.
+    Compiled once per shape: the weights and the environment params are arguments, so every
+    robot count up to ``env.max_agents`` (same time limit) reuses one compilation, and
+    evaluators of the same setting in one process share it. Each lane is played by an
+    :class:`sgjax.evaluation.runner.EpisodeRunner` (chunks of steps until every episode has
+    ended)."""
+    num_steps = int(env_params.max_steps)
+    compiled = _cached(_seed_lanes_program, network, layout, env, episodes, num_steps,
+                       bool(deterministic))
 
     def evaluate(weights: ActorWeights, key: Array, params: Any = None) -> tuple[dict, dict]:
         params = env_params if params is None else params
         env.check_params(params)
         check_steps(params, num_steps, "lane_evaluator")
         return compiled(weights, key, params)
+
+    return evaluate
+
+
+@functools.lru_cache(maxsize=16)
+def _table_program(network: NetworkConfig, layout: ActorLayout, env: Any,
+                   baselines: tuple[str, ...], num_counts: int, episodes: int, num_steps: int,
+                   deterministic: bool, record_lanes: tuple[tuple[int, int], ...] | None
+                   ) -> Callable:
+    """``jit`` of the :class:`LaneRunner` of :func:`table_evaluator`; one per static setting
+    in a process."""
+
+    def run(weights: ActorWeights, key: Array, params: Any, counts: Array) -> tuple:
+        policies = [acting_policy(network, layout, weights, deterministic),
+                    *(load_policy(name, env) for name in baselines)]
+        runner = LaneRunner(env, policies, num_counts, episodes, num_steps,
+                            record_lanes=record_lanes)
+        return runner.episodes(key, params, counts)
+
+    return jax.jit(run)
+
+
+_COMPILED: dict[Any, Callable] = {}
+
+
+def compiled_once(program: Callable, *args: Any) -> tuple[Callable, float]:
+    """``program`` (a ``jax.jit`` function) compiled ahead of time for the shapes of ``args``,
+    once per process: ``(executable, seconds this call spent compiling)`` (0 when it was
+    compiled before; a program found in the persistent compilation cache counts its
+    loading)."""
+    leaves, tree = jax.tree.flatten(args)
+    key = (program, tree, tuple((np.shape(x), str(getattr(x, "dtype", type(x))))
+                                for x in leaves))
+    if key in _COMPILED:
+        return _COMPILED[key], 0.0
+    t0 = time.perf_counter()
+    _COMPILED[key] = program.lower(*args).compile()
+    return _COMPILED[key], time.perf_counter() - t0
+
+
+def table_evaluator(network: NetworkConfig, layout: ActorLayout, env: Any, env_params: Any,
+                    baselines: Sequence[str], num_counts: int, episodes: int,
+                    deterministic: bool = False,
+                    record_lanes: Sequence[tuple[int, int]] | None = None):
+    """A ``(weights, key, counts, params=env_params) -> ((values, robot, states), compile_s)``
+    playing the trained actor (one seed's :class:`ActorWeights`, an argument) and every
+    baseline in ``baselines`` (names, :mod:`sgjax.evaluation.policies`) at each of the ``K =
+    num_counts`` robot counts in ``counts`` (``[K]`` int32), ``episodes`` episodes each, as the
+    lanes of one :class:`sgjax.evaluation.runner.LaneRunner`: one compiled program for the
+    whole final table. Configuration ``p * K + k`` is policy ``p`` (0 the actor, ``1 + i``
+    ``baselines[i]``) at ``counts[k]``; ``values`` is ``{metric: [C, episodes]}``, ``robot``
+    ``{metric: [C, episodes, R]}``, ``states`` the ``record_lanes`` ``(configuration,
+    episode)`` states ``[T + 1, len(record_lanes), ...]`` (None without). Every configuration
+    plays the episodes an ``EpisodeRunner`` of its policy plays with the same key at that
+    count; ``compile_s`` is the seconds this call spent compiling (0 once compiled). The final
+    evaluation (``train.cli``) builds it with ``num_counts=1`` and calls it once per count:
+    one program still, each count stopping with its own slowest episode, and on the 2-core
+    CPU faster per step than every count as lanes of one call."""
+    num_steps = int(env_params.max_steps)
+    lanes = None if record_lanes is None else tuple((int(c), int(e)) for c, e in record_lanes)
+    program = _cached(_table_program, network, layout, env, tuple(baselines), int(num_counts),
+                      int(episodes), num_steps, bool(deterministic), lanes)
+
+    def evaluate(weights: ActorWeights, key: Array, counts: Array, params: Any = None
+                 ) -> tuple[tuple, float]:
+        params = env_params if params is None else params
+        counts = jnp.asarray(counts, jnp.int32)
+        for n in np.asarray(counts).tolist():
+            env.check_params(params.replace(num_agents=jnp.asarray(n, jnp.int32)))
+        check_steps(params, num_steps, "table_evaluator")
+        compiled, seconds = compiled_once(program, weights, key, params, counts)
+        return compiled(weights, key, params, counts), seconds
 
     return evaluate

@@ -21,7 +21,6 @@ is registered with ``sgjax.evaluation.policies`` when this module is imported, a
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +33,7 @@ from flax import serialization
 from sgjax.environment.options import MakeOptions
 from sgjax.environment.registry import make
 from sgjax.evaluation.policies import register_loader
+from sgjax.files import write_atomic
 from train.actor import ActorLayout, ActorWeights, acting_policy
 from train.config import TrainConfig, config_from_dict
 from train.networks import others_layout
@@ -53,10 +53,7 @@ def save(path: str | Path, config: TrainConfig, runner: Any, meta: dict[str, Any
         "meta": json.dumps(meta),
         "runner": serialization.to_state_dict(jax.device_get(runner)),
     }
-    temporary = path.with_name(path.name + ".tmp")
-    temporary.write_bytes(serialization.msgpack_serialize(payload))
-    os.replace(temporary, path)
-    return path
+    return write_atomic(path, serialization.msgpack_serialize(payload))
 
 
 def read(path: str | Path) -> tuple[TrainConfig, dict[str, Any], dict[str, Any]]:
@@ -86,6 +83,12 @@ def restore(path: str | Path, trainer: Any, contents: tuple | None = None
 
     _, meta, raw = contents if contents is not None else read(path)
     template = jax.eval_shape(jax.vmap(trainer.init), seed_keys(trainer.config))
+    if isinstance(raw, dict) and "hyper" not in raw:
+        # Saved before the runner state held its lane settings (2026-11-25): the run used the
+        # configured values, as a fresh run's state holds them.
+        seeds = trainer.config.num_seeds
+        raw = {**raw, "hyper": {name: np.full(seeds, value, np.float32) for name, value
+                                in trainer.default_hyper().items()}}
     try:
         runner = serialization.from_state_dict(template, raw)
     except (KeyError, ValueError) as err:

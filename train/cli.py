@@ -5,7 +5,8 @@ beside the baseline and a GIF of an evaluation episode.
 Writes into ``logging.out`` (or ``--out``): ``config.yaml``, ``progress.csv`` and its
 ``learning_curve.png`` (``train.curves``), TensorBoard events under ``tb/``,
 ``checkpoints/{latest,best}.msgpack``, and ``eval/`` (``metrics.json``,
-``metrics.csv``, ``table.md``, charts, ``episode.gif``). ``--resume`` continues from
+``metrics.csv``, ``table.md``, charts, ``episode.gif``) and ``provenance.json`` (commit,
+versions, machine, command, seeds, phase times). ``--resume`` continues from
 ``checkpoints/latest.msgpack``.
 """
 
@@ -13,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import json
 import math
 import time
 from pathlib import Path
@@ -23,17 +25,28 @@ import numpy as np
 import yaml
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
-from sgjax.environment.registry import make
-from sgjax.evaluation.evaluate import evaluate, params_by_count, run_episodes
+from sgjax.evaluation.evaluate import evaluate, lane_results, params_by_count, policy_environment
 from sgjax.evaluation.metrics import DEFAULT_CONSTANTS
+from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.render import episode_frames, save_gif
 from sgjax.evaluation.report import summary_tables, write_all
+from sgjax.evaluation.runner import Episodes
+from sgjax.evaluation.statistics import Summary, paired_difference
+from sgjax.files import write_atomic
 from sgjax.maps.io import load as load_map
 from sgjax.terms.base import ConfigError
 from sgjax.version import __version__
 from train import checkpoint
-from train.actor import ActorWeights, lane_evaluator
-from train.config import TrainConfig, apply_overrides, config_from_dict, load_config
+from train.actor import ActorLayout, ActorWeights, lane_evaluator, table_evaluator
+from train.config import (
+    EVALUATION_SEED_OFFSET,
+    VALIDATION_SEED,
+    NetworkConfig,
+    TrainConfig,
+    apply_overrides,
+    config_from_dict,
+    load_config,
+)
 from train.curves import plot_learning_curves
 from train.ppo import Trainer, seed_keys
 from train.sharding import device_mesh, shard_runner
@@ -122,7 +135,10 @@ def _updates_per_chunk(config: TrainConfig) -> int:
 def make_evaluator(trainer: Trainer, scenario: str, episodes: int):
     """``(seed-batched ActorWeights, key, num_agents) -> (values, robot)`` evaluating every seed
     at once (:func:`train.actor.lane_evaluator`), compiled once for every robot count of the
-    curriculum (the environment at the trainer's slots; counts are params)."""
+    curriculum (the environment at the trainer's slots; counts are params) and, in one
+    process, for every evaluator of the same setting (a resumed run's, say). It is not the
+    final evaluation's program: that one plays at ``max(evaluation.num_agents)`` slots and
+    every count and policy at once (:func:`final_evaluation`), other shapes."""
     counts = sorted({n for _, n in trainer.config.env.curriculum})
     env, by_count = params_by_count(scenario, counts, max_agents=trainer.slots,
                                     options=trainer.config.env.options)
@@ -232,6 +248,10 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
                "start-up, logs and checkpoints": other_s, **summary["seconds"]}
     print("time: " + ", ".join(f"{k} {v:.0f} s" for k, v in seconds.items())
           + f"; total {time.perf_counter() - start:.0f} s (each phase includes its compiles)")
+    made = provenance(config.to_dict(), seeds=run_seeds(config),
+                      episodes_per_cell=config.evaluation.episodes,
+                      seconds={**seconds, "total": time.perf_counter() - start})
+    write_atomic(out / "provenance.json", json.dumps(made, indent=1) + "\n")
     return {**summary, "seconds": seconds}
 
 
@@ -253,55 +273,151 @@ def _row(logs: dict, meta: dict, wall: float, env_rate: float, trainer: Trainer)
 
 def _evaluate_seeds(evaluator, runner, num_agents: int) -> tuple[np.ndarray, np.ndarray]:
     """Team and robot success of every seed with ``num_agents`` robots, ``[num_seeds]`` each."""
-    values, _ = jax.device_get(evaluator(ActorWeights.of(runner), jax.random.PRNGKey(1234),
-                                         num_agents))
+    values, _ = jax.device_get(evaluator(ActorWeights.of(runner),
+                                         jax.random.PRNGKey(VALIDATION_SEED), num_agents))
     return (np.mean(values["team_success"], axis=1),
             np.nanmean(values["success"], axis=1))
 
 
 def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, Any]:
     """Evaluate the checkpoint at every evaluation robot count beside the baseline; print the
-    tables, write them and a GIF of one episode."""
+    tables, write them and a GIF of one evaluated episode.
+
+    Per scenario, the trained policy and the baseline are the lanes of one compiled program
+    (:func:`train.actor.table_evaluator`), called once per robot count (two programs only where
+    the baseline acts in another environment than the policy, e.g. a continuous-action policy
+    beside GO/STOP ``only_local``): the same episodes, keys and results as evaluating each
+    policy with :func:`sgjax.evaluation.evaluate.evaluate` (seed ``config.seed +
+    EVALUATION_SEED_OFFSET``, no training lane's). The
+    weights are an argument of the program, so the next run of the job finds it in the
+    persistent compilation cache, however its training went. The GIF is episode 0
+    of the trained policy at the evaluation count nearest the curriculum's last, recorded while
+    it is evaluated (``record_lanes``), not played again. ``seconds``: ``final evaluation``
+    (compiling, playing, tables and files) and ``GIF`` (drawing and writing it)."""
     e = config.evaluation
     t0 = time.perf_counter()
-    policy = checkpoint.load_checkpoint_policy(path, deterministic=e.deterministic)
     print(f"\nfinal evaluation of {path} ({e.episodes} episodes per configuration)")
-    options = config.env.options
-    results = evaluate(config.env.scenarios, [policy], num_agents=e.num_agents,
-                       episodes=e.episodes, seed=config.seed + 1, options=options,
-                       log=None, policy_names=[f"trained ({config.algorithm.name})"])
-    if e.baseline is not None:
-        results += evaluate(config.env.scenarios, [e.baseline], num_agents=e.num_agents,
-                            episodes=e.episodes, seed=config.seed + 1,
-                            options=options.replace(action_mode="go_stop"), log=None)
-    write_all(results, out / "eval", DEFAULT_CONSTANTS)
+    actor = _checkpoint_actor(path)
+    counts = list(e.num_agents)
+    shown = min(counts, key=lambda n: (abs(n - config.env.curriculum[-1][1]), n))
+    trained, baseline, recorded, paired = [], [], None, {}
+    for i, scenario in enumerate(config.env.scenarios):
+        record = shown if e.gif and i == 0 else None
+        mine, theirs, episode, paired[scenario] = _evaluate_scenario(config, actor, scenario,
+                                                                     record)
+        trained, baseline = trained + mine, baseline + theirs
+        recorded = recorded if episode is None else episode
+    results = trained + baseline
+    made = provenance(config.to_dict(), seeds=run_seeds(config),
+                      episodes_per_cell=e.episodes)
+    write_all(results, out / "eval", DEFAULT_CONSTANTS, made)
     print(summary_tables(results))
+    _print_paired(paired, e.baseline, _trained_name(config), e.episodes)
     summary = {(r.policy, r.num_agents, r.scenario): r.metrics["team_success"].mean
                for r in results}
-    trained_name = f"trained ({config.algorithm.name})"
     seconds = {"final evaluation": time.perf_counter() - t0}
     t0 = time.perf_counter()
-    count = config.env.curriculum[-1][1]
-    scenario = config.env.scenarios[0]
-    mine = summary.get((trained_name, count, scenario))
+    count, scenario = config.env.curriculum[-1][1], config.env.scenarios[0]
+    mine = summary.get((_trained_name(config), count, scenario))
     base = summary.get((e.baseline, count, scenario))
-    if e.gif:
-        env, params = make(scenario, options=options, num_agents=count)
-        batch = run_episodes(env, params, policy, jax.random.PRNGKey(config.seed + 2), 1,
-                             record=True)
-        states = jax.tree.map(lambda leaf: leaf[:, 0], batch.states)
-        frames, stride = episode_frames(load_map(scenario), states, params,
-                                        int(batch.values["episode_length"][0]),
-                                        title=f"{scenario} / trained", width_px=400)
-        gif = save_gif(frames, out / "eval" / "episode.gif",
-                       fps=max(1, round(1 / (float(params.dt) * stride))))
-        print(f"wrote {gif}")
+    if recorded is not None:
+        _write_gif(scenario, *recorded, shown, out / "eval" / "episode.gif")
     seconds["GIF"] = time.perf_counter() - t0
     if mine is not None and base is not None:
         print(f"\n{scenario}, {count} robots: team success {mine:.3f} trained vs {base:.3f} "
               f"{e.baseline}")
     return {"trained_team_success": mine, "baseline_team_success": base, "results": results,
-            "seconds": seconds}
+            "paired": paired, "seconds": seconds}
+
+
+def run_seeds(config: TrainConfig) -> dict[str, list[int]]:
+    """The seeds of a run by role: ``training`` (one per lane), ``validation`` (the periodic
+    evaluation that picks the best checkpoint: its own key, :data:`VALIDATION_SEED`) and
+    ``evaluation`` (the final evaluation: ``seed + EVALUATION_SEED_OFFSET``, never a training
+    lane's key; its episodes are never seen by the checkpoint choice)."""
+    return {"training": [config.seed + i for i in range(config.num_seeds)],
+            "validation": [VALIDATION_SEED],
+            "evaluation": [config.seed + EVALUATION_SEED_OFFSET]}
+
+
+def _print_paired(paired: dict[str, dict[int, Summary]], baseline: str | None, name: str,
+                  episodes: int) -> None:
+    """The paired differences in team success, trained - baseline, one line per scenario."""
+    for scenario, by_count in paired.items():
+        if not by_count:
+            continue
+        cells = ", ".join(f"{n}: {d.mean:+.3f} [{d.ci_low:+.3f}, {d.ci_high:+.3f}]"
+                          for n, d in by_count.items())
+        print(f"{scenario}: team success {name} - {baseline}, paired over the same {episodes} "
+              f"episodes (mean [95% t interval]) by robots: {cells}")
+
+
+def _trained_name(config: TrainConfig) -> str:
+    return f"trained ({config.algorithm.name})"
+
+
+def _checkpoint_actor(path: Path) -> tuple[NetworkConfig, ActorLayout, ActorWeights]:
+    """The acting network, layout and weights (the best seed) of a checkpoint: what
+    :func:`train.checkpoint.load_checkpoint_policy` builds its policy from, with the weights
+    kept apart so that they are an argument of the evaluation program."""
+    saved, meta, raw = checkpoint.read(path)
+    layout = checkpoint.actor_layout(path, saved, meta, raw)
+    weights = checkpoint.stored_weights(raw).seed(int(meta.get("best_seed", 0)))
+    return saved.network, layout, weights
+
+
+def _evaluate_scenario(config: TrainConfig, actor: tuple, scenario: str,
+                       record_count: int | None) -> tuple[list, list, Any, dict]:
+    """The trained policy's and the baseline's results on one scenario at every evaluation
+    count: one program, both policies its lanes, called once per count (on the 2-core CPU
+    faster than every count as lanes of one call, whose loop waits for the slowest episode of
+    all). With ``record_count`` (a robot count) also the trained policy's episode 0 at that
+    count as ``(states [T + 1, ...], length in steps, params)`` (else None). Last, ``{count:
+    Summary}``: the paired difference trained - baseline in team success over the episodes
+    both played (:func:`sgjax.evaluation.statistics.paired_difference`; empty without a
+    baseline in the same environment)."""
+    e, (network, layout, weights) = config.evaluation, actor
+    counts, seed = list(e.num_agents), config.seed + EVALUATION_SEED_OFFSET
+    env, by_count = policy_environment(scenario, counts, None, config.env.options)
+    if env.observation_size != layout.obs_size:
+        raise ValueError(f"{scenario}: the trained policy reads observations of size "
+                         f"{layout.obs_size}, this environment gives {env.observation_size}")
+    go_stop = config.env.options.replace(action_mode="go_stop")
+    together = e.baseline is not None and go_stop == config.env.options  # one environment
+    names = [_trained_name(config)] + ([e.baseline] if together else [])
+    params = by_count[counts[0]]
+    evaluator = table_evaluator(network, layout, env, params, names[1:], 1, e.episodes,
+                                e.deterministic, None if record_count is None else [(0, 0)])
+    mine, theirs, recorded, paired = [], [], None, {}
+    for n in counts:
+        t0 = time.perf_counter()
+        (values, _, states), compile_s = evaluator(weights, jax.random.key(seed), [n])
+        values, states = jax.device_get((values, states))
+        batch = Episodes(values={k: np.asarray(v) for k, v in values.items()}, robot={},
+                         compile_seconds=compile_s,
+                         run_seconds=time.perf_counter() - t0 - compile_s)
+        results = lane_results(scenario, names, [n], seed, params, batch)
+        mine, theirs = mine + results[:1], theirs + results[1:]
+        if together:  # [policy, episode]: the same episodes, common random numbers
+            paired[n] = paired_difference(*batch.values["team_success"][:2])
+        if n == record_count:
+            recorded = (jax.tree.map(lambda leaf: leaf[:, 0], states),
+                        int(batch.values["episode_length"][0, 0]), by_count[n])
+    if e.baseline is not None and not together:
+        theirs = evaluate([scenario], [e.baseline], num_agents=counts, episodes=e.episodes,
+                          seed=seed, options=go_stop, log=None)
+    return mine, theirs, recorded, paired
+
+
+def _write_gif(scenario: str, states: Any, length: int, params: Any, count: int,
+               path: Path) -> None:
+    """Draw a recorded evaluation episode (``states [T + 1, ...]``, ``length`` steps, ``count``
+    robots) into ``path``."""
+    frames, stride = episode_frames(load_map(scenario), states, params, length,
+                                    title=f"{scenario} / trained, {count} robots",
+                                    width_px=400)
+    gif = save_gif(frames, path, fps=max(1, round(1 / (float(params.dt) * stride))))
+    print(f"wrote {gif}")
 
 
 def _socialgym_config(path: str, overrides: list[str]) -> TrainConfig | None:

@@ -10,6 +10,7 @@ command line overrides one key (the value is read as YAML).
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 import typing
 from collections.abc import Mapping
@@ -23,9 +24,11 @@ from sgjax.environment.options import KEYWORDS, MakeOptions
 from sgjax.evaluation.protocols import PAPER
 from sgjax.terms.base import ConfigError
 from sgjax.validation import (
+    FrozenDict,
     check_choice,
     check_int,
     check_keys,
+    check_positive,
     check_range,
     check_type,
     freeze,
@@ -176,15 +179,43 @@ class AlgorithmConfig:
     # docs/xla-cpu-learning-layout.md), or "auto" (sequential on a CPU, batched elsewhere).
     # Results agree to float rounding.
     lanes: str = "auto"
+    # The learning phase computes only the transitions that can learn: each minibatch's
+    # active rows (MLP networks; whole agent sequences with an active step for a GRU) in
+    # chunks whose gradients add up to the masked minibatch's, so inactive robot slots
+    # (absent, settled, parked) cost no FLOPs. The same minibatches, losses and optimiser
+    # steps as False (the masked path) up to float rounding (docs/training.md).
+    compact: bool = True
+    # Multipliers on the reward terms the trainer sums (``info["reward_terms"]``: the
+    # environment's reward terms and the enders that pay, such as stuck), {term: factor}; a
+    # term not named keeps 1. Numbers of the runner state, not of the compiled program:
+    # train.sweep tunes them as lanes, train.ablation switches terms off (factor 0).
+    term_weights: Mapping[str, float] = dataclasses.field(default_factory=FrozenDict)
+    # Observation features the networks never see (zeroed in every observation): a term
+    # ("velocity") or "<term>.<feature>" ("others.velocity", "pose.heading"), as
+    # train.ablation's hide; checked against the observation's columns when training starts.
+    hide: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         check_choice("name", self.name, ALGORITHMS)
+        if not isinstance(self.term_weights, Mapping):
+            raise ValueError(f"term_weights must be a mapping of reward terms to factors, got "
+                             f"{self.term_weights!r}")
+        for term, factor in self.term_weights.items():
+            if not isinstance(term, str) or isinstance(factor, bool) or not isinstance(
+                    factor, int | float) or not math.isfinite(factor):
+                raise ValueError(f"term_weights.{term}: expected a finite number, got "
+                                 f"{factor!r}")
+        object.__setattr__(self, "term_weights", freeze(dict(self.term_weights)))
         check_choice("lanes", self.lanes, LANE_MODES)
         for field in ("total_steps", "num_envs", "num_steps", "update_epochs",
                       "num_minibatches"):
             check_int(field, getattr(self, field))
         for field in ("gamma", "gae_lambda", "team_reward"):
             check_range(field, getattr(self, field), 0.0, 1.0)
+        for field in ("learning_rate", "clip_eps", "max_grad_norm", "reward_clip"):
+            check_positive(field, getattr(self, field))
+        for field in ("ent_coef", "vf_coef"):
+            check_positive(field, getattr(self, field), allow_zero=True)
 
     @property
     def steps_per_update(self) -> int:
@@ -279,6 +310,15 @@ class TrainConfig:
 
 SECTIONS = {"env": EnvSection, "algorithm": AlgorithmConfig, "network": NetworkConfig,
             "evaluation": EvaluationConfig, "logging": LoggingConfig}
+# The evaluations of train.reproduce and train.ablation play the episodes of key
+# ``seed + EVALUATION_SEED_OFFSET``: never one of the training lanes' keys (``seed + i``, i below
+# the number of seeds).
+EVALUATION_SEED_OFFSET = 1000
+# The validation evaluations' key (the periodic evaluation that picks the best checkpoint, and
+# train.sweep's objective): episodes that the final evaluation (key ``seed +
+# EVALUATION_SEED_OFFSET``) never plays.
+VALIDATION_SEED = 1234
+
 TOP_LEVEL = ("seed", "num_seeds")
 
 
@@ -313,7 +353,10 @@ def load_config(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"{path}: no such config file")
-    data = read_yaml(path.read_text()) or {}
+    try:
+        data = read_yaml(path.read_text()) or {}
+    except yaml.YAMLError as err:
+        raise ConfigError(f"{path}: not YAML ({err})") from None
     if not isinstance(data, Mapping):
         raise ConfigError(f"{path}: expected a mapping of sections, got {type(data).__name__}")
     return config_from_dict(apply_overrides(data, overrides), str(path))
@@ -328,13 +371,17 @@ def apply_overrides(data: Mapping[str, Any], overrides: list[str] | tuple[str, .
         if not sep:
             raise ConfigError(f"--set {item!r}: expected section.key=value")
         section, _, field = key.partition(".")
+        try:
+            parsed = read_yaml(value)
+        except yaml.YAMLError as err:
+            raise ConfigError(f"--set {item!r}: the value is not YAML ({err})") from None
         if field:
             data.setdefault(section, {})
             if not isinstance(data[section], dict):
                 raise ConfigError(f"--set {item!r}: {section} is not a section")
-            data[section][field] = read_yaml(value)
+            data[section][field] = parsed
         else:
-            data[section] = read_yaml(value)
+            data[section] = parsed
     return data
 
 
@@ -343,6 +390,8 @@ def config_from_dict(data: Mapping[str, Any], source: str = "config") -> TrainCo
     errors are ``ConfigError`` naming ``source``, the key and the value."""
     valid = list(SECTIONS) + list(TOP_LEVEL)
     sections = {}
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{source}: expected a mapping of sections, got {data!r}")
     try:
         check_keys(source, data, valid)
         for key, value in data.items():

@@ -208,6 +208,16 @@ class ActorCritic(nn.Module):
         critic_carry, critic = self.critic(carry[1], critic_in, starts)
         return (actor_carry, critic_carry), out, self.critic_head(critic)[..., 0]
 
+    def value(self, carry: Array, actor_in: Array, critic_in: Array, starts: Array
+              ) -> tuple[Array, Array]:
+        """The critic alone: ``(critic carry [B, H], actor_in [T, B, D], critic_in [T, B, G],
+        starts [T, B]) -> (critic carry, value [T, B])``, the numbers ``__call__`` gives
+        without the actor's work (``actor_in`` is read only by a shared encoder)."""
+        if self.shares_encoder:
+            critic_in = self.encoder(actor_in)
+        carry, critic = self.critic(carry, critic_in, starts)
+        return carry, self.critic_head(critic)[..., 0]
+
     def act(self, carry: Array, actor_in: Array, starts: Array) -> tuple[Array, Array]:
         if self.shares_encoder:
             actor_in = self.encoder(actor_in)

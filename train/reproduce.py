@@ -33,8 +33,12 @@ Two profiles (``--profile``):
 Outputs in ``--out``: ``metrics_table.md`` (the paper's Table 3: length, collisions, stop time,
 max delta-V and team success per scenario and baseline, at ``--table-robots``),
 ``success_table.md`` (its Table 4: team success % by robot count, with the average),
-``paper_comparison.md`` (ours beside the paper's Table 4), ``results.json`` (every seed's
-value of every metric, per configuration; ``--from-results`` writes the tables again from it).
+``paper_comparison.md`` (ours beside the paper's Table 4), ``comparison_table.md`` (each
+trained baseline against Only Local, paired over the shared episodes, with seed aggregates),
+``play_modes.md`` (trained policies playing greedily and sampling), ``results.json`` (every
+seed's value of every metric, per configuration, schema ``sgjax.reproduce/1``;
+``--from-results`` writes the tables again from it) and ``marl_eval.json`` (the same results
+for marl-eval, :mod:`train.marl_eval`).
 """
 
 from __future__ import annotations
@@ -55,12 +59,16 @@ from sgjax.environment.options import MakeOptions
 from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.policies import load_policy, policy_options
 from sgjax.evaluation.protocols import MINI_GAMES, PAPER
+from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import format_summary, markdown_table
+from sgjax.evaluation.result_schema import REPRODUCE
 from sgjax.evaluation.runner import EpisodeRunner
-from sgjax.evaluation.statistics import summarize
+from sgjax.evaluation.statistics import paired_difference, seed_aggregate, summarize
+from sgjax.files import write_atomic
 from sgjax.terms.presets import REWARD_PRESETS
 from train.actor import ActorWeights, lane_evaluator
-from train.config import TrainConfig, config_from_dict
+from train.config import EVALUATION_SEED_OFFSET, TrainConfig, config_from_dict
+from train.marl_eval import to_marl_eval
 from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
 from train.ppo import Trainer, seed_keys
 
@@ -181,16 +189,17 @@ def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: in
     controllers). One compilation serves every count: the environment has ``max(counts)``
     slots and each count is a params value; the seeds are ``vmap`` lanes of it."""
     out: dict[int, dict[str, list[float]]] = {}
-    key = jax.random.PRNGKey(seed + 1000)
+    key = jax.random.PRNGKey(seed + EVALUATION_SEED_OFFSET)
     if trainer is None:
         options = options.replace(**policy_options(policy).keywords(changed_only=True))
     env, by_count = params_by_count(scenario, counts, options=options)
     first = by_count[counts[0]]
     if trainer is None:
         run = EpisodeRunner(env, load_policy(policy, env), episodes, int(first.max_steps)).run
-    else:
-        evaluator = lane_evaluator(trainer.config.network, trainer.actor, env, first, episodes,
-                                   trainer.config.evaluation.deterministic)
+    else:  # the profile's play mode, and the other one for PLAY_MODE_KEYS
+        greedy = trainer.config.evaluation.deterministic
+        evaluator, other = (lane_evaluator(trainer.config.network, trainer.actor, env, first,
+                                           episodes, mode) for mode in (greedy, not greedy))
     for n in counts:
         params = by_count[n]
         if trainer is None:
@@ -199,6 +208,12 @@ def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: in
             values, _ = jax.device_get(evaluator(ActorWeights.of(runner), key, params))
         out[n] = {name: [float(np.nanmean(row)) if np.isfinite(row).any() else math.nan
                          for row in v] for name, v in values.items()}
+        out[n][EPISODES_KEY] = np.asarray(values["team_success"], float).tolist()  # [S, E]
+        if trainer is not None:
+            flipped, _ = jax.device_get(other(ActorWeights.of(runner), key, params))
+            modes = {greedy: values["team_success"], not greedy: flipped["team_success"]}
+            for mode, key_name in ((True, PLAY_MODE_KEYS[0]), (False, PLAY_MODE_KEYS[1])):
+                out[n][key_name] = np.nanmean(np.asarray(modes[mode], float), axis=1).tolist()
     return out
 
 
@@ -271,7 +286,79 @@ def format_tables(results: dict, counts: Sequence[int], table_robots: int, seeds
                                compare_rows)]
     return {"metrics_table.md": "\n".join(rows) + "\n",
             "success_table.md": "\n".join(success) + "\n",
-            "paper_comparison.md": "\n".join(compare) + "\n"}
+            "paper_comparison.md": "\n".join(compare) + "\n",
+            "comparison_table.md": comparison_table(results, counts, seeds),
+            "play_modes.md": play_mode_table(results, counts, seeds)}
+
+
+def play_mode_table(results: dict, counts: Sequence[int], seeds: int) -> str:
+    """Team success of every trained baseline playing greedily and sampling, with the paired
+    difference over seeds (the same seed's weights and evaluation episodes both ways)."""
+    rows = []
+    for scenario, by_baseline in results.items():
+        for baseline, by_count in by_baseline.items():
+            for n in counts:
+                cell = by_count.get(n, {})
+                if not all(k in cell for k in PLAY_MODE_KEYS):
+                    continue
+                greedy, sampled = (np.asarray(cell[k], float) for k in PLAY_MODE_KEYS)
+                d = paired_difference(greedy, sampled)
+                interval = ("" if not np.isfinite(d.ci_low) else
+                            f" [{100 * d.ci_low:+.0f}, {100 * d.ci_high:+.0f}]")
+                rows.append([scenario, baseline, str(n), f"{100 * np.nanmean(greedy):.0f}",
+                             f"{100 * np.nanmean(sampled):.0f}",
+                             f"{100 * d.mean:+.0f}{interval}"])
+    text = ["# Greedy and sampled play (team success %)", "",
+            f"The mean over {seeds} training seeds of each seed's team success when its policy "
+            "takes its most likely action (greedy) and when it samples; greedy - sampled: "
+            "paired over seeds, mean [95% Student-t interval].", "",
+            *markdown_table(["Scenario", "Baseline", "Robots", "Greedy", "Sampled",
+                             "Greedy - sampled"], rows)]
+    return "\n".join(text) + "\n"
+
+
+def _paired_cell(trained: dict, baseline: dict) -> str:
+    """Paired difference in team success (points), trained - baseline, over the episodes both
+    played: each episode's value averaged over the trained seeds, minus the baseline's."""
+    if EPISODES_KEY not in trained or EPISODES_KEY not in baseline:
+        return "n/a"
+    mine = np.nanmean(np.asarray(trained[EPISODES_KEY], float), axis=0)  # [E]
+    theirs = np.asarray(baseline[EPISODES_KEY], float)[0, :mine.size]  # its first E: the same
+    d = paired_difference(mine, theirs)
+    return f"{100 * d.mean:+.0f} [{100 * d.ci_low:+.0f}, {100 * d.ci_high:+.0f}]"
+
+
+def comparison_table(results: dict, counts: Sequence[int], seeds: int) -> str:
+    """Every trained baseline against only_local, cell by cell: the paired difference in team
+    success over the shared episodes, and the seed aggregate (mean and interquartile mean
+    with percentile-bootstrap intervals over the training seeds,
+    :func:`sgjax.evaluation.statistics.seed_aggregate`). A baseline "beats" only_local in a
+    cell where the paired interval excludes 0."""
+    rows = []
+    for scenario, by_baseline in results.items():
+        reference = by_baseline.get("only_local")
+        for baseline, by_count in by_baseline.items():
+            if baseline not in BASELINES or BASELINES[baseline] is None:
+                continue  # untrained: only_local and the classical controllers
+            for n in counts:
+                agg = seed_aggregate(np.asarray(by_count[n]["team_success"], float))
+                rows.append([scenario, baseline, str(n),
+                             "n/a" if reference is None else _paired_cell(by_count[n],
+                                                                          reference[n]),
+                             f"{100 * agg['mean']:.0f} [{100 * agg['mean_low']:.0f}, "
+                             f"{100 * agg['mean_high']:.0f}]",
+                             f"{100 * agg['iqm']:.0f} [{100 * agg['iqm_low']:.0f}, "
+                             f"{100 * agg['iqm_high']:.0f}]"])
+    text = ["# Trained baselines against Only Local (team success, percentage points)", "",
+            "Paired: each episode's team success averaged over the trained seeds, minus Only "
+            "Local's in the same episode (the same evaluation key), mean [95% Student-t "
+            "interval over episodes]; an interval above 0 is a win in that cell. Seeds: the "
+            f"{seeds} training seeds' own means, mean and interquartile mean [95% "
+            "percentile-bootstrap interval over seeds, 2,000 resamples]. n/a: no per-episode "
+            "values (a results.json written before they were kept) or no Only Local row.", "",
+            *markdown_table(["Scenario", "Baseline", "Robots", "Paired vs only_local",
+                             "Mean over seeds", "IQM over seeds"], rows)]
+    return "\n".join(text) + "\n"
 
 
 def tables_from_results(path: Path, out: Path, table_robots: int = 4) -> dict[str, str]:
@@ -285,6 +372,7 @@ def tables_from_results(path: Path, out: Path, table_robots: int = 4) -> dict[st
     out.mkdir(parents=True, exist_ok=True)
     for name, text in tables.items():
         (out / name).write_text(text)
+    write_atomic(out / "marl_eval.json", json.dumps(to_marl_eval(document), indent=1))
     return tables
 
 
@@ -295,15 +383,29 @@ def gather_seeds(by_count: dict[int, dict[str, list[float]]], seeds: int,
     if processes.count == 1:
         return by_count
     counts = sorted(by_count)
-    names = sorted(by_count[counts[0]])
+    names = sorted(m for m in by_count[counts[0]] if m != EPISODES_KEY)
     mine = np.asarray([[by_count[n][m] for m in names] for n in counts])  # [counts, M, seeds]
     every = gather_lanes(np.moveaxis(mine, -1, 0), seeds, processes)  # [seeds, counts, M]
-    return {n: {m: every[:, i, j].tolist() for j, m in enumerate(names)}
+    episodes = np.asarray([by_count[n][EPISODES_KEY] for n in counts])  # [counts, seeds, E]
+    every_episode = gather_lanes(np.moveaxis(episodes, 1, 0), seeds, processes)  # [S, C, E]
+    return {n: {**{m: every[:, i, j].tolist() for j, m in enumerate(names)},
+                EPISODES_KEY: every_episode[:, i].tolist()}
             for i, n in enumerate(counts)}
 
 
-SETTINGS = ("profile", "seeds", "total_steps", "num_envs", "episodes", "counts", "seed",
-            "time_limit")
+# The results protocol's defaults (docs/results.md): enough seeds and episodes to decide, where
+# the paper ran one seed of 25 episodes; the untrained baselines (one run each) play more.
+RESULTS_SEEDS, RESULTS_EPISODES, RESULTS_BASELINE_EPISODES = 5, 100, 500
+
+# Per-episode team success of every seed, ``[seeds, episodes]`` (every baseline plays the same
+# episodes: the evaluation key is shared), for the paired comparisons with only_local.
+EPISODES_KEY = "team_success_by_episode"
+# A trained policy's team success per seed when it plays greedily and when it samples (the
+# tables' other metrics come from the profile's mode: sampled for sgjax, greedy for socialgym)
+PLAY_MODE_KEYS = ("team_success_greedy", "team_success_sampled")
+
+SETTINGS = ("profile", "seeds", "total_steps", "num_envs", "episodes", "baseline_episodes",
+            "counts", "seed", "time_limit")
 
 
 def stored_run(path: Path, settings: dict[str, Any]) -> dict[str, Any]:
@@ -313,6 +415,9 @@ def stored_run(path: Path, settings: dict[str, Any]) -> dict[str, Any]:
         document = json.loads(path.read_text())
     except json.JSONDecodeError as err:
         raise ValueError(f"{path}: not a results.json ({err})") from err
+    if "episodes" in document and "baseline_episodes" not in document:
+        # Written before untrained baselines had their own count: they played `episodes`.
+        document["baseline_episodes"] = document["episodes"]
     for key in SETTINGS:
         if key not in document:
             raise ValueError(f"{path}: has no {key!r}; cannot tell whether it ran the same "
@@ -328,16 +433,27 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
               total_steps: int, num_envs: int, counts: Sequence[int], episodes: int,
               table_robots: int, out: Path, seed: int = 0, time_limit: float | None = None,
               processes: Processes | None = None, profile: str = "sgjax",
-              resume: bool = False) -> dict:
+              resume: bool = False, baseline_episodes: int | None = None) -> dict:
     """Train and evaluate every (scenario, baseline); write and print the two tables. Under
     several ``processes`` (``jax.distributed``) each trains its share of the seeds of every
     trained baseline, the values are gathered, and process 0 writes the outputs. ``profile``:
     ``sgjax`` or ``socialgym`` (the module doc); ``time_limit`` (s) overrides the profile's.
 
+    Trained baselines play ``episodes`` episodes per seed and count, untrained ones
+    (only_local, the classical controllers) ``baseline_episodes`` (default ``episodes``), of
+    which the first ``episodes`` are the trained baselines' episodes: the episode keys come from
+    one evaluation key and ``jax.random.split`` gives episode ``e`` the same key whatever the
+    count (prefix-stable), so the paired comparison pairs those.
+
     ``out/results.json`` is written again after every cell, so a killed run loses at most the
     cell it was in; with ``resume`` the cells already there (from a run of the same settings)
     are kept, not run again, and the tables hold them beside the new ones."""
     processes = processes or Processes()
+    baseline_episodes = episodes if baseline_episodes is None else int(baseline_episodes)
+    if baseline_episodes < episodes:
+        raise ValueError(f"--baseline-episodes ({baseline_episodes}) must be at least "
+                         f"--episodes ({episodes}): the trained baselines' episodes are the "
+                         "first of the untrained ones'")
     if profile not in PROFILES:
         raise ValueError(f"unknown profile {profile!r}; choose from {list(PROFILES)}")
     unknown = [b for b in baselines if b not in BASELINES]
@@ -349,7 +465,8 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
     share = lane_share(seeds, processes)
     settings = {"profile": profile, "seeds": seeds, "total_steps": total_steps,
                 "num_envs": num_envs if profile == "sgjax" else "the profile's",
-                "episodes": episodes, "counts": list(counts), "seed": seed,
+                "episodes": episodes, "baseline_episodes": baseline_episodes,
+                "counts": list(counts), "seed": seed,
                 "time_limit": time_limit}
     path = out / "results.json"
     stored: dict[str, Any] = {"results": {}, "train_seconds": {}, "cell_seconds": {}}
@@ -368,7 +485,16 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
                    for s in (*scenarios, *(s for s in results if s not in scenarios))
                    if s in results}
         earlier = stored.get("seconds", {})
-        return {**settings, "train_seconds": timing, "cell_seconds": cells,
+        made = provenance(settings, seeds={
+            "training": [seed + i for i in range(seeds)],
+            "evaluation": [seed + EVALUATION_SEED_OFFSET]}, episodes_per_cell=episodes,
+            seconds={k: v + earlier.get(k, 0.0) for k, v in seconds.items()})
+        # A resumed run: the cells kept were made by the earlier runs, whose blocks stay.
+        earlier_runs = [*stored.get("earlier_provenance", []),
+                        *([stored["provenance"]] if "provenance" in stored else [])]
+        return {"schema_version": REPRODUCE, "provenance": made,
+                "earlier_provenance": earlier_runs, **settings,
+                "train_seconds": timing, "cell_seconds": cells,
                 "seconds": {k: v + earlier.get(k, 0.0) for k, v in seconds.items()},
                 "runs": stored.get("runs", 1 if stored["results"] else 0) + 1,
                 "results": {s: {b: {str(n): m for n, m in c.items()} for b, c in r.items()}
@@ -383,7 +509,7 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
             cell = {"compile": 0.0, "train": 0.0}
             if BASELINES[name] is None:
                 t0 = time.perf_counter()
-                by_count = evaluate_seeds(scenario, counts, episodes, seed, None, None,
+                by_count = evaluate_seeds(scenario, counts, baseline_episodes, seed, None, None,
                                           only_local_options(profile, time_limit), name)
                 cell["evaluate"] = time.perf_counter() - t0
                 print(f"{scenario:>12} {name:>15}: not trained", flush=True)
@@ -417,7 +543,7 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
                                                           for n, t in team.items()))
             if processes.is_main:  # a killed run keeps every finished cell
                 out.mkdir(parents=True, exist_ok=True)
-                path.write_text(json.dumps(document(), indent=1))
+                write_atomic(path, json.dumps(document(), indent=1))
     if not processes.is_main:
         print(f"process {processes.index}: done; process 0 writes the tables")
         return results
@@ -430,7 +556,8 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
     for name, text in tables.items():
         (out / name).write_text(text)
     seconds["write"] = time.perf_counter() - t0
-    path.write_text(json.dumps(document(), indent=1))
+    write_atomic(path, json.dumps(document(), indent=1))
+    write_atomic(out / "marl_eval.json", json.dumps(to_marl_eval(document()), indent=1))
     for text in tables.values():
         print(f"\n{text}")
     print("time: " + ", ".join(f"{k} {v:.0f} s" for k, v in seconds.items())
@@ -446,15 +573,23 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--scenarios", nargs="+", default=list(MINI_GAMES))
     parser.add_argument("--baselines", nargs="+", default=list(PAPER_BASELINES),
                         help=f"of {', '.join(BASELINES)} (default: the paper's five)")
-    parser.add_argument("--seeds", type=int, default=3)
+    parser.add_argument("--seeds", type=int, default=RESULTS_SEEDS,
+                        help=f"training seeds per trained baseline (default {RESULTS_SEEDS}: "
+                             "the results protocol, docs/results.md)")
     parser.add_argument("--total-steps", type=int, default=None,
                         help="environment steps per seed (default: 2,000,000 for the sgjax "
                              "profile, Listing 1's 250,000 for socialgym)")
     parser.add_argument("--num-envs", type=int, default=256)
     parser.add_argument("--robots", nargs="+", type=int, default=list(PAPER.num_agents),
                         help="evaluation robot counts (default: the paper's)")
-    parser.add_argument("--episodes", type=int, default=PAPER.episodes,
-                        help="per seed and robot count (default: the paper's)")
+    parser.add_argument("--episodes", type=int, default=RESULTS_EPISODES,
+                        help=f"per seed and robot count (default {RESULTS_EPISODES}, the "
+                             f"results protocol; the paper played {PAPER.episodes})")
+    parser.add_argument("--baseline-episodes", type=int, default=None,
+                        help="per robot count for the untrained baselines (default: "
+                             f"{RESULTS_BASELINE_EPISODES} or --episodes if more; at least "
+                             "--episodes: the first --episodes of them are the trained "
+                             "baselines' episodes)")
     parser.add_argument("--table-robots", type=int, default=4,
                         help="robot count of the metrics table")
     parser.add_argument("--seed", type=int, default=0)
@@ -485,7 +620,9 @@ def main(argv: list[str] | None = None) -> None:
                                            else 2_000_000)
         reproduce(args.scenarios, args.baselines, args.seeds, total_steps, args.num_envs,
                   args.robots, args.episodes, args.table_robots, Path(args.out), args.seed,
-                  args.time_limit, processes, args.profile, args.resume)
+                  args.time_limit, processes, args.profile, args.resume,
+                  max(RESULTS_BASELINE_EPISODES, args.episodes)
+                  if args.baseline_episodes is None else args.baseline_episodes)
     except ValueError as err:
         raise SystemExit(f"reproduce: {err}") from err
 

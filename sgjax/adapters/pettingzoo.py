@@ -142,6 +142,9 @@ class SgjaxParallelEnv(ParallelEnv):
             if value.shape != space.shape:
                 raise ValueError(f"step: action for {agent} must have shape {space.shape}, "
                                  f"got {value.shape}")
+            if not np.all(np.isfinite(value)):
+                raise ValueError(f"step: action {value.tolist()} for {agent} is not finite "
+                                 "(continuous actions must be finite)")
             batch[self._index[agent]] = value
         return jnp.asarray(batch)
 

@@ -30,6 +30,7 @@ import jax.numpy as jnp
 import numpy as np
 from stable_baselines3.common.vec_env import VecEnv
 
+from sgjax.environment.env import reject_invalid_actions
 from sgjax.environment.registry import make
 
 
@@ -81,11 +82,12 @@ class SgjaxVecEnv(VecEnv):
     def step_async(self, actions: np.ndarray) -> None:
         actions = np.asarray(actions)
         if self._discrete:
-            self._actions = jnp.asarray(actions.reshape(self.num_worlds, self.num_robots),
-                                        jnp.int32)
+            actions = actions.reshape(self.num_worlds, self.num_robots)
         else:
-            self._actions = jnp.asarray(
-                actions.reshape(self.num_worlds, self.num_robots, -1), jnp.float32)
+            actions = actions.reshape(self.num_worlds, self.num_robots, -1)
+        # an error naming the world (batch index) and robot slot: NaN or out of range
+        reject_invalid_actions(actions, not self._discrete, "step_async")
+        self._actions = jnp.asarray(actions, jnp.int32 if self._discrete else jnp.float32)
 
     def step_wait(self):
         if self._state is None:

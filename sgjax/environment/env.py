@@ -18,8 +18,10 @@ collide with and observe; with ``arrived="park"`` it parks at rest where it arri
 makes the park-or-leave choice for robots an ender terminates (default ``"leave"``).
 
 Actions (static ``action_mode``):
-  * ``"go_stop"``: ``[R]`` ints, 0 = GO (follow the local planner), any other value = STOP
-    (brake at the robot's deceleration limit);
+  * ``"go_stop"``: ``[R]`` ints, 0 = GO (follow the local planner), 1 = STOP (brake at the
+    robot's deceleration limit); any other value is an error outside ``jit`` and STOP, flagged
+    in ``info["invalid_action"]``, inside it (as is a NaN or infinite continuous action, which
+    becomes a zero command);
   * ``"continuous"``: ``[R, d]`` floats in [-1, 1], ``d = 2`` ``(forward, turn)`` or ``d = 3``
     ``(forward, lateral, turn)`` when the team has an omnidirectional robot
     (see :func:`sgjax.dynamics.decode_continuous`).
@@ -38,6 +40,7 @@ default reward is metres gained toward the goal + 100 once on arrival - 10 per c
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import gymnasium
 import jax
@@ -61,6 +64,7 @@ from sgjax.terms.enders import Enders, Outcome
 from sgjax.terms.presets import OBSERVATION_PRESETS, REWARD_PRESETS
 from sgjax.types import (
     GO,
+    STOP,
     CollisionCounts,
     EnvParams,
     EnvState,
@@ -316,7 +320,13 @@ class SocialNavEnv:
         episode ends, ``obs``/``state`` are the new episode's, and ``info["final_observation"]``,
         ``info["final_robots"]``, ``info["final_collisions"]`` and ``info["final_time"]`` (steps)
         hold the ended episode's; ``info["episode_done"]`` says whether it ended.
+
+        Concrete ``actions`` with a NaN or infinite continuous value, or a GO/STOP action other
+        than 0 or 1, are an error naming the robot slot (:func:`reject_invalid_actions`);
+        inside ``jit`` such an action is replaced by the neutral one (a zero command, STOP)
+        and flagged in ``info["invalid_action"] [R]``.
         """
+        reject_invalid_actions(actions, self.config.action_mode == "continuous")
         return self._step_compiled(key, state, actions, params)
 
     def _step(
@@ -350,8 +360,10 @@ class SocialNavEnv:
         penalty under ``"stuck"`` when that ender is on); ``info["was_active"] [R]`` says which
         robots were active at the start of the step (they alone were rewarded; settling robots
         move too), ``info["arrived"] [R]`` which arrived during it, ``info["collision_*"] [R]``
-        what they touched.
+        what they touched; ``info["invalid_action"] [R]`` which robots' new actions were invalid
+        and replaced by the neutral action (see :meth:`step`).
         """
+        reject_invalid_actions(actions, self.config.action_mode == "continuous")
         return self._step_env_compiled(key, state, actions, params)
 
     def _step_env(
@@ -362,7 +374,12 @@ class SocialNavEnv:
         with jax.named_scope("decode_actions"):
             # at a decision step the new actions, else each robot's held one
             decided = self.decides(state)
-            actions = jnp.where(decided, self._checked(actions), state.held_action)
+            fresh = self._checked(actions)
+            continuous = cfg.action_mode == "continuous"
+            invalid = decided & invalid_actions(fresh, continuous)
+            neutral = jnp.zeros_like(fresh) if continuous else jnp.full_like(fresh, STOP)
+            fresh = jnp.where(invalid[:, None] if continuous else invalid, neutral, fresh)
+            actions = jnp.where(decided, fresh, state.held_action)
             commands = self._commands(state, actions, params)
         with jax.named_scope("pedestrian_waypoints"):
             humans = advance_waypoints(key_humans, cfg.humans, params.humans, params.map,
@@ -400,6 +417,7 @@ class SocialNavEnv:
             "arrived": next_state.robots.succeeded & ~state.robots.succeeded,
             "reward_terms": reward_terms,
             "decided": decided,
+            "invalid_action": invalid,
         }
         return obs, next_state, reward, terminated, truncated, info
 
@@ -552,3 +570,36 @@ class SocialNavEnv:
     _reset_subset_compiled = jax.jit(_reset, static_argnums=0)
     _step_compiled = jax.jit(_step, static_argnums=0)
     _step_env_compiled = jax.jit(_step_env, static_argnums=0)
+
+
+def invalid_actions(actions: Array, continuous: bool) -> Array:
+    """``[..., R]`` bool: robots whose action the step cannot take: a continuous action with a
+    NaN or infinite component (``actions [..., R, A]``), a GO/STOP action other than GO (0) or
+    STOP (1) (``actions [..., R]``)."""
+    if continuous:
+        return ~jnp.all(jnp.isfinite(actions), axis=-1)
+    return (actions != GO) & (actions != STOP)
+
+
+def reject_invalid_actions(actions: Any, continuous: bool, where: str = "actions") -> None:
+    """Outside ``jit``: raise ``ValueError`` naming the first robot slot (and batch index) whose
+    action :func:`invalid_actions` refuses, and how many are; traced actions (inside ``jit``,
+    where the step neutralises and flags them instead) pass unchecked."""
+    if isinstance(actions, jax.core.Tracer):
+        return
+    values = np.asarray(actions)
+    if continuous:
+        if values.ndim < 2:
+            return  # a shape error, reported by the step's own check
+        bad = ~np.all(np.isfinite(values), axis=-1)
+        rule = "continuous actions must be finite"
+    else:
+        bad = (values != GO) & (values != STOP)
+        rule = f"GO/STOP actions are {GO} (GO) or {STOP} (STOP)"
+    if not bad.any():
+        return
+    first = tuple(int(i) for i in np.argwhere(bad)[0])
+    place = (f"robot slot {first[-1]}" if len(first) == 1 else
+             f"robot slot {first[-1]} of batch index {first[:-1] if len(first) > 2 else first[0]}")
+    more = f" (and {int(bad.sum()) - 1} more)" if bad.sum() > 1 else ""
+    raise ValueError(f"{where}: {place} has action {values[first].tolist()}{more}; {rule}")

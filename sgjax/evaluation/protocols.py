@@ -88,7 +88,10 @@ def load_protocol(name_or_path: str | Path) -> Protocol:
     if not path.is_file():
         raise FileNotFoundError(f"protocol {str(name_or_path)!r}: neither a built-in protocol "
                                 f"({', '.join(PROTOCOLS)}) nor a file")
-    data = yaml.safe_load(path.read_text())
+    try:
+        data = yaml.safe_load(path.read_text())
+    except (yaml.YAMLError, UnicodeDecodeError) as err:
+        raise ValueError(f"{path}: not a YAML protocol file ({err})") from None
     if not isinstance(data, dict):
         raise ValueError(f"{path}: a protocol file is a mapping of {sorted(_KEYS)}")
     unknown, missing = set(data) - set(_KEYS), _REQUIRED - set(data)

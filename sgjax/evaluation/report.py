@@ -18,7 +18,9 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from sgjax.evaluation.metrics import METRICS, MetricConstants
+from sgjax.evaluation.result_schema import EVALUATE
 from sgjax.evaluation.statistics import CONFIDENCE, ConfigResult, Summary
+from sgjax.files import write_atomic
 from sgjax.version import __version__
 
 # The paper's Table 3 columns, then success.
@@ -36,19 +38,23 @@ CHARTED = ("team_success", "success", "collisions", "episode_length", "stop_time
 
 
 def write_all(results: Sequence[ConfigResult], out: Path,
-              constants: MetricConstants) -> list[Path]:
-    """Write every output into ``out`` (created); returns the paths written."""
+              constants: MetricConstants, provenance: dict | None = None) -> list[Path]:
+    """Write every output into ``out`` (created); returns the paths written. ``provenance``
+    (:func:`sgjax.evaluation.provenance.provenance`) goes into ``metrics.json``."""
     out.mkdir(parents=True, exist_ok=True)
-    return [write_json(results, out / "metrics.json", constants),
+    return [write_json(results, out / "metrics.json", constants, provenance),
             write_csv(results, out / "metrics.csv"),
             write_table(results, out / "table.md"),
             plot_success(results, out / "success_by_robots.png"),
             plot_metrics(results, out / "metrics_by_robots.png")]
 
 
-def write_json(results: Sequence[ConfigResult], path: Path, constants: MetricConstants) -> Path:
+def write_json(results: Sequence[ConfigResult], path: Path, constants: MetricConstants,
+               provenance: dict | None = None) -> Path:
     document = {
+        "schema_version": EVALUATE,
         "sgjax_version": __version__,
+        **({} if provenance is None else {"provenance": provenance}),
         "confidence": CONFIDENCE,
         "interval": "Wilson score for yes/no episode metrics (binary), Student t otherwise, "
                     "clipped to [0, 1] for fractions and at 0 below; "
@@ -59,7 +65,7 @@ def write_json(results: Sequence[ConfigResult], path: Path, constants: MetricCon
                                  "source": m.source} for m in METRICS},
         "results": [r.as_dict() for r in results],
     }
-    path.write_text(json.dumps(document, indent=1))
+    write_atomic(path, json.dumps(document, indent=1))
     return path
 
 

@@ -11,14 +11,22 @@ one ``jit(scan(vmap(step_env)))`` with the metrics accumulated inside.
 ``env.max_agents`` (and every pedestrian count, radius or weight the params hold). Steps run
 in chunks (:func:`scan_until_done`) until every episode has ended; an ended episode's state is
 frozen, so the results equal those of the whole time limit. With ``counterfactual`` the runner
-plays the lanes of :func:`sgjax.evaluation.counterfactual.play_counterfactual` as well.
+plays the lanes of :func:`sgjax.evaluation.counterfactual.play_counterfactual` as well;
+``record_lanes`` keeps every state of chosen episodes only (the episode of a GIF, say).
+
+:class:`LaneRunner` plays several policies at several robot counts as the lanes of one loop
+(one compiled program for a whole evaluation table)::
+
+    runner = LaneRunner(env, [trained, baseline], num_counts=5, num_episodes=192, max_steps=750,
+                        record_lanes=[(2, 0)])  # policy 0 at counts[2], episode 0
+    values, robot, states = runner.run(key, params, jnp.array([3, 4, 5, 7, 10]))  # [C, E]
 """
 
 from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple, TypeVar
 
 import jax
@@ -32,8 +40,8 @@ from sgjax.evaluation import metrics
 from sgjax.evaluation.policies import Policy, RecurrentPolicy
 from sgjax.types import EnvParams, EnvState
 
-__all__ = ["STEP_CHUNK", "EpisodeRunner", "Episodes", "check_steps", "scan_until_done",
-           "with_zone_books"]
+__all__ = ["STEP_CHUNK", "EpisodeRunner", "Episodes", "LaneRunner", "check_steps",
+           "scan_until_done", "with_zone_books"]
 
 STEP_CHUNK = 32  # steps per chunk of the runner's early-stopping loop
 C = TypeVar("C")
@@ -124,7 +132,9 @@ class Episodes:
 
     values: dict[str, np.ndarray]  # per-episode value of every metric, [E]
     robot: dict[str, np.ndarray]  # per-robot values of robot-level metrics, [E, R]
-    states: Any = None  # with record=True: EnvState stacked [T + 1, E, ...] (T = time limit)
+    # with record=True: EnvState stacked [T + 1, E, ...] (T = time limit); with record_lanes:
+    # [T + 1, len(record_lanes), ...], the recorded episodes in the order given
+    states: Any = None
     compile_seconds: float | None = None  # compiling the batched run
     run_seconds: float | None = None  # running it once compiled (results on the host)
 
@@ -139,26 +149,63 @@ class LoopCarry(NamedTuple):
     extra: Any  # what a hook folds the steps into (the counterfactual comparisons)
 
 
+def act(policy: Policy | RecurrentPolicy, memory: Any, obs: Array, keys: Array,
+        state: EnvState, params: EnvParams) -> tuple[Any, Array]:
+    """``policy`` for every environment of a batch: ``obs [N, R, D]``, ``keys [N]``, ``state``
+    with leading axis ``N`` -> ``(memory, actions)``, actions ``[N, R]`` (GO/STOP) or
+    ``[N, R, d]``; ``memory`` (``[N, ...]``) passes through for a policy without memory."""
+    if isinstance(policy, RecurrentPolicy):
+        return jax.vmap(policy.step, in_axes=(0, 0, 0, 0, None))(memory, obs, keys, state,
+                                                                 params)
+    return memory, jax.vmap(policy, in_axes=(0, 0, 0, None))(obs, keys, state, params)
+
+
+def first_memory(policy: Policy | RecurrentPolicy, count: int, num_robots: int) -> Any:
+    """The memory of ``count`` episodes at their start: ``policy.init(num_robots)`` stacked
+    ``[count, ...]``, or zeros ``[count]`` for a policy without memory."""
+    if isinstance(policy, RecurrentPolicy):
+        return jax.vmap(lambda _: policy.init(num_robots))(jnp.arange(count))
+    return jnp.zeros(count)
+
+
+def _checked_lanes(lanes: Sequence[int] | None, count: int, what: str) -> tuple[int, ...] | None:
+    """``lanes`` as a tuple of indices in ``[0, count)`` (None stays None)."""
+    if lanes is None:
+        return None
+    lanes = tuple(int(i) for i in lanes)
+    if not lanes or not all(0 <= i < count for i in lanes):
+        raise ValueError(f"{what} must be a non-empty list of indices in [0, {count}), got "
+                         f"{list(lanes)}")
+    return lanes
+
+
 class EpisodeRunner:
     """Plays ``num_episodes`` episodes of ``env`` under ``policy`` for ``max_steps`` steps.
 
     ``env`` gets conflict-zone books (:func:`with_zone_books`); ``policy`` is a
     ``policy(obs, key, state, params) -> actions`` or a :class:`RecurrentPolicy`. ``record``
-    keeps every step's state (and plays the whole time limit); ``counterfactual`` also plays
-    every episode with each robot alone and without each robot (``1 + 2R`` times the work) and
-    fills in the counterfactual metrics (NaN otherwise; every other metric is the same either
-    way). ``stop_early=False`` steps through the whole time limit (same results; for
-    benchmarks of the step). :attr:`run` is ``jit(episodes)``, compiled once per shape."""
+    keeps every step's state of every episode (and plays the whole time limit);
+    ``record_lanes`` (episode indices) keeps every step's state of those episodes only
+    (``[T + 1, len(record_lanes), ...]``, a few MB for one episode) and still stops early, so a
+    run can both evaluate and record the episode a picture is drawn from. ``counterfactual``
+    also plays every episode with each robot alone and without each robot (``1 + 2R`` times
+    the work) and fills in the counterfactual metrics (NaN otherwise; every other metric is the
+    same either way). ``stop_early=False`` steps through the whole time limit (same results;
+    for benchmarks of the step). :attr:`run` is ``jit(episodes)``, compiled once per shape."""
 
     def __init__(self, env: SocialNavEnv, policy: Policy | RecurrentPolicy, num_episodes: int,
                  max_steps: int, constants: metrics.MetricConstants = metrics.DEFAULT_CONSTANTS,
-                 record: bool = False, counterfactual: bool = False, stop_early: bool = True):
+                 record: bool = False, counterfactual: bool = False, stop_early: bool = True,
+                 record_lanes: Sequence[int] | None = None):
         if num_episodes < 1:
             raise ValueError(f"num_episodes must be at least 1, got {num_episodes}")
+        if record and record_lanes is not None:
+            raise ValueError("record keeps every episode and record_lanes some: give one")
         self.env = with_zone_books(env)
         self.policy, self.num_episodes, self.num_steps = policy, num_episodes, int(max_steps)
         self.num_robots = self.env.max_agents
         self.constants, self.record, self.counterfactual = constants, record, counterfactual
+        self.record_lanes = _checked_lanes(record_lanes, num_episodes, "record_lanes")
         self.every_step = record or not stop_early
         self.run = jax.jit(self.episodes)
 
@@ -174,15 +221,20 @@ class EpisodeRunner:
 
     def _act(self, memory: Any, obs: Array, keys: Array, state: EnvState, params: EnvParams
              ) -> tuple[Any, Array]:
-        if isinstance(self.policy, RecurrentPolicy):
-            return jax.vmap(self.policy.step, in_axes=(0, 0, 0, 0, None))(memory, obs, keys,
-                                                                           state, params)
-        return memory, jax.vmap(self.policy, in_axes=(0, 0, 0, None))(obs, keys, state, params)
+        return act(self.policy, memory, obs, keys, state, params)
 
     def _first_memory(self, count: int) -> Any:
-        if isinstance(self.policy, RecurrentPolicy):
-            return jax.vmap(lambda _: self.policy.init(self.num_robots))(jnp.arange(count))
-        return jnp.zeros(count)
+        return first_memory(self.policy, count, self.num_robots)
+
+    def _recorder(self) -> Callable[[EnvState], EnvState] | None:
+        """What the loop keeps of each step's batched state ``[N, ...]``: all of it
+        (``record``), the ``record_lanes`` rows, or nothing (None)."""
+        if self.record:
+            return lambda s: s
+        if self.record_lanes is None:
+            return None
+        rows = np.asarray(self.record_lanes)
+        return lambda s: jax.tree.map(lambda leaf: leaf[rows], s)
 
     def play(self, params: EnvParams, obs: Array, state: EnvState, lanes: int,
              step_keys: Array, hook: Callable | None = None, extra: Any = None,
@@ -229,43 +281,154 @@ class EpisodeRunner:
 
     def episodes(self, key: Array, params: EnvParams) -> tuple:
         """``(values, robot, states)``: every metric per episode ``{name: [E]}`` and per robot
-        ``{name: [E, R]}``; with ``record`` the states ``[T + 1, E, ...]`` (the reset first;
-        else None). Traceable: :attr:`run` is its ``jit``; ``params.max_steps`` must be at
-        most ``max_steps`` (:func:`check_steps`), as an episode is cut off there."""
+        ``{name: [E, R]}``; with ``record`` the states ``[T + 1, E, ...]`` (the reset first),
+        with ``record_lanes`` those episodes' ``[T + 1, len(record_lanes), ...]``, else None.
+        Traceable: :attr:`run` is its ``jit``; ``params.max_steps`` must be at most
+        ``max_steps`` (:func:`check_steps`), as an episode is cut off there."""
         k_reset, k_steps = jax.random.split(key)
         reset_keys = jax.random.split(k_reset, self.num_episodes)
         step_keys = jax.random.split(k_steps, self.num_steps)
+        recorder = self._recorder()
         if self.counterfactual:
             robot, episode, states, first = cf.play_counterfactual(
-                self, reset_keys, step_keys, params, self.record)
+                self, reset_keys, step_keys, params, recorder is not None)
+            if self.record_lanes is not None:  # the lanes' rows of every recorded step
+                rows = np.asarray(self.record_lanes)
+                states = jax.tree.map(lambda leaf: leaf[:, rows], states)
         else:
             obs, first = jax.vmap(self.env.reset, in_axes=(0, None))(reset_keys, params)
-            final, tally, _, states = self.play(params, obs, first, 1, step_keys,
-                                                emit=(lambda s: s) if self.record else None)
+            final, tally, _, states = self.play(params, obs, first, 1, step_keys, emit=recorder)
             robot, episode = self.finalize(tally, final, params)
         values = jax.vmap(metrics.per_episode)(robot, episode)
-        if self.record:
-            states = jax.tree.map(lambda a, rest: jnp.concatenate([a[None], rest]), first, states)
+        if recorder is not None:
+            states = jax.tree.map(lambda a, rest: jnp.concatenate([a[None], rest]),
+                                  recorder(first), states)
         return values, robot, states
 
-    def compile(self, key: Array, params: EnvParams) -> tuple[Callable, float]:
-        """:attr:`run` compiled for the shapes of ``key`` and ``params``, and the seconds it
-        took."""
+    def compile(self, key: Array, params: EnvParams, *args: Any) -> tuple[Callable, float]:
+        """:attr:`run` compiled for the shapes of its arguments (``key``, ``params`` and, for a
+        :class:`LaneRunner`, the counts), and the seconds it took."""
         t0 = time.perf_counter()
-        compiled = self.run.lower(key, params).compile()
+        compiled = self.run.lower(key, params, *args).compile()
         return compiled, time.perf_counter() - t0
 
     def play_compiled(self, compiled: Callable, key: Array, params: EnvParams,
-                      compile_seconds: float | None = None) -> Episodes:
-        """Run a compiled :attr:`run` and bring its results to the host, timed."""
-        check_steps(params, self.num_steps, "EpisodeRunner")
+                      compile_seconds: float | None = None, args: tuple = ()) -> Episodes:
+        """Run a compiled :attr:`run` (on ``key, params, *args``) and bring its results to the
+        host, timed."""
+        check_steps(params, self.num_steps, type(self).__name__)
         t0 = time.perf_counter()
-        values, robot, states = jax.device_get(compiled(key, params))
+        values, robot, states = jax.device_get(compiled(key, params, *args))
         return Episodes(values={k: np.asarray(v) for k, v in values.items()},
                         robot={k: np.asarray(v) for k, v in robot.items()}, states=states,
                         compile_seconds=compile_seconds, run_seconds=time.perf_counter() - t0)
 
-    def __call__(self, key: Array, params: EnvParams) -> Episodes:
+    def __call__(self, key: Array, params: EnvParams, *args: Any) -> Episodes:
         """Compile for these shapes, play, and return the host results."""
-        compiled, seconds = self.compile(key, params)
-        return self.play_compiled(compiled, key, params, seconds)
+        compiled, seconds = self.compile(key, params, *args)
+        return self.play_compiled(compiled, key, params, seconds, args)
+
+
+class LaneRunner(EpisodeRunner):
+    """Every policy of ``policies`` (``P``) at every robot count of ``counts`` (``K``, an
+    argument of :attr:`run`, ``[K]`` int32): ``C = P x K`` configurations of ``num_episodes``
+    episodes each, played as the lanes of one loop, so one compiled program evaluates them all.
+
+    Configuration ``c = p * K + k`` is policy ``p`` with ``counts[k]`` robots. Each plays the
+    episodes an :class:`EpisodeRunner` of its policy plays with the same key and the params at
+    that count (``num_agents = counts[k]``, ``min_agents`` 0, as
+    :func:`sgjax.evaluation.evaluate.params_by_count` makes them): episode ``e`` of every
+    configuration has the same reset and per-step keys. The count is read at the reset only,
+    so the configurations share ``params`` otherwise. Each policy acts on its own
+    configurations' lanes (a static slice: no policy spends work on another's lanes); the
+    policies must give actions of one shape. The loop stops once every episode of every
+    configuration has ended (an ended episode is frozen, so the results do not depend on when).
+    ``record_lanes``: ``(configuration, episode)`` pairs whose every state is kept.
+
+    ``run(key, params, counts) -> (values, robot, states)``: every metric per episode
+    ``{name: [C, E]}`` and per robot ``{name: [C, E, R]}``; ``states`` the recorded lanes'
+    ``[T + 1, len(record_lanes), ...]`` (None without ``record_lanes``). Calling the runner
+    gives :class:`Episodes` with those ``[C, E]`` values."""
+
+    def __init__(self, env: SocialNavEnv, policies: Sequence[Policy | RecurrentPolicy],
+                 num_counts: int, num_episodes: int, max_steps: int,
+                 constants: metrics.MetricConstants = metrics.DEFAULT_CONSTANTS,
+                 record_lanes: Sequence[tuple[int, int]] | None = None,
+                 stop_early: bool = True):
+        if not policies or num_counts < 1:
+            raise ValueError(f"LaneRunner needs policies and counts, got {len(policies)} "
+                             f"policies and {num_counts} counts")
+        super().__init__(env, policies[0], num_episodes, max_steps, constants,
+                         stop_early=stop_early)
+        self.policies, self.num_counts = tuple(policies), int(num_counts)
+        self.num_configs = len(self.policies) * self.num_counts
+        if record_lanes is not None:
+            pairs = [(int(c), int(e)) for c, e in record_lanes]
+            if not pairs or not all(0 <= c < self.num_configs and 0 <= e < num_episodes
+                                    for c, e in pairs):
+                raise ValueError(f"record_lanes must be (configuration < {self.num_configs}, "
+                                 f"episode < {num_episodes}) pairs, got {pairs}")
+            self.record_lanes = tuple(e * self.num_configs + c for c, e in pairs)
+
+    def _block(self, p: int) -> Callable[[Array], Array]:
+        """The rows ``[E * K, ...]`` of policy ``p``'s configurations in a batch of the loop's
+        episode-major ``[E * C, ...]`` rows."""
+        episodes, k = self.num_episodes, self.num_counts
+
+        def take(leaf: Array) -> Array:
+            lanes = leaf.reshape((episodes, self.num_configs) + leaf.shape[1:])
+            return lanes[:, p * k:(p + 1) * k].reshape((episodes * k,) + leaf.shape[1:])
+
+        return take
+
+    def _act(self, memory: Any, obs: Array, keys: Array, state: EnvState, params: EnvParams
+             ) -> tuple[Any, Array]:
+        memories, actions = [], []
+        for p, policy in enumerate(self.policies):
+            take = self._block(p)
+            m, a = act(policy, memory[p], take(obs), take(keys), jax.tree.map(take, state),
+                       params)
+            memories.append(m)
+            actions.append(a.reshape((self.num_episodes, self.num_counts) + a.shape[1:]))
+        if len({a.shape for a in actions}) > 1:
+            raise ValueError("LaneRunner: the policies give actions of different shapes "
+                             f"{[a.shape[2:] for a in actions]}; they must act in one "
+                             "environment")
+        dtype = jnp.result_type(*actions)
+        joined = jnp.concatenate([a.astype(dtype) for a in actions], axis=1)
+        return tuple(memories), joined.reshape((self.num_episodes * self.num_configs,)
+                                               + joined.shape[2:])
+
+    def _first_memory(self, count: int) -> Any:
+        return tuple(first_memory(policy, self.num_episodes * self.num_counts, self.num_robots)
+                     for policy in self.policies)
+
+    def episodes(self, key: Array, params: EnvParams, counts: Array) -> tuple:
+        """See the class: ``counts [K]`` robot counts, each at most ``env.max_agents``."""
+        k_reset, k_steps = jax.random.split(key)
+        reset_keys = jax.random.split(k_reset, self.num_episodes)
+        step_keys = jax.random.split(k_steps, self.num_steps)
+        per_config = jnp.tile(jnp.asarray(counts, jnp.int32), len(self.policies))
+        exact = jnp.zeros((), jnp.int32)
+
+        def reset(k: Array, n: Array) -> tuple[Array, EnvState]:
+            return self.env.reset(k, params.replace(num_agents=n, min_agents=exact))
+
+        obs, first = jax.vmap(jax.vmap(reset, in_axes=(None, 0)), in_axes=(0, None))(
+            reset_keys, per_config)  # [E, C, ...]
+        obs, first = jax.tree.map(lambda v: v.reshape((v.shape[0] * v.shape[1],) + v.shape[2:]),
+                                  (obs, first))
+        recorder = self._recorder()
+        final, tally, _, states = self.play(params, obs, first, self.num_configs, step_keys,
+                                            emit=recorder)
+        robot, episode = self.finalize(tally, final, params)
+        values = jax.vmap(metrics.per_episode)(robot, episode)
+        if recorder is not None:
+            states = jax.tree.map(lambda a, rest: jnp.concatenate([a[None], rest]),
+                                  recorder(first), states)
+
+        def by_config(v: Array) -> Array:  # [E * C, ...] -> [C, E, ...]
+            return jnp.swapaxes(v.reshape((self.num_episodes, self.num_configs) + v.shape[1:]),
+                                0, 1)
+
+        return jax.tree.map(by_config, values), jax.tree.map(by_config, robot), states

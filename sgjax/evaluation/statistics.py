@@ -62,6 +62,67 @@ def t_interval(values: np.ndarray, confidence: float = CONFIDENCE) -> tuple[floa
     return mean - half, mean + half
 
 
+def paired_difference(a: np.ndarray, b: np.ndarray, confidence: float = CONFIDENCE) -> Summary:
+    """``a - b`` over paired episodes (the same episode played by two policies: common random
+    numbers), ``[E]`` each: the mean difference with its Student-t interval over the
+    per-episode differences. Pairs where either value is NaN are left out; an interval that
+    excludes 0 is what "A beats B" needs."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if a.shape != b.shape:
+        raise ValueError(f"paired_difference: {a.shape} and {b.shape} episodes do not pair")
+    diff = (a - b)[np.isfinite(a) & np.isfinite(b)]
+    if not diff.size:
+        return Summary(math.nan, math.nan, math.nan, math.nan, 0)
+    low, high = t_interval(diff, confidence)
+    std = float(np.std(diff, ddof=1)) if diff.size > 1 else math.nan
+    return Summary(float(np.mean(diff)), low, high, std, int(diff.size))
+
+
+def probability_of_improvement(a: np.ndarray, b: np.ndarray) -> float:
+    """P(A > B) for one run of each drawn at random: the share of pairs ``(a_i, b_j)`` with
+    ``a_i > b_j``, ties counting half (rliable's probability of improvement, the Mann-Whitney
+    U statistic over ``len(a) * len(b)``); NaN values left out, NaN if either side is empty."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    a, b = a[np.isfinite(a)], b[np.isfinite(b)]
+    if not a.size or not b.size:
+        return math.nan
+    return float(np.mean((a[:, None] > b[None]) + 0.5 * (a[:, None] == b[None])))
+
+
+def interquartile_mean(values: np.ndarray) -> float:
+    """Mean of the middle half of ``values`` (25% trimmed from each end: rliable's IQM, robust
+    to one outlying seed and less noisy than the median); NaN for no values."""
+    values = np.asarray(values, float)
+    return float(scipy_stats.trim_mean(values, 0.25)) if values.size else math.nan
+
+
+def seed_aggregate(per_seed: np.ndarray, confidence: float = CONFIDENCE, resamples: int = 2000,
+                   seed: int = 0) -> dict[str, float]:
+    """Aggregate of one cell over training seeds (``per_seed [S]``, each seed's mean over its
+    episodes), in the rliable methodology: the mean and the interquartile mean, each with a
+    percentile-bootstrap interval over seeds (``resamples`` resamples, fixed ``seed``; with one
+    cell, the stratified bootstrap is the plain one). Computed with scipy rather than the
+    rliable package, which pulls statsmodels, arch and formulaic in for these few lines. With
+    fewer than two seeds the intervals are NaN."""
+    values = np.asarray(per_seed, float)
+    values = values[np.isfinite(values)]
+    out = {"seeds": int(values.size), "mean": float(np.mean(values)) if values.size else math.nan,
+           "iqm": interquartile_mean(values)}
+    for name, statistic in (("mean", np.mean), ("iqm", interquartile_mean)):
+        low = high = math.nan
+        if values.size > 1 and np.ptp(values) > 0:
+            result = scipy_stats.bootstrap(
+                (values,), lambda v, axis=-1, f=statistic: np.apply_along_axis(f, axis, v),
+                confidence_level=confidence, n_resamples=resamples, method="percentile",
+                random_state=np.random.default_rng(seed))
+            low, high = (float(result.confidence_interval.low),
+                         float(result.confidence_interval.high))
+        elif values.size > 1:  # every seed the same: no spread to resample
+            low = high = float(values[0])
+        out[f"{name}_low"], out[f"{name}_high"] = low, high
+    return out
+
+
 def summarize(values: np.ndarray, binary: bool, fraction: bool = False) -> Summary:
     """Summary over episodes of one metric's per-episode values (NaNs are left out). Every
     metric is non-negative, so the interval is clipped at 0, and at 1 for ``fraction``s."""

@@ -6,6 +6,7 @@ import json
 from importlib import resources
 from pathlib import Path
 
+from sgjax.files import write_atomic
 from sgjax.maps.crowd_scenarios import CROWD_SCENARIOS
 from sgjax.maps.schema import DEFAULT_CLEARANCE, MapError, MapSpec, parse_map
 
@@ -21,7 +22,7 @@ def shipped_map_names() -> list[str]:
 def save(spec: MapSpec, path: str | Path) -> Path:
     """Write a map to a JSON file in the sgjax format."""
     path = Path(path)
-    path.write_text(json.dumps(spec.to_json(), indent=1) + "\n")
+    write_atomic(path, json.dumps(spec.to_json(), indent=1) + "\n")
     return path
 
 

@@ -26,24 +26,31 @@ Every problem is reported as a :class:`MapError` naming the file, the JSON path 
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
 
 from sgjax.kernels.geometry import segments_intersect
+from sgjax.validation import suggest
 
 TOP_LEVEL_REQUIRED = ("name", "description", "bounds", "walls", "nodes", "edges")
 TOP_LEVEL_OPTIONAL = ("groups", "routes", "zones", "pedestrian_groups")
 DEFAULT_CLEARANCE = 0.25  # m: default robot radius every node must keep from every wall
+MAX_COORDINATE = 1e5  # m: float32 resolves 1 cm up to about 1.3e5 m
 
 
 class MapError(ValueError):
-    """A malformed or inconsistent map file."""
+    """A malformed or inconsistent map file: ``source`` (the file), ``path`` (the JSON path,
+    ``$.walls[3]``), ``problem``; ``errors`` holds every error found in the same pass (this one
+    first)."""
 
     def __init__(self, source: str, path: str, problem: str):
         self.source, self.path, self.problem = source, path, problem
+        self.errors: tuple[MapError, ...] = (self,)
         super().__init__(f"{source}: {path}: {problem}")
 
 
@@ -111,10 +118,15 @@ def _type_name(value: Any) -> str:
 
 
 def _expect_number(source: str, path: str, value: Any) -> float:
+    """A coordinate (m): a finite number within :data:`MAX_COORDINATE` of the origin."""
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise MapError(source, path, f"expected a number, got {_type_name(value)} {value!r}")
     if not math.isfinite(value):
         raise MapError(source, path, f"expected a finite number, got {value!r}")
+    if abs(value) > MAX_COORDINATE:
+        raise MapError(source, path, f"{value!r} m is beyond +-{MAX_COORDINATE:g} m: the "
+                                     "simulator computes in float32, whose steps there exceed "
+                                     "a centimetre")
     return float(value)
 
 
@@ -132,6 +144,11 @@ def _expect_list(source: str, path: str, value: Any, length: int | None = None) 
     return value
 
 
+def _unknown_key(source: str, path: str, key: Any, valid: tuple[str, ...]) -> MapError:
+    return MapError(source, f"{path}.{key}", f"unknown key{suggest(str(key), valid)}; valid "
+                                             f"keys are: {', '.join(valid)}")
+
+
 def _expect_keys(
     source: str, path: str, obj: Any, required: tuple[str, ...], optional: tuple[str, ...] = ()
 ) -> dict:
@@ -139,45 +156,107 @@ def _expect_keys(
         raise MapError(source, path, f"expected an object, got {_type_name(obj)}")
     for key in obj:
         if key not in required and key not in optional:
-            valid = ", ".join(required + optional)
-            raise MapError(source, f"{path}.{key}", f"unknown key; valid keys are: {valid}")
+            raise _unknown_key(source, path, key, required + optional)
     for key in required:
         if key not in obj:
             raise MapError(source, path, f"missing required key {key!r}")
     return obj
 
 
+class _Collector:
+    """The errors found so far; parsing goes on past a bad element (skipping it) so that one
+    pass reports every error."""
+
+    def __init__(self, source: str):
+        self.source = source
+        self.errors: list[MapError] = []
+
+    def add(self, error: MapError) -> None:
+        self.errors.append(error)
+
+    @contextlib.contextmanager
+    def element(self) -> Iterator[None]:
+        """Record a ``MapError`` raised inside instead of letting it out."""
+        try:
+            yield
+        except MapError as error:
+            self.errors.append(error)
+
+
+def _combined(errors: list[MapError]) -> MapError:
+    """The first error, its message followed by the others', every one in ``.errors``."""
+    first = errors[0]
+    if len(errors) == 1:
+        return first
+    rest = "".join(f"\n  {e.path}: {e.problem}" for e in errors[1:])
+    combined = MapError(first.source, first.path,
+                        f"{first.problem}\n  and {len(errors) - 1} more error(s):{rest}")
+    combined.problem, combined.errors = first.problem, tuple(errors)
+    return combined
+
+
 def parse_map(data: Any, source: str = "<memory>", clearance: float = DEFAULT_CLEARANCE) -> MapSpec:
     """Validate a decoded JSON map and return a :class:`MapSpec`.
 
     ``clearance`` (m) is the largest robot radius the map must accommodate: every node must keep at
-    least this distance from every wall.
+    least this distance from every wall. Raises :class:`MapError` for the first error in file
+    order, its message listing every other one too (``.errors`` holds them all).
     """
-    obj = _expect_keys(source, "$", data, TOP_LEVEL_REQUIRED, TOP_LEVEL_OPTIONAL)
-    name = obj["name"]
-    if not isinstance(name, str) or not name:
-        raise MapError(source, "$.name", "expected a non-empty string")
-    description = obj["description"]
+    spec, errors = parse_map_collecting(data, source, clearance)
+    if errors:
+        raise _combined(errors)
+    assert spec is not None
+    return spec
+
+
+def parse_map_collecting(data: Any, source: str = "<memory>",
+                         clearance: float = DEFAULT_CLEARANCE
+                         ) -> tuple[MapSpec | None, list[MapError]]:
+    """Every error of a decoded JSON map in one pass, and the map made of its valid elements
+    (None when the top level is not an object): ``(spec, errors)``. Elements with an error are
+    left out of ``spec``; references to them are errors of their own."""
+    found = _Collector(source)
+    if not isinstance(data, dict):
+        found.add(MapError(source, "$", f"expected an object, got {_type_name(data)}"))
+        return None, found.errors
+    valid = TOP_LEVEL_REQUIRED + TOP_LEVEL_OPTIONAL
+    for key in data:
+        if key not in valid:
+            found.add(_unknown_key(source, "$", key, valid))
+    for key in TOP_LEVEL_REQUIRED:
+        if key not in data:
+            found.add(MapError(source, "$", f"missing required key {key!r}"))
+    name = data.get("name", "")
+    if "name" in data and (not isinstance(name, str) or not name):
+        found.add(MapError(source, "$.name", "expected a non-empty string"))
+        name = ""
+    description = data.get("description", "")
     if not isinstance(description, str):
-        raise MapError(source, "$.description", f"expected a string, got {_type_name(description)}")
-    bounds_raw = _expect_list(source, "$.bounds", obj["bounds"], 4)
-    bounds = tuple(_expect_number(source, f"$.bounds[{i}]", v) for i, v in enumerate(bounds_raw))
-    if not (bounds[0] < bounds[2] and bounds[1] < bounds[3]):
-        raise MapError(source, "$.bounds", "expected xmin < xmax and ymin < ymax")
+        found.add(MapError(source, "$.description",
+                           f"expected a string, got {_type_name(description)}"))
+        description = ""
+    bounds: tuple[float, ...] = (-1.0, -1.0, 1.0, 1.0)
+    if "bounds" in data:
+        with found.element():
+            raw = _expect_list(source, "$.bounds", data["bounds"], 4)
+            parsed = tuple(_expect_number(source, f"$.bounds[{i}]", v) for i, v in enumerate(raw))
+            if not (parsed[0] < parsed[2] and parsed[1] < parsed[3]):
+                raise MapError(source, "$.bounds", "expected xmin < xmax and ymin < ymax")
+            bounds = parsed
 
-    walls = _parse_walls(source, obj["walls"])
-    node_ids, positions = _parse_nodes(source, obj["nodes"])
+    walls = _parse_walls(found, data.get("walls", []))
+    node_ids, positions = _parse_nodes(found, data.get("nodes", []), "nodes" in data)
     index = {int(node_id): i for i, node_id in enumerate(node_ids)}
-    edges = _parse_edges(source, obj["edges"], index)
-    _check_clearance(source, walls, node_ids, positions, clearance)
-    _check_edges_clear_walls(source, walls, edges, positions, node_ids)
+    edges = _parse_edges(found, data.get("edges", []), index)
+    _check_clearance(found, walls, node_ids, positions, clearance)
+    edges = _check_edges_clear_walls(found, walls, edges, positions, node_ids)
 
-    if "groups" not in obj and "routes" not in obj:
-        raise MapError(source, "$", "a map needs 'groups' or 'routes' to place robots")
-    groups = _parse_groups(source, obj.get("groups", []), index)
-    routes = _parse_routes(source, obj.get("routes", []), index)
-    zones = _parse_zones(source, obj.get("zones", []))
-    pedestrian_groups = _parse_groups(source, obj.get("pedestrian_groups", []), index,
+    if "groups" not in data and "routes" not in data:
+        found.add(MapError(source, "$", "a map needs 'groups' or 'routes' to place robots"))
+    groups = _parse_groups(found, data.get("groups", []), index)
+    routes = _parse_routes(found, data.get("routes", []), index)
+    zones = _parse_zones(found, data.get("zones", []))
+    pedestrian_groups = _parse_groups(found, data.get("pedestrian_groups", []), index,
                                       "pedestrian_groups")
     spec = MapSpec(
         name=name,
@@ -193,39 +272,45 @@ def parse_map(data: Any, source: str = "<memory>", clearance: float = DEFAULT_CL
         source=source,
         pedestrian_groups=pedestrian_groups,
     )
-    _check_connected_pairs(spec)
-    return spec
+    _check_connected_pairs(found, spec)
+    return spec, found.errors
 
 
-def _parse_walls(source: str, raw: Any) -> np.ndarray:
-    walls = []
-    for i, wall in enumerate(_expect_list(source, "$.walls", raw)):
-        path = f"$.walls[{i}]"
-        coords = [_expect_number(source, f"{path}[{k}]", v) for k, v in enumerate(
-            _expect_list(source, path, wall, 4))]
-        if math.hypot(coords[2] - coords[0], coords[3] - coords[1]) < 1e-6:
-            raise MapError(source, path, f"zero-length wall at ({coords[0]}, {coords[1]})")
-        walls.append(coords)
+def _parse_walls(found: _Collector, raw: Any) -> np.ndarray:
+    source, walls = found.source, []
+    with found.element():
+        raw = _expect_list(source, "$.walls", raw)
+        for i, wall in enumerate(raw):
+            with found.element():
+                path = f"$.walls[{i}]"
+                coords = [_expect_number(source, f"{path}[{k}]", v) for k, v in enumerate(
+                    _expect_list(source, path, wall, 4))]
+                if math.hypot(coords[2] - coords[0], coords[3] - coords[1]) < 1e-6:
+                    raise MapError(source, path, f"zero-length wall at ({coords[0]}, {coords[1]})")
+                walls.append(coords)
     return np.asarray(walls, dtype=np.float64).reshape(-1, 4)
 
 
-def _parse_nodes(source: str, raw: Any) -> tuple[np.ndarray, np.ndarray]:
-    nodes = _expect_list(source, "$.nodes", raw)
-    if not nodes:
-        raise MapError(source, "$.nodes", "a map needs at least one navigation node")
-    ids, positions, seen = [], [], set()
-    for i, node in enumerate(nodes):
-        path = f"$.nodes[{i}]"
-        _expect_keys(source, path, node, ("id", "position"))
-        node_id = _expect_int(source, f"{path}.id", node["id"])
-        if node_id in seen:
-            raise MapError(source, f"{path}.id", f"duplicate node id {node_id}")
-        seen.add(node_id)
-        pos = _expect_list(source, f"{path}.position", node["position"], 2)
-        positions.append([_expect_number(source, f"{path}.position[{k}]", v)
-                          for k, v in enumerate(pos)])
-        ids.append(node_id)
-    return np.asarray(ids, dtype=np.int64), np.asarray(positions, dtype=np.float64)
+def _parse_nodes(found: _Collector, raw: Any, given: bool) -> tuple[np.ndarray, np.ndarray]:
+    source = found.source
+    ids: list[int] = []
+    positions: list[list[float]] = []
+    with found.element():
+        nodes = _expect_list(source, "$.nodes", raw)
+        if given and not nodes:
+            raise MapError(source, "$.nodes", "a map needs at least one navigation node")
+        for i, node in enumerate(nodes):
+            with found.element():
+                path = f"$.nodes[{i}]"
+                _expect_keys(source, path, node, ("id", "position"))
+                node_id = _expect_int(source, f"{path}.id", node["id"])
+                if node_id in ids:
+                    raise MapError(source, f"{path}.id", f"duplicate node id {node_id}")
+                pos = _expect_list(source, f"{path}.position", node["position"], 2)
+                positions.append([_expect_number(source, f"{path}.position[{k}]", v)
+                                  for k, v in enumerate(pos)])
+                ids.append(node_id)
+    return np.asarray(ids, dtype=np.int64), np.asarray(positions, dtype=np.float64).reshape(-1, 2)
 
 
 def _node_row(source: str, path: str, value: Any, index: dict[int, int]) -> int:
@@ -235,17 +320,19 @@ def _node_row(source: str, path: str, value: Any, index: dict[int, int]) -> int:
     return index[node_id]
 
 
-def _parse_edges(source: str, raw: Any, index: dict[int, int]) -> np.ndarray:
-    edges = []
-    for i, edge in enumerate(_expect_list(source, "$.edges", raw)):
-        path = f"$.edges[{i}]"
-        pair = _expect_list(source, path, edge, 2)
-        a = _node_row(source, f"{path}[0]", pair[0], index)
-        b = _node_row(source, f"{path}[1]", pair[1], index)
-        if a == b:
-            raise MapError(source, path, f"edge joins node {pair[0]} to itself")
-        edges.append((a, b))
-    return np.asarray(edges, dtype=np.int64).reshape(-1, 2)
+def _parse_edges(found: _Collector, raw: Any, index: dict[int, int]) -> np.ndarray:
+    source, edges = found.source, []
+    with found.element():
+        for i, edge in enumerate(_expect_list(source, "$.edges", raw)):
+            with found.element():
+                path = f"$.edges[{i}]"
+                pair = _expect_list(source, path, edge, 2)
+                a = _node_row(source, f"{path}[0]", pair[0], index)
+                b = _node_row(source, f"{path}[1]", pair[1], index)
+                if a == b:
+                    raise MapError(source, path, f"edge joins node {pair[0]} to itself")
+                edges.append((i, a, b))
+    return np.asarray(edges, dtype=np.int64).reshape(-1, 3)
 
 
 def point_segment_distances(points: np.ndarray, walls: np.ndarray) -> np.ndarray:
@@ -257,97 +344,114 @@ def point_segment_distances(points: np.ndarray, walls: np.ndarray) -> np.ndarray
     return np.linalg.norm(p - (a + t[..., None] * e), axis=-1)
 
 
-def _check_clearance(
-    source: str, walls: np.ndarray, ids: np.ndarray, positions: np.ndarray, clearance: float
-) -> None:
-    if walls.shape[0] == 0:
+def _check_clearance(found: _Collector, walls: np.ndarray, ids: np.ndarray,
+                     positions: np.ndarray, clearance: float) -> None:
+    """Every node closer to a wall than ``clearance`` (m), each with its nearest wall."""
+    if walls.shape[0] == 0 or positions.shape[0] == 0:
         return
     dist = point_segment_distances(positions, walls)  # [N, W]
-    node, wall = np.unravel_index(np.argmin(dist), dist.shape)
-    if dist[node, wall] < clearance:
-        raise MapError(
-            source,
+    nearest = np.argmin(dist, axis=1)
+    for node in np.flatnonzero(dist[np.arange(len(ids)), nearest] < clearance):
+        wall = int(nearest[node])
+        found.add(MapError(
+            found.source,
             f"$.nodes[{node}]",
             f"node {ids[node]} at ({positions[node][0]:.3f}, {positions[node][1]:.3f}) is "
             f"{dist[node, wall]:.3f} m from "
             f"wall $.walls[{wall}], closer than the robot radius {clearance} m",
-        )
+        ))
 
 
-def _check_edges_clear_walls(
-    source: str, walls: np.ndarray, edges: np.ndarray, positions: np.ndarray, ids: np.ndarray
-) -> None:
-    for i, (a, b) in enumerate(edges):
-        for w, wall in enumerate(walls):
-            if segments_intersect(tuple(positions[a]), tuple(positions[b]),
-                                  tuple(wall[:2]), tuple(wall[2:])):
-                raise MapError(source, f"$.edges[{i}]",
-                               f"edge {ids[a]}-{ids[b]} crosses wall $.walls[{w}]")
+def _check_edges_clear_walls(found: _Collector, walls: np.ndarray, edges: np.ndarray,
+                             positions: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """Every edge that crosses a wall is an error (named with the first wall it crosses);
+    ``edges [E, 3]`` (file index, row a, row b) -> ``[E', 2]`` rows of the edges kept."""
+    kept = []
+    low = np.minimum(walls[:, :2], walls[:, 2:]) - 1e-9  # [W, 2] wall bounding boxes
+    high = np.maximum(walls[:, :2], walls[:, 2:]) + 1e-9
+    for i, a, b in edges:
+        p, q = positions[a], positions[b]
+        near = np.flatnonzero(np.all((low <= np.maximum(p, q)) & (high >= np.minimum(p, q)), 1))
+        crossed = next((int(w) for w in near if segments_intersect(
+            tuple(p), tuple(q), tuple(walls[w, :2]), tuple(walls[w, 2:]))), None)
+        if crossed is None:
+            kept.append((a, b))
+        else:
+            found.add(MapError(found.source, f"$.edges[{i}]",
+                               f"edge {ids[a]}-{ids[b]} crosses wall $.walls[{crossed}]"))
+    return np.asarray(kept, dtype=np.int64).reshape(-1, 2)
 
 
-def _parse_groups(source: str, raw: Any, index: dict[int, int], field: str = "groups"
+def _parse_groups(found: _Collector, raw: Any, index: dict[int, int], field: str = "groups"
                   ) -> tuple:
-    groups = []
-    for i, group in enumerate(_expect_list(source, f"$.{field}", raw)):
-        path = f"$.{field}[{i}]"
-        _expect_keys(source, path, group, ("starts", "goals"))
-        sides = []
-        for key in ("starts", "goals"):
-            ids = _expect_list(source, f"{path}.{key}", group[key])
-            if not ids:
-                raise MapError(source, f"{path}.{key}", "expected at least one node id")
-            sides.append(tuple(_node_row(source, f"{path}.{key}[{k}]", v, index)
-                               for k, v in enumerate(ids)))
-        if set(sides[0]) == set(sides[1]) and len(sides[0]) < 2:
-            raise MapError(source, path, "a group needs a goal different from its start")
-        groups.append((sides[0], sides[1]))
+    source, groups = found.source, []
+    with found.element():
+        for i, group in enumerate(_expect_list(source, f"$.{field}", raw)):
+            with found.element():
+                path = f"$.{field}[{i}]"
+                _expect_keys(source, path, group, ("starts", "goals"))
+                sides = []
+                for key in ("starts", "goals"):
+                    ids = _expect_list(source, f"{path}.{key}", group[key])
+                    if not ids:
+                        raise MapError(source, f"{path}.{key}", "expected at least one node id")
+                    sides.append(tuple(_node_row(source, f"{path}.{key}[{k}]", v, index)
+                                       for k, v in enumerate(ids)))
+                if set(sides[0]) == set(sides[1]) and len(sides[0]) < 2:
+                    raise MapError(source, path, "a group needs a goal different from its start")
+                groups.append((sides[0], sides[1]))
     return tuple(groups)
 
 
-def _parse_routes(source: str, raw: Any, index: dict[int, int]) -> tuple:
-    routes = []
-    for i, route in enumerate(_expect_list(source, "$.routes", raw)):
-        path = f"$.routes[{i}]"
-        nodes = _expect_list(source, path, route)
-        if len(nodes) < 2:
-            raise MapError(source, path, "a route needs at least a start and a goal")
-        rows = tuple(_node_row(source, f"{path}[{k}]", v, index) for k, v in enumerate(nodes))
-        if rows[0] == rows[-1]:
-            raise MapError(source, path, "a route must end at a node other than its start")
-        routes.append(rows)
+def _parse_routes(found: _Collector, raw: Any, index: dict[int, int]) -> tuple:
+    source, routes = found.source, []
+    with found.element():
+        for i, route in enumerate(_expect_list(source, "$.routes", raw)):
+            with found.element():
+                path = f"$.routes[{i}]"
+                nodes = _expect_list(source, path, route)
+                if len(nodes) < 2:
+                    raise MapError(source, path, "a route needs at least a start and a goal")
+                rows = tuple(_node_row(source, f"{path}[{k}]", v, index)
+                             for k, v in enumerate(nodes))
+                if rows[0] == rows[-1]:
+                    raise MapError(source, path, "a route must end at a node other than its start")
+                routes.append(rows)
     return tuple(routes)
 
 
-def _parse_zones(source: str, raw: Any) -> tuple:
-    zones = []
-    for i, zone in enumerate(_expect_list(source, "$.zones", raw)):
-        path = f"$.zones[{i}]"
-        _expect_keys(source, path, zone, ("name", "rect"))
-        if not isinstance(zone["name"], str):
-            raise MapError(source, f"{path}.name", "expected a string")
-        rect = tuple(_expect_number(source, f"{path}.rect[{k}]", v)
-                     for k, v in enumerate(_expect_list(source, f"{path}.rect", zone["rect"], 4)))
-        if not (rect[0] < rect[2] and rect[1] < rect[3]):
-            raise MapError(source, f"{path}.rect", "expected xmin < xmax and ymin < ymax")
-        zones.append(Zone(zone["name"], rect))  # type: ignore[arg-type]
+def _parse_zones(found: _Collector, raw: Any) -> tuple:
+    source, zones = found.source, []
+    with found.element():
+        for i, zone in enumerate(_expect_list(source, "$.zones", raw)):
+            with found.element():
+                path = f"$.zones[{i}]"
+                _expect_keys(source, path, zone, ("name", "rect"))
+                if not isinstance(zone["name"], str):
+                    raise MapError(source, f"{path}.name", "expected a string")
+                rect = tuple(_expect_number(source, f"{path}.rect[{k}]", v) for k, v in
+                             enumerate(_expect_list(source, f"{path}.rect", zone["rect"], 4)))
+                if not (rect[0] < rect[2] and rect[1] < rect[3]):
+                    raise MapError(source, f"{path}.rect", "expected xmin < xmax and ymin < ymax")
+                zones.append(Zone(zone["name"], rect))  # type: ignore[arg-type]
     return tuple(zones)
 
 
-def _check_connected_pairs(spec: MapSpec) -> None:
+def _check_connected_pairs(found: _Collector, spec: MapSpec) -> None:
+    """A group or route whose start cannot reach its goal (one error per group or route)."""
     from sgjax.maps.routing import connected_components
 
     component = connected_components(spec.num_nodes, spec.edges)
     for i, (starts, goals) in enumerate(spec.groups):
-        for s in starts:
-            for g in goals:
-                if s != g and component[s] != component[g]:
-                    raise MapError(
-                        spec.source, f"$.groups[{i}]",
-                        f"no path in the graph from start {spec.node_ids[s]} "
-                        f"to goal {spec.node_ids[g]}",
-                    )
+        apart = [(s, g) for s in starts for g in goals if s != g and component[s] != component[g]]
+        if apart:
+            s, g = apart[0]
+            more = f" (and {len(apart) - 1} more pair(s))" if len(apart) > 1 else ""
+            found.add(MapError(spec.source, f"$.groups[{i}]",
+                               f"no path in the graph from start {spec.node_ids[s]} "
+                               f"to goal {spec.node_ids[g]}{more}"))
     for i, route in enumerate(spec.routes):
         if component[route[0]] != component[route[-1]]:
-            raise MapError(spec.source, f"$.routes[{i}]",
-                           f"no path in the graph from start {spec.node_ids[route[0]]} to goal "
-                           f"{spec.node_ids[route[-1]]}")
+            found.add(MapError(spec.source, f"$.routes[{i}]",
+                               f"no path in the graph from start {spec.node_ids[route[0]]} to "
+                               f"goal {spec.node_ids[route[-1]]}"))

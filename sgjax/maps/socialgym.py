@@ -110,7 +110,11 @@ class ImportReport:
 def read_vectormap_txt(path: Path) -> list[list[float]]:
     """Walls from a ``.vectormap.txt`` file: ``[[x1, y1, x2, y2], ...]``."""
     walls = []
-    for lineno, line in enumerate(path.read_text().splitlines(), start=1):
+    try:
+        text = path.read_text()
+    except UnicodeDecodeError as err:
+        raise MapError(str(path), "$", f"not UTF-8 text ({err})") from None
+    for lineno, line in enumerate(text.splitlines(), start=1):
         if not line.strip():
             continue
         parts = [p.strip() for p in line.split(",")]
@@ -123,9 +127,26 @@ def read_vectormap_txt(path: Path) -> list[list[float]]:
     return walls
 
 
+def _read_json(path: Path) -> Any:
+    """A JSON file's data; unreadable JSON is a ``MapError`` naming the file and the place."""
+    try:
+        return json.loads(path.read_text())
+    except UnicodeDecodeError as err:
+        raise MapError(str(path), "$", f"not UTF-8 text ({err})") from None
+    except json.JSONDecodeError as err:
+        raise MapError(str(path), f"line {err.lineno}", f"not JSON: {err.msg}") from None
+
+
+def _items(path: Path, where: str, value: Any) -> list:
+    """``value`` as a list (a JSON array), else a ``MapError`` at ``where``."""
+    if not isinstance(value, list):
+        raise MapError(str(path), where, f"expected a list, got {type(value).__name__}")
+    return value
+
+
 def read_vectormap_json(path: Path) -> list[list[float]]:
     """Walls from a ``.vectormap.json`` file (numbers may be strings)."""
-    data = json.loads(path.read_text())
+    data = _items(path, "$", _read_json(path))
     walls = []
     for i, line in enumerate(data):
         try:
@@ -140,12 +161,12 @@ def read_navigation_json(path: Path) -> tuple[list[dict[str, Any]], list[list[in
                                               dict[str, str]]:
     """Nodes, edges and a summary of the ignored edge attributes from a graph_navigation V2
     ``.navigation.json`` file."""
-    data = json.loads(path.read_text())
+    data = _read_json(path)
     if not isinstance(data, dict):
         raise MapError(str(path), "$", f"expected an object with nodes and edges, got "
                        f"{type(data).__name__}")
     nodes, edges = [], []
-    for i, node in enumerate(data.get("nodes", [])):
+    for i, node in enumerate(_items(path, "$.nodes", data.get("nodes", []))):
         try:
             nodes.append({"id": int(node["id"]),
                           "position": [float(node["loc"]["x"]), float(node["loc"]["y"])]})
@@ -153,7 +174,7 @@ def read_navigation_json(path: Path) -> tuple[list[dict[str, Any]], list[list[in
             raise MapError(str(path), f"$.nodes[{i}]",
                            f"expected id and loc.x/loc.y: {err}") from None
     values: dict[str, list] = {name: [] for name in EDGE_ATTRIBUTES}
-    for i, edge in enumerate(data.get("edges", [])):
+    for i, edge in enumerate(_items(path, "$.edges", data.get("edges", []))):
         try:
             edges.append([int(edge["s0_id"]), int(edge["s1_id"])])
         except (KeyError, TypeError, ValueError) as err:

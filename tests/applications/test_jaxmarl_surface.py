@@ -169,3 +169,13 @@ def test_without_jaxmarl_the_error_names_the_extra():
     out = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True,
                          timeout=300, check=True).stdout
     assert out.count("pip install 'sgjax[jaxmarl]'") == 2, out
+
+
+def test_invalid_actions_raise_outside_jit_and_are_flagged_inside():
+    env = SocialNavJaxMARL("open", num_agents=2, action_mode="continuous")
+    obs, state = env.reset(jax.random.key(0))
+    bad = {"robot_0": jnp.array([jnp.nan, 0.0]), "robot_1": jnp.zeros(2)}
+    with pytest.raises(ValueError, match="robot slot 0 has action"):
+        env.step(jax.random.key(1), state, bad)
+    obs, state, rewards, dones, infos = jax.jit(env.step)(jax.random.key(1), state, bad)
+    assert all(bool(jnp.all(jnp.isfinite(o))) for o in obs.values())

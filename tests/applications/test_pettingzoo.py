@@ -73,3 +73,7 @@ def test_bad_actions_are_named():
         env.step({"robot_0": 7, "robot_1": 0})
     with pytest.raises(ValueError, match="not live"):
         env.step({"robot_9": 0})
+    continuous = parallel_env("open", num_agents=2, action_mode="continuous")
+    continuous.reset(seed=0)
+    with pytest.raises(ValueError, match=r"action \[nan, 0.0\] for robot_1 is not finite"):
+        continuous.step({"robot_0": [0.0, 0.0], "robot_1": [float("nan"), 0.0]})

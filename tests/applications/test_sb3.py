@@ -87,6 +87,11 @@ def test_native_vec_env_shapes_and_done_semantics():
     assert all(info["TimeLimit.truncated"] and not info["is_success"] for info in infos)
     assert all(info["terminal_observation"].shape == (10,) for info in infos)
     assert reward.dtype == np.float32 and reward.flags.writeable
+    bad = stop.copy()
+    bad[3] = 5  # world 1, robot slot 1
+    with pytest.raises(ValueError, match=r"step_async: robot slot 1 of batch index 1 has action "
+                                         r"5; GO/STOP actions are 0 \(GO\) or 1 \(STOP\)"):
+        venv.step(bad)
 
 
 @pytest.mark.slow

@@ -20,16 +20,18 @@ ROOT = Path(__file__).resolve().parents[2]
 # module belongs to the layer of the longest prefix that contains it. A module under no prefix
 # fails the test (place every new module in a layer's package).
 LAYERS: dict[str, tuple[str, ...]] = {
-    "kernels": ("sgjax.version", "sgjax.validation", "sgjax.kernels", "sgjax.maps",
+    "kernels": ("sgjax.version", "sgjax.validation", "sgjax.files", "sgjax.kernels", "sgjax.maps",
                 "sgjax.dynamics", "sgjax.humans"),
     "types": ("sgjax.types",),
     "terms": ("sgjax.terms", "sgjax.observations", "sgjax.rewards"),
     "environment": ("sgjax.environment", "sgjax"),
     "evaluation": ("sgjax.evaluation",),
-    "applications": ("sgjax.adapters", "sgjax.command", "sgjax.compilation_cache"),
+    "applications": ("sgjax.adapters", "sgjax.editor", "sgjax.command",
+                     "sgjax.compilation_cache"),
 }
 # Modules that sit directly in sgjax/ (the rest live in the layer packages).
-TOP_LEVEL_MODULES = {"sgjax.version", "sgjax.validation", "sgjax.types", "sgjax.command",
+TOP_LEVEL_MODULES = {"sgjax.version", "sgjax.validation", "sgjax.files", "sgjax.types",
+                     "sgjax.command",
                      "sgjax.compilation_cache"}
 # The longest function allowed in sgjax/ (lines from ``def`` to its last line), and the ones
 # allowed to be longer, with the reason.
@@ -228,3 +230,22 @@ def test_no_function_in_sgjax_is_over_the_limit():
     for path in sorted((ROOT / "sgjax").rglob("*.py")):
         found |= long_functions(path, MAX_FUNCTION_LINES)
     assert {name: n for name, n in found.items() if name not in LONG_FUNCTIONS} == {}
+
+
+def test_importing_every_module_starts_no_xla_backend():
+    """Importing sgjax and train computes nothing: ``jax.distributed.initialize`` (multi-process
+    sweeps) must come before the first computation, so no module may build an array at import."""
+    import subprocess
+    import sys
+
+    # JaxMARL (the library the adapter wraps) builds arrays when it is imported.
+    third_party = {"sgjax.adapters.jaxmarl": "jaxmarl"}
+    names = sorted(n for n in (modules("sgjax") | modules("train"))
+                   if n not in ("train.__main__", *third_party))
+    program = ("import importlib, jax._src.xla_bridge as xb\n"
+               f"for name in {names!r}:\n"
+               "    importlib.import_module(name)\n"
+               "    assert not xb._backends, f'importing {name} started the XLA backend'\n")
+    out = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True,
+                         cwd=ROOT, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]

@@ -5,6 +5,9 @@ layer packages and the metric registry (commit after f491b8c); a change that mov
 leave these numbers alone (metrics within 1e-6, final poses within 1e-5 m). A deliberate change of
 a metric's definition regenerates the file and says so in the commit:
 ``python tests/contracts/test_pinned_episodes.py`` (it compiles with the suite's XLA flags).
+Regenerated once since: the time-to-collision's touching tolerance (CHANGELOG.md, issue 39);
+``invalid_actions`` (issue 42) added by hand, 0 in every pinned episode (their policies' actions
+are all valid).
 """
 
 from __future__ import annotations

@@ -93,6 +93,7 @@ def _loss_terms(trainer, runner, flip):
     return traj, aux
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("period", [1, 4])
 def test_the_actor_learns_only_from_the_actions_the_environment_read(period):
     """Under period 4 the actions between decisions change no loss term; under period 1 the

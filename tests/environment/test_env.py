@@ -328,3 +328,37 @@ def test_min_agents_draws_each_episodes_robot_count():
     assert np.all(np.asarray(state.robots.present.sum(axis=1)) == 5)
     with pytest.raises(ValueError, match="min_agents"):
         sgjax.make("doorway", num_agents=3, min_agents=4)
+
+
+@pytest.mark.parametrize("action_mode", ["go_stop", "continuous"])
+def test_invalid_actions_are_an_error_outside_jit_and_neutral_flagged_inside(action_mode):
+    """NaN in one robot's continuous action (or GO/STOP 7) names the slot when called eagerly;
+    jitted, that robot gets the neutral action (zero command / STOP), the flag says so, and no
+    NaN reaches any robot (it did before: every position, observation and reward went NaN)."""
+    env, params = sgjax.make("doorway", num_agents=3, max_agents=3, action_mode=action_mode)
+    _, state = env.reset(jax.random.key(0), params)
+    if action_mode == "continuous":
+        good = jnp.full((3, 2), 0.5)
+        bad = good.at[1, 0].set(jnp.nan)
+        neutral = good.at[1].set(0.0)
+        message = r"robot slot 1 has action \[nan, 0.5\]; continuous actions must be finite"
+    else:
+        good = jnp.zeros(3, jnp.int32)
+        bad = good.at[1].set(7)
+        neutral = good.at[1].set(1)
+        message = r"robot slot 1 has action 7; GO/STOP actions are 0 \(GO\) or 1 \(STOP\)"
+    with pytest.raises(ValueError, match=message):
+        env.step(jax.random.key(1), state, bad, params)
+    with pytest.raises(ValueError, match=message):
+        env.step_env(jax.random.key(1), state, bad, params)
+    step = jax.jit(env.step_env)
+    s_bad, s_neutral = state, state
+    for t in range(5):
+        obs, s_bad, reward, _, _, info = step(jax.random.key(t), s_bad, bad, params)
+        ref_obs, s_neutral, ref_reward, _, _, ref_info = step(jax.random.key(t), s_neutral,
+                                                              neutral, params)
+        assert info["invalid_action"].tolist() == [False, True, False]
+        assert not ref_info["invalid_action"].any()
+        assert bool(jnp.all(jnp.isfinite(obs))) and bool(jnp.all(jnp.isfinite(reward)))
+        np.testing.assert_array_equal(np.asarray(obs), np.asarray(ref_obs))
+        np.testing.assert_array_equal(np.asarray(reward), np.asarray(ref_reward))

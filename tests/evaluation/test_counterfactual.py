@@ -68,6 +68,7 @@ def _polyline_distance(points, line):
     return np.min(np.linalg.norm(p - (a + t[..., None] * e), axis=-1), axis=1)
 
 
+@pytest.mark.slow
 def test_counterfactual_metrics_equal_brute_force_from_separate_episodes():
     """Doorway, 3 robots, 4 pedestrians: every counterfactual metric of the batched runner
     equals the value computed in numpy from the episode, each robot's episode alone and the

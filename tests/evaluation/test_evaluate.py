@@ -84,12 +84,12 @@ def test_runner_agrees_with_a_manual_loop():
             state.robots.succeeded, float).tolist()
 
 
+@pytest.mark.slow
 def test_stopping_once_every_episode_ended_changes_no_result():
     """The runner plays chunks of steps until every episode has ended (``record`` plays every
     step of the time limit): both give the same value of every metric, for episodes that end
     early and late, with a time limit that is no multiple of the chunk."""
-    for scenario, policy in (("doorway", "only_local"), ("doorway", "random"),
-                             ("doorway", "stop_when_blocked"), ("open", "only_local")):
+    for scenario, policy in (("doorway", "stop_when_blocked"), ("open", "only_local")):
         env, params = sgjax.make(scenario, num_agents=3, time_limit=33.3)
         assert int(params.max_steps) % sgjax.evaluation.runner.STEP_CHUNK
         early = run_episodes(env, params, policy, jax.random.key(4), 3)

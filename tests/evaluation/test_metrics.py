@@ -14,7 +14,14 @@ from sgjax.environment.env import SocialNavEnv
 from sgjax.evaluation import metrics
 from sgjax.evaluation.evaluate import run_episodes
 from sgjax.evaluation.metrics import catalogue
-from sgjax.evaluation.statistics import summarize, t_interval, wilson_interval
+from sgjax.evaluation.statistics import (
+    interquartile_mean,
+    paired_difference,
+    seed_aggregate,
+    summarize,
+    t_interval,
+    wilson_interval,
+)
 from sgjax.kernels.zone_books import update_zones
 from sgjax.types import CollisionCounts
 
@@ -158,6 +165,35 @@ def test_time_to_collision_cases():
     assert float(ttc(4.0, 0.5, -1.0, 0.0, 1.0)) == pytest.approx(4.0 - math.sqrt(0.75))
 
 
+def test_touching_within_float_rounding_is_touching():
+    """Bodies the bumpers stopped against each other rest within float32 rounding of touching
+    (~4e-7 m either way): time-to-collision 0, not "never" (TOUCHING = 1e-5 m)."""
+    ttc = metrics.time_to_collision
+    reach = 0.6
+    for gap in (-4e-7, 0.0, 4e-7, 9e-6):
+        assert float(ttc(jnp.float32(reach + gap), 0.0, 0.0, 0.0, reach)) == 0.0, gap
+    assert float(ttc(jnp.float32(reach + 1e-3), 0.0, 0.0, 0.0, reach)) == math.inf  # apart
+
+
+def test_clean_success_counts_collisions_before_arrival_only():
+    """socialnav.md C1: success with no collision *before* reaching the goal. Robot 0 bumps a
+    wall while still driving (not clean); robot 1 bumps one after it arrived, while settling
+    (clean); both arrive."""
+    env, params = room(num_agents=2)
+    frames = [place(env, params, [-3.0, 3.0], [0.0, 0.0]) for _ in range(6)]
+
+    def bumped(frame, counts):
+        return frame.replace(collisions=CollisionCounts(
+            robot=jnp.asarray([0, 0]), wall=jnp.asarray(counts), human=jnp.asarray([0, 0])))
+
+    frames = (frames[:2] + [bumped(f, [1, 0]) for f in frames[2:4]]
+              + [bumped(f, [1, 1]) for f in frames[4:]])
+    robot, episode = play(env, params, frames, arrived={3: [0, 1]})
+    assert robot["success"].tolist() == [1.0, 1.0]
+    assert robot["clean_success"].tolist() == [0.0, 1.0]
+    assert robot["collisions"].tolist() == [1, 1]
+
+
 def test_collision_counts_come_from_the_final_state():
     env, params = room(num_agents=2)
     frames = [place(env, params, [-3.0, 3.0], [0.0, 0.0]) for _ in range(3)]
@@ -217,6 +253,26 @@ def test_wilson_and_t_intervals_match_hand_values():
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "metrics.md"
 
 
+def test_paired_difference_seed_aggregate_and_interquartile_mean():
+    """Paired: the t interval of the per-episode differences, NaN pairs left out; it is narrower
+    than the unpaired one when the episodes' difficulty is shared. Seeds: mean and IQM with
+    percentile-bootstrap intervals that contain them."""
+    a = np.array([1.0, 1.0, 0.0, 1.0, np.nan, 1.0])
+    b = np.array([0.0, 1.0, 0.0, 0.0, 1.0, 0.0])
+    d = paired_difference(a, b)
+    diff = np.array([1.0, 0.0, 0.0, 1.0, 1.0])
+    assert d.n == 5 and d.mean == pytest.approx(0.6)
+    assert (d.ci_low, d.ci_high) == pytest.approx(t_interval(diff))
+    with pytest.raises(ValueError, match="do not pair"):
+        paired_difference(a, b[:3])
+    assert interquartile_mean(np.arange(8.0)) == pytest.approx(3.5)  # middle half: 2, 3, 4, 5
+    agg = seed_aggregate(np.array([0.9, 0.8, 0.95, 0.7, 0.92, 0.1]))
+    assert agg["seeds"] == 6 and agg["iqm"] > agg["mean"]  # the outlying seed weighs less
+    for name in ("mean", "iqm"):
+        assert agg[f"{name}_low"] <= agg[name] <= agg[f"{name}_high"]
+    assert math.isnan(seed_aggregate(np.array([0.5]))["mean_low"])
+
+
 def test_docs_tables_agree_with_the_registry():
     """docs/metrics.md's constants and definitions tables are those the registry generates
     (``python -m sgjax.evaluation.metrics.catalogue`` rewrites them), so every registered
@@ -226,7 +282,7 @@ def test_docs_tables_agree_with_the_registry():
         "docs/metrics.md is out of date: run python -m sgjax.evaluation.metrics.catalogue")
     for info in metrics.METRICS:
         assert text.count(f"| `{info.name}` |") == 1, info.name
-    assert len(set(metrics.METRICS.names())) == len(metrics.METRICS) == 49
+    assert len(set(metrics.METRICS.names())) == len(metrics.METRICS) == 50
     assert catalogue.main([str(DOCS), "--check"]) == 0
 
 
@@ -295,7 +351,7 @@ def test_a_metric_registered_from_outside_reaches_run_episodes(toy_metric):
     np.testing.assert_allclose(batch.values["toy_seconds"],
                                batch.values["episode_length"] * DT, rtol=1e-6)
     metrics.unregister_metric(ToyMetric)
-    assert "toy_seconds" not in metrics.METRICS and len(metrics.METRICS) == 49
+    assert "toy_seconds" not in metrics.METRICS and len(metrics.METRICS) == 50
     metrics.register_metric(ToyMetric)  # for the fixture to remove
 
 
@@ -313,3 +369,29 @@ def test_the_docs_example_registers_and_unregisters():
         assert metrics.METRICS["close_calls"].reduce == "sum"
     finally:
         metrics.unregister_metric("close_calls")
+
+
+def test_invalid_actions_count_the_steps_a_policy_sent_nan():
+    """A policy whose robot 0 sends NaN commands (inside jit, where the environment takes the
+    neutral action and flags it) shows it in the evaluator: invalid_actions of robot 0 is the
+    number of steps it was active, 0 for the others, and the episode's value their sum."""
+    import jax.numpy as jnp
+
+    import sgjax
+    from sgjax.evaluation.evaluate import run_episodes
+
+    env, params = sgjax.make("open", num_agents=2, action_mode="continuous", time_limit=4.0)
+
+    def nan_for_robot_zero(obs, key, state, params):
+        actions = jnp.zeros((env.max_agents, env.config.action_dim))
+        return actions.at[0].set(jnp.nan)
+
+    episodes = run_episodes(env, params, nan_for_robot_zero, jax.random.PRNGKey(0), 3,
+                            record=True)
+    counts = episodes.robot["invalid_actions"]
+    active = np.asarray(episodes.states.robots.active)  # [T + 1, E, R], the reset first
+    assert np.all(counts[:, 1] == 0)
+    # robot 0 never moves, so every episode runs to its time limit: active before each step
+    np.testing.assert_array_equal(counts[:, 0], active[:-1, :, 0].sum(axis=0))
+    np.testing.assert_array_equal(episodes.values["invalid_actions"], counts.sum(axis=1))
+    assert counts[:, 0].min() > 0

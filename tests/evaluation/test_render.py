@@ -13,7 +13,15 @@ import pytest
 from PIL import Image
 
 import sgjax
-from sgjax.evaluation.render import draw_scenario, render_state, save_gif
+from sgjax.evaluation.evaluate import run_episodes
+from sgjax.evaluation.render import (
+    MapCanvas,
+    draw_scenario,
+    episode_frames,
+    render_frame,
+    render_state,
+    save_gif,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -37,6 +45,32 @@ def test_frames_change_between_steps_and_gif_is_readable(tmp_path):
     path = save_gif([first, later], tmp_path / "a.gif")
     with Image.open(path) as gif:
         assert gif.n_frames == 2
+
+
+def test_frames_on_one_map_canvas_equal_frames_drawn_alone():
+    """episode_frames draws every frame over one MapCanvas (the map drawn once): each frame is
+    the picture render_state draws on a figure of its own, pixel for pixel, so nothing of one
+    frame is left on the next."""
+    env, params = sgjax.make("doorway", num_agents=3, num_humans=2)
+    spec = sgjax.maps.load("doorway")
+    out = run_episodes(env, params, "only_local", jax.random.key(1), 1, record=True)
+    states = jax.tree.map(lambda leaf: np.asarray(leaf)[:40, 0], out.states)
+    frames, stride = episode_frames(spec, states, params, 39, title="x", width_px=160,
+                                    max_frames=4)
+    radius = np.asarray(params.robots.radius)
+    assert stride == 10 and len(frames) == 4
+    positions = np.stack([states.robots.x, states.robots.y], axis=-1)
+    for k, t in enumerate(range(0, 40, stride)):
+        alone = render_state(spec, jax.tree.map(lambda leaf, t=t: leaf[t], states), radius,
+                             trail=positions[max(0, t - 15):t + 1],
+                             title=f"x  t = {t * float(params.dt):.1f} s", width_px=160,
+                             human_radius=float(params.humans.radius))
+        np.testing.assert_array_equal(frames[k], alone, err_msg=f"frame {k}")
+    canvas = MapCanvas(spec, 160)
+    blank = render_frame(spec, np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, bool),
+                         np.zeros(0, bool), np.zeros((0, 2)), canvas=canvas)
+    assert len(canvas.ax.get_children()) == len(MapCanvas(spec, 160).ax.get_children())
+    assert blank.shape == frames[0].shape
 
 
 def test_scenario_picture():

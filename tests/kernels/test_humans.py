@@ -98,7 +98,7 @@ def test_make_rejects_bad_pedestrian_options():
                                             ("intersection", "helbing")])
 def test_long_rollouts_stay_finite_capped_and_out_of_walls(scenario, model):
     env, params = sgjax.make(scenario, num_agents=4, num_humans=100, human_model=model)
-    num_envs, steps = 4, 1500
+    num_envs, steps = 2, 1500  # two episodes per case: the run is the cost
     keys = jax.random.split(jax.random.key(7), num_envs)
     _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
     vstep = jax.vmap(env.step, in_axes=(0, 0, 0, None))

@@ -93,6 +93,9 @@ def test_counter_flow_in_a_three_metre_corridor_clears():
     done = np.where(rightward, xs > 5.0, xs < -5.0)  # [T, n]: past the other group
     assert done[-1].all(), xs[-1]
     assert np.argmax(done.all(axis=1)) * dt < 30.0  # measured 21.2 s
+    # Compiled as users compile (SGJAX_TEST_FULL_OPTIMIZATION=1) the float rounding differs,
+    # the 600-step counter-flow takes another path and its closest pair overlaps by 12 mm
+    # (0.4881 m), past this tolerance; the suite's fast compile passes. Not yet explained.
     assert float(jnp.min(gap)) >= 0.5 - OVERLAP_TOLERANCE, float(jnp.min(gap))
     assert float(jnp.min(wall)) >= 0.25 - 1e-3, float(jnp.min(wall))
 
@@ -100,11 +103,12 @@ def test_counter_flow_in_a_three_metre_corridor_clears():
 @pytest.mark.slow
 @pytest.mark.parametrize("scenario", ["hallway", "office"])
 def test_long_orca_rollouts_stay_finite_and_out_of_walls(scenario):
-    """100 ORCA pedestrians and 4 robots under random GO/STOP for 1500 steps: finite, under
-    the speed cap, never inside a wall. (A dense ORCA crowd may jam in a 1 m corridor: its
-    known deadlock; the mean speed is not asserted.)"""
+    """100 ORCA pedestrians and 4 robots under random GO/STOP for 1000 steps (100 s; one episode
+    per map: the run, not the compile, is this test's cost; bench/pedestrian_invariants.py runs
+    longer horizons): finite, under the speed cap, never inside a wall. (A dense ORCA crowd may
+    jam in a 1 m corridor: its known deadlock; the mean speed is not asserted.)"""
     env, params = sgjax.make(scenario, num_agents=4, num_humans=100, human_model="orca")
-    num_envs, steps = 2, 1500
+    num_envs, steps = 1, 1000
     _, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(jax.random.key(7),
                                                                          num_envs), params)
     vstep = jax.vmap(env.step, in_axes=(0, 0, 0, None))
@@ -130,6 +134,7 @@ def test_long_orca_rollouts_stay_finite_and_out_of_walls(scenario):
     assert float(jnp.min(clearance)) >= -1e-4
 
 
+@pytest.mark.slow
 def test_orca_pedestrians_see_robots_or_not():
     """A robot standing 1 m ahead on a pedestrian's way: seen (the default; the pedestrian does
     all the avoiding) it may approach only at about the gap over the time horizon, (1 m - the

@@ -226,11 +226,12 @@ def test_multi_seed_vmap_matches_separate_seeds(two_seeds):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("network", [{"hidden": [32, 32]},
-                                     {"kind": "gru", "recurrent_size": 16, "hidden": [16]},
-                                     {"others_encoder": "lstm", "encoder_size": 8}])
+                                     {"kind": "gru", "recurrent_size": 16, "hidden": [16],
+                                      "others_encoder": "lstm", "encoder_size": 8}])
 def test_sequential_and_batched_lanes_train_the_same_seeds(network):
     """``algorithm.lanes``: the learning phases one lane after another (each a batch of one)
-    give every lane what one vmap gives it, up to float rounding; the lanes differ."""
+    give every lane what one vmap gives it, up to float rounding; the lanes differ. (An MLP,
+    and a GRU with an LSTM encoder: both kinds of carried state in one network.)"""
     runs = {}
     for mode in ("batched", "sequential"):
         config = tiny(num_seeds=3, env={"observations": "navigation"}, network=network,
@@ -342,6 +343,7 @@ def test_mappo_with_lstm_encoder_and_continuous_actions_updates():
     assert kernel.shape[0] == trainer.slots * (trainer.batch.obs_size + 1)  # global state + id
 
 
+@pytest.mark.slow
 def test_others_encoders_learn_shared_or_separate():
     """``network.shared_encoder``: one others encoder (parameters ``encoder``) feeds both
     towers and learns; separate encoders learn as well."""
@@ -402,8 +404,8 @@ def test_masks_and_the_others_encoder_read_the_observation_column_layout():
     observation's published column layout (no term internals): ``pose.heading``,
     ``others.<feature>``, or any ``term.feature`` the layout names."""
     import sgjax
-    from train.ablation import observation_mask
     from train.networks import OthersLayout, most_seen, others_layout
+    from train.ppo import observation_mask
 
     env, _ = sgjax.make("open", num_agents=2, max_agents=3, observations="socialgym")
     columns = env.config.observer.columns(env.config.layout)
@@ -449,3 +451,158 @@ def test_team_reward_shares_the_mean_of_the_robots_that_acted():
     np.testing.assert_allclose(share_rewards(reward, acted, 0.5), [[1.5, 2.5, 0], [2, 0, 0]])
     with pytest.raises(ValueError, match="team_reward"):
         config_from_dict({"algorithm": {"team_reward": 1.5}})
+
+
+# ----------------------------------------------------------------------------- algorithm.compact
+COMPACT_NETWORKS = {
+    "mlp": {"hidden": [32, 32]},
+    "gru": {"kind": "gru", "recurrent_size": 16, "hidden": [16]},
+    "lstm": {"others_encoder": "lstm", "encoder_size": 8},
+}
+
+
+def _compact_trainers(network: dict, **algorithm) -> tuple[Trainer, Trainer, ppo.Rollout]:
+    """A masked and a compacted trainer of the same tiny run (two robots in three slots: one
+    slot is always absent), and a rollout of the first update."""
+    trainers = [Trainer(tiny(env={"observations": "navigation", "max_agents": 3},
+                             network=network, algorithm={**algorithm, "compact": compact}))
+                for compact in (False, True)]
+    runner = trainers[0].init(jax.random.PRNGKey(4))
+    _, rollout, _ = jax.jit(trainers[0].collect)(runner)
+    return trainers[0], trainers[1], rollout
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", list(COMPACT_NETWORKS))
+def test_compact_minibatch_gradient_equals_the_masked_one(name):
+    """``algorithm.compact``: a minibatch's gradient and loss terms, computed over its active
+    units only (transitions; agent sequences for a GRU), are the masked minibatch's, for the
+    same minibatch (the same agents); the chunks that hold no active unit are not run."""
+    masked, compact, rollout = _compact_trainers(COMPACT_NETWORKS[name])
+    assert compact._recurrent == (name == "gru")
+    # a third of the rest inactive too, at random (as settled or parked robots)
+    drop = jax.random.bernoulli(jax.random.PRNGKey(5), 0.33, rollout.traj.active.shape)
+    rollout = rollout.replace(traj=rollout.traj.replace(active=rollout.traj.active & ~drop))
+    params = compact.init(jax.random.PRNGKey(4)).params
+    order = jax.random.permutation(jax.random.PRNGKey(6), compact.num_agents)
+    dense = masked._masked_batches(order, rollout)
+    packed = jax.jit(compact._compact_batches)(order, rollout)
+    counts = np.asarray(packed[-1])
+    units = packed[2].shape[-1]
+    assert counts.min() > 0 and counts.max() < units  # some units skipped in every minibatch
+    dense_grad = jax.jit(jax.grad(masked._loss, has_aux=True))
+    compact_grad = jax.jit(compact._compact_grads)
+    for j in range(len(counts)):
+        grads, aux = dense_grad(params, *jax.tree.map(lambda x, j=j: x[j], dense))
+        c_grads, c_aux = compact_grad(params, jax.tree.map(lambda x, j=j: x[j], packed))
+        assert leaves_close(c_grads, grads, rtol=1e-4, atol=1e-6), j
+        for term in ppo.LOSS_TERMS:
+            np.testing.assert_allclose(c_aux[term], aux[term], rtol=1e-4, atol=1e-6)
+    # the units that can learn come first
+    size = compact.num_agents // compact.config.algorithm.num_minibatches
+    for j, count in enumerate(counts):
+        first = np.asarray(packed[1].active[j]).any(axis=0)
+        assert first[:count].all() and not first[count:].any()
+    assert units == (size if name == "gru" else size * compact.config.algorithm.num_steps)
+
+
+@pytest.mark.parametrize(("name", "all_active"), [
+    *((name, False) for name in COMPACT_NETWORKS), ("mlp", True)])
+@pytest.mark.slow
+def test_compact_learning_phase_matches_the_masked_one(name, all_active):
+    """A whole learning phase (epochs of shuffled minibatches, Adam) gives the masked path's
+    parameters and loss terms up to float rounding: with the rollout's own absent slots (every
+    network) and with every slot active (nothing to skip; the MLP)."""
+    masked, compact, rollout = _compact_trainers(COMPACT_NETWORKS[name])
+    if all_active:
+        rollout = rollout.replace(traj=rollout.traj.replace(
+            active=jnp.ones_like(rollout.traj.active)))
+    runner = masked.init(jax.random.PRNGKey(4))
+    key = jax.random.PRNGKey(7)
+    out = {}
+    for trainer in (masked, compact):
+        out[trainer.config.algorithm.compact] = jax.jit(trainer._learn_lane)(
+            runner.params, runner.opt_state, key, rollout)
+    (m_params, _, m_key, m_aux), (c_params, _, c_key, c_aux) = out[False], out[True]
+    np.testing.assert_array_equal(m_key, c_key)
+    assert leaves_close(c_params, m_params, rtol=1e-4, atol=3e-5)
+    assert not leaves_close(c_params, runner.params)
+    for term in ppo.LOSS_TERMS:
+        np.testing.assert_allclose(c_aux[term], m_aux[term], rtol=1e-3, atol=1e-6)
+
+
+@pytest.mark.slow
+def test_compact_lanes_train_the_same_seeds_batched_or_sequential():
+    """Under ``algorithm.lanes: batched`` (one vmap: the lanes' chunk loops run together, to
+    the longest) and ``sequential`` the compacted update gives each seed the masked update's
+    parameters, up to float rounding."""
+    runs = {}
+    for compact, lanes in ((False, "batched"), (True, "batched"), (True, "sequential")):
+        config = tiny(num_seeds=2, env={"observations": "navigation", "max_agents": 3},
+                      network=COMPACT_NETWORKS["mlp"],
+                      algorithm={"compact": compact, "lanes": lanes})
+        trainer = Trainer(config)
+        runs[compact, lanes] = jax.jit(lambda r, t=trainer: t.update_chunk_lanes(r, 2))(
+            jax.vmap(trainer.init)(seed_keys(config)))
+    reference, logs = runs[False, "batched"]
+    for key in ((True, "batched"), (True, "sequential")):
+        runner, other = runs[key]
+        assert leaves_close(runner.params, reference.params, rtol=1e-4, atol=3e-5), key
+        np.testing.assert_array_equal(other["episodes"], logs["episodes"])
+        np.testing.assert_allclose(other["value_loss"], logs["value_loss"], rtol=1e-3)
+
+
+@pytest.mark.parametrize("network", [
+    {"others_encoder": "lstm", "encoder_size": 8, "shared_encoder": True},
+    COMPACT_NETWORKS["gru"], COMPACT_NETWORKS["mlp"]])
+def test_critic_alone_gives_the_values_of_the_whole_network(network):
+    """``ActorCritic.value`` (the bootstrap values of the rollout) is the whole network's
+    value, bit for bit, for separate and shared encoders and a GRU."""
+    from train.networks import ActorCritic, initial_carry
+
+    trainer = Trainer(tiny(network=network, env={"observations": "navigation"}))
+    runner = trainer.init(jax.random.PRNGKey(2))
+    actor, critic = trainer.inputs(runner.obs_stats, runner.obs)
+    carry = jax.tree.map(lambda c: c + 0.5, initial_carry(trainer.config.network,
+                                                          trainer.num_agents))
+    starts = jnp.zeros((1, trainer.num_agents), bool)
+    whole = jax.jit(lambda p: trainer.network.apply(p, carry, actor[None], critic[None], starts))
+    alone = jax.jit(lambda p: trainer.network.apply(p, carry[1], actor[None], critic[None],
+                                                    starts, method=ActorCritic.value))
+    (_, critic_carry), _, value = whole(runner.params)
+    carry_alone, value_alone = alone(runner.params)
+    np.testing.assert_array_equal(value_alone, value)
+    np.testing.assert_array_equal(carry_alone, critic_carry)
+
+
+@pytest.mark.slow
+def test_a_tiny_compacted_run_learns_with_absent_slots():
+    """``algorithm.compact`` trains, as the masked path does: one robot in two slots (half the
+    slots never active), continuous actions in the open; success rises from near zero along
+    the masked run's curve (the same run up to float rounding)."""
+    curves = {}
+    for compact in (False, True):
+        config = tiny(env={"curriculum": [[0, 1]], "max_agents": 2,
+                           "action_mode": "continuous", "time_limit": 20.0,
+                           "observations": "default"},
+                      algorithm={"num_envs": 64, "num_steps": 32, "total_steps": 64 * 32 * 60,
+                                 "learning_rate": 1e-3, "ent_coef": 0.0, "update_epochs": 4,
+                                 "num_minibatches": 4, "compact": compact})
+        trainer = Trainer(config)
+        chunk = jax.jit(lambda r, t=trainer: t.update_chunk(r, 15))
+        runner = trainer.init(jax.random.PRNGKey(0))
+        rates = []
+        for _ in range(4):
+            runner, logs = chunk(runner)
+            rates.append(float(logs["robot_successes"].sum() / max(logs["robots"].sum(), 1)))
+        curves[compact] = rates
+    rates = curves[True]
+    assert rates[0] < 0.35 and rates[-1] > 0.7, rates  # 0.16 -> 0.81 on 2026-11-25
+    np.testing.assert_allclose(rates, curves[False], atol=0.05)
+
+
+def test_active_first_is_a_stable_partition():
+    mask = jax.random.bernoulli(jax.random.PRNGKey(0), 0.4, (3, 50))
+    mask = mask.at[0].set(True).at[1].set(False)
+    np.testing.assert_array_equal(ppo._active_first(mask),
+                                  jnp.argsort(~mask, axis=-1, stable=True))

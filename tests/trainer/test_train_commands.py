@@ -9,12 +9,15 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 from PIL import Image
+from provenance_checks import check_block, check_document
 from test_train import TINY
 
 from train.cli import main as train_main
+from train.config import EVALUATION_SEED_OFFSET
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -72,6 +75,12 @@ def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
     with Image.open(run / "learning_curve.png") as curve:
         assert curve.format == "PNG" and curve.size[0] > 600
     assert (run / "checkpoints" / "best.msgpack").is_file()
+    made = json.loads((run / "provenance.json").read_text())
+    check_block(made)
+    assert made["seeds"] == {"training": [0], "validation": [1234], "evaluation": [1000]}
+    assert {"train", "final evaluation", "total"} <= set(made["seconds"])
+    check_document(json.loads((run / "eval" / "metrics.json").read_text()))
+    assert "paired over the same 2 episodes" in out
     from sgjax.command import main as sgjax_main
 
     sgjax_main(["evaluate", "--scenario", "open", "--policy", str(run), "--num-agents", "2",
@@ -86,37 +95,112 @@ def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
 
 
 @pytest.mark.slow
+def test_final_evaluation_evaluates_like_separate_evaluate_calls_and_records_its_gif(tmp_path):
+    """The final evaluation's one program (the trained policy and only_local at every count as
+    lanes) gives the results of one ``evaluate`` call per policy, its GIF is the evaluated
+    episode (the same states as a separate recording run of it), and the program compiles once
+    per process."""
+    import jax
+    import numpy as np
+    from test_train import tiny
+
+    from sgjax.evaluation.evaluate import evaluate, policy_environment, run_episodes
+    from train.checkpoint import load_checkpoint_policy, save
+    from train.cli import _checkpoint_actor, _evaluate_scenario, final_evaluation
+    from train.ppo import Trainer, seed_keys
+
+    config = tiny(env={"time_limit": 10.0}, evaluation={"episodes": 3, "num_agents": [2, 3]})
+    trainer = Trainer(config)
+    runner = jax.jit(jax.vmap(trainer.init))(seed_keys(config))
+    path = save(tmp_path / "best.msgpack", config, runner, {"best_seed": 0}, trainer.actor)
+    summary = final_evaluation(config, tmp_path, path)
+    seed, options = config.seed + EVALUATION_SEED_OFFSET, config.env.options
+    separate = (evaluate(["open"], [str(path)], [2, 3], 3, seed=seed, options=options, log=None,
+                         policy_names=["trained (ippo)"])
+                + evaluate(["open"], ["only_local"], [2, 3], 3, seed=seed, log=None,
+                           options=options.replace(action_mode="go_stop")))
+    assert [(r.policy, r.num_agents, r.as_dict()["metrics"]) for r in summary["results"]] == [
+        (r.policy, r.num_agents, r.as_dict()["metrics"]) for r in separate]
+    with Image.open(tmp_path / "eval" / "episode.gif") as gif:
+        assert gif.n_frames > 1
+    # The GIF's episode: episode 0 of the trained policy at 2 robots (the curriculum's count).
+    mine, theirs, (states, length, params), paired = _evaluate_scenario(
+        config, _checkpoint_actor(path), "open", 2)
+    assert mine[0].compile_seconds == 0.0  # the final evaluation compiled this program
+    # The paired difference's mean is the difference of the two means (the same episodes).
+    for n, (a, b) in zip((2, 3), zip(mine, theirs, strict=True), strict=True):
+        assert paired[n].n == 3 and paired[n].mean == pytest.approx(
+            a.metrics["team_success"].mean - b.metrics["team_success"].mean)
+    env, _ = policy_environment("open", [2, 3], None, options)
+    replay = run_episodes(env, params, load_checkpoint_policy(path), jax.random.key(seed), 3,
+                          record=True)
+    assert length == replay.values["episode_length"][0] > 0
+    for ours, theirs in zip(jax.tree.leaves(states), jax.tree.leaves(
+            jax.tree.map(lambda leaf: leaf[:, 0], replay.states)), strict=True):
+        np.testing.assert_array_equal(np.asarray(ours), np.asarray(theirs))
+    np.testing.assert_array_equal(states.robots.x[length], replay.states.robots.x[length, 0])
+
+
+@pytest.mark.slow
 def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
     from train.reproduce import reproduce
 
     reproduce(["open"], ["cadrl", "only_local", "dwa"], seeds=2, total_steps=8 * 8 * 2,
               num_envs=8, counts=[2, 3], episodes=2, table_robots=2, out=tmp_path,
-              time_limit=10.0)
+              time_limit=10.0, baseline_episodes=3)
     metrics_table = (tmp_path / "metrics_table.md").read_text()
     success_table = (tmp_path / "success_table.md").read_text()
     assert "| open | cadrl |" in metrics_table and "| open | only_local |" in metrics_table
     assert "| open | dwa |" in metrics_table  # a classical controller as an extra row
     assert "| 2A | 3A | Avg. |" in success_table
-    results = json.loads((tmp_path / "results.json").read_text())["results"]
+    document = json.loads((tmp_path / "results.json").read_text())
+    check_document(document)
+    assert document["provenance"]["seeds"] == {"training": [0, 1], "evaluation": [1000]}
+    results = document["results"]
     assert len(results["open"]["cadrl"]["2"]["team_success"]) == 2  # one value per seed
+    # trained policies play both ways; the tables' metrics are the profile's (sampled) play
+    cell = results["open"]["cadrl"]["2"]
+    assert cell["team_success_sampled"] == cell["team_success"]
+    assert len(cell["team_success_greedy"]) == 2 and "team_success_greedy" not in results[
+        "open"]["only_local"]["2"]
+    assert "| open | cadrl | 2 |" in (tmp_path / "play_modes.md").read_text()
+    # Per-episode team success of every seed, kept for the paired comparison with only_local.
+    assert np.shape(results["open"]["cadrl"]["2"]["team_success_by_episode"]) == (2, 2)
+    assert np.shape(results["open"]["only_local"]["3"]["team_success_by_episode"]) == (1, 3)
+    # The untrained baseline's first 2 of 3 episodes are the 2 that the trained ones played.
+    from train.reproduce import evaluate_seeds, only_local_options
+
+    two = evaluate_seeds("open", [3], 2, 0, None, None,
+                         only_local_options("sgjax", 10.0), "only_local")[3]
+    three = results["open"]["only_local"]["3"]
+    assert two["team_success_by_episode"][0] == three["team_success_by_episode"][0][:2]
+    comparison = (tmp_path / "comparison_table.md").read_text()
+    assert "| open | cadrl | 2 |" in comparison and "| open | cadrl | 3 |" in comparison
+    assert "only_local |" not in comparison.split("|---")[1]  # untrained rows are not compared
     from train.reproduce import tables_from_results
 
     again = tables_from_results(tmp_path / "results.json", tmp_path / "again", table_robots=2)
     assert again["success_table.md"] == success_table  # the tables come from results.json
     assert (tmp_path / "again" / "paper_comparison.md").is_file()
+    marl = json.loads((tmp_path / "marl_eval.json").read_text())["sgjax"]
+    assert set(marl["open_2robots"]) == {"cadrl", "only_local", "dwa"}
     # --resume keeps the finished cells and runs only the missing one; other settings refuse.
     kept = dict(results["open"])
     run = dict(seeds=2, total_steps=8 * 8 * 2, num_envs=8, counts=[2, 3], episodes=2,
-               table_robots=2, out=tmp_path, time_limit=10.0, resume=True)
+               table_robots=2, out=tmp_path, time_limit=10.0, resume=True,
+               baseline_episodes=3)
     reproduce(["open"], ["cadrl", "only_local", "social_force"], **run)
     assert "kept from" in capsys.readouterr().out
     document = json.loads((tmp_path / "results.json").read_text())
     assert list(document["results"]["open"]) == ["cadrl", "only_local", "dwa", "social_force"]
     assert {b: document["results"]["open"][b] for b in kept} == kept
     assert document["runs"] == 2 and "open/social_force" in document["cell_seconds"]
+    assert len(document["earlier_provenance"]) == 1  # the first run's block is kept
     assert "| open | social_force |" in (tmp_path / "metrics_table.md").read_text()
     with pytest.raises(ValueError, match="results.json: ran with episodes = 2"):
         reproduce(["open"], ["cadrl"], **{**run, "episodes": 3})
+    with pytest.raises(ValueError, match="baseline-episodes .1. must be at least"):
+        reproduce(["open"], ["cadrl"], **{**run, "baseline_episodes": 1})
 
 
 @pytest.mark.slow
@@ -137,6 +221,7 @@ def test_ablation_command_prints_the_table(tmp_path, capsys):
                    "--robots", "2", "3", "--out", str(tmp_path / "out")])
     out = capsys.readouterr().out
     assert "| no headings |" in out and "Seeds beating the baseline" in out
+    assert "Paired vs baseline (points)" in out and "P(improvement)" in out
     assert "with 2 robots" in out and "with 3 robots" in out  # a table per count
     assert "network mlp)" in out and out.count("trained and evaluated") == 2  # set: own group
     saved = json.loads((tmp_path / "out" / "ablation.json").read_text())
@@ -144,7 +229,14 @@ def test_ablation_command_prints_the_table(tmp_path, capsys):
         "baseline": 2, "no collision penalty": 2, "no headings": 2, "team reward": 2}
     assert set(saved["team_success_by_robots"]) == {"2", "3"}
     assert saved["variants"]["team reward"]["settings"] == [["algorithm.team_reward", 1.0]]
+    paired = saved["paired"]["2"]["no headings"]
+    values, base = saved["team_success_by_robots"]["2"]["no headings"], saved["team_success"][
+        "baseline"]
+    assert paired["difference"]["mean"] == pytest.approx(np.mean(values) - np.mean(base))
+    assert 0.0 <= paired["probability_of_improvement"] <= 1.0 and "baseline" not in saved[
+        "paired"]["2"]
     assert "compile and train" in saved["seconds"]
+    check_document(saved)
     variants.write_text("baseline: {}\nwrong: {set: {team_reward: 1.0}}\n")
     with pytest.raises(ConfigError, match="wrong.set: expected a mapping of section.key"):
         load_variants(variants)

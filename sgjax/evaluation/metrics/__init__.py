@@ -31,6 +31,7 @@ module ``catalogue``).
 # isort: off
 from sgjax.evaluation.metrics import outcome, collisions, paths, stops  # noqa: F401
 from sgjax.evaluation.metrics import smoothness, proximity, ttc, mini_game  # noqa: F401
+from sgjax.evaluation.metrics import actions  # noqa: F401
 # isort: on
 from sgjax.evaluation.metrics.accumulate import (
     MetricState,

@@ -16,6 +16,7 @@ import dataclasses
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import jax.numpy as jnp
+import numpy as np
 from jax import Array
 
 from sgjax.evaluation.metrics.constants import MetricConstants
@@ -109,7 +110,7 @@ class Metric:
         raise NotImplementedError(f"{self.key}.finalize")
 
 
-NAN = jnp.float32(jnp.nan)
+NAN = np.float32(np.nan)  # a numpy scalar: importing starts no XLA backend
 
 
 def known(value: Array, ok: Array) -> Array:

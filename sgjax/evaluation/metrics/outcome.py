@@ -3,18 +3,28 @@
 from __future__ import annotations
 
 import jax.numpy as jnp
+from flax import struct
 from jax import Array
 
 from sgjax.evaluation.metrics.base import Metric, episode_metric, robot_metric, team_success
+from sgjax.evaluation.metrics.constants import MetricConstants
 from sgjax.evaluation.metrics.registration import register_metric
-from sgjax.evaluation.metrics.step_view import EpisodeEnd
+from sgjax.evaluation.metrics.step_view import EpisodeEnd, StepView, collision_onsets
+
+
+@struct.dataclass
+class OutcomeTally:
+    """``[R]``: a collision onset in a step the robot started unfinished (so before it
+    arrived, the arrival step included)."""
+
+    collided_before_arrival: Array  # bool
 
 
 @register_metric
 class Outcome(Metric):
     """Success, team success, clean success, timeouts, collision ends, episode length and
-    stuck ends: read from the final state (no accumulator; the episode length is the runner's
-    common tally)."""
+    stuck ends: read from the final state, and for clean success whether a collision began
+    before the robot arrived (the episode length is the runner's common tally)."""
 
     infos = (
         robot_metric("success", "fraction",
@@ -24,7 +34,9 @@ class Outcome(Metric):
         episode_metric("team_success", "fraction", "every robot of the episode reached its goal",
                        "SocialGym 2.0 success_rate", binary=True),
         robot_metric("clean_success", "fraction",
-                     "reached the goal with no collision onset of any kind",
+                     "reached the goal with no collision onset of any kind before it arrived "
+                     "(in the steps it started unfinished, the arrival step included; contacts "
+                     "while settling or parked afterwards do not count)",
                      "socialnav.md C1 (Success)"),
         robot_metric("timeout", "fraction",
                      "robot neither arrived nor was ended by an ender when the episode ended "
@@ -40,12 +52,20 @@ class Outcome(Metric):
                        "SocialGym 2.0", binary=True),
     )
 
-    def finalize(self, tally: tuple, end: EpisodeEnd) -> dict[str, Array]:
+    def start(self, num_robots: int, num_zones: int, constants: MetricConstants) -> OutcomeTally:
+        return OutcomeTally(collided_before_arrival=jnp.zeros(num_robots, bool))
+
+    def update(self, tally: OutcomeTally, view: StepView) -> OutcomeTally:
+        began = collision_onsets(view.state) > collision_onsets(view.prev)
+        return OutcomeTally(
+            collided_before_arrival=tally.collided_before_arrival | (view.was_active & began))
+
+    def finalize(self, tally: OutcomeTally, end: EpisodeEnd) -> dict[str, Array]:
         robots, present = end.robots, end.present
         return {
             "success": end.success,
             "team_success": team_success(present, robots.succeeded),
-            "clean_success": end.success & (end.collisions == 0),
+            "clean_success": end.success & ~tally.collided_before_arrival,
             "timeout": present & ~robots.finished,
             "collision_ended": present & robots.ended,
             "episode_length": end.length,

@@ -130,6 +130,12 @@ class StepView:
         return jnp.where(self.was_active, jnp.minimum(best, value), best)
 
 
+def collision_onsets(state: EnvState) -> Array:
+    """``[R]`` int32: collision onsets of any kind (robot, wall, pedestrian) so far."""
+    c = state.collisions
+    return c.robot + c.wall + c.human
+
+
 def _with_flags(robots: RobotState, flags: RobotState) -> RobotState:
     """``robots`` with the episode flags (present, finished, parked, settling) of ``flags``."""
     return robots.replace(present=flags.present, succeeded=flags.succeeded, ended=flags.ended,
@@ -160,8 +166,7 @@ class EpisodeEnd:
     @functools.cached_property
     def collisions(self) -> Array:
         """``[R]`` int32: collision onsets of any kind."""
-        c = self.state.collisions
-        return c.robot + c.wall + c.human
+        return collision_onsets(self.state)
 
     @functools.cached_property
     def steps(self) -> Array:

@@ -12,17 +12,26 @@ from sgjax.evaluation.metrics.constants import MetricConstants
 from sgjax.evaluation.metrics.registration import register_metric
 from sgjax.evaluation.metrics.step_view import EpisodeEnd, StepView
 
+# m: bodies whose gap is at most this are touching (time-to-collision 0). Robots that the
+# bumpers stopped against each other rest within about 4e-7 m of touching either way in float32
+# (positions of ~10 m carry ~1e-6 m of rounding); without a tolerance half of them read as apart
+# and "never colliding". Far below every physical scale here (radii 0.1-0.5 m, 1 cm steps).
+TOUCHING = 1e-5
+
 
 def time_to_collision(dpx: Array, dpy: Array, dvx: Array, dvy: Array, reach: Array) -> Array:
     """Smallest ``tau >= 0`` with ``|dp + tau dv| = reach`` (s); 0 when already within
-    ``reach``, inf when the bodies never get that close. Element-wise (m, m/s)."""
+    ``reach + TOUCHING`` (touching or overlapping), inf when the bodies never get that close.
+    Element-wise (m, m/s)."""
     a = dvx * dvx + dvy * dvy
     b = 2.0 * (dpx * dvx + dpy * dvy)
-    c = dpx * dpx + dpy * dpy - reach * reach
+    distance_sq = dpx * dpx + dpy * dpy
+    c = distance_sq - reach * reach
     disc = b * b - 4.0 * a * c
     closing = (b < 0.0) & (disc >= 0.0) & (a > 1e-12)
     root = (-b - jnp.sqrt(jnp.maximum(disc, 0.0))) / (2.0 * jnp.where(closing, a, 1.0))
-    return jnp.where(c <= 0.0, 0.0, jnp.where(closing, root, jnp.inf))
+    touching = distance_sq <= jnp.square(reach + TOUCHING)
+    return jnp.where(touching, 0.0, jnp.where(closing, root, jnp.inf))
 
 
 @struct.dataclass
@@ -43,7 +52,8 @@ class TimeToCollision(Metric):
         robot_metric("min_ttc", "s",
                      "min over active steps of the time-to-collision with any other body at "
                      "constant velocities (smallest tau >= 0 with |dp + tau dv| = r_i + r_j; 0 "
-                     "when touching), capped at ttc_cap", "socialnav.md C1"),
+                     "when touching: a gap of at most 1e-5 m), capped at ttc_cap",
+                     "socialnav.md C1"),
         robot_metric("ttc_below_threshold", "fraction",
                      "fraction of active steps with time-to-collision < ttc_threshold",
                      "socialnav.md C1"),

@@ -1,0 +1,90 @@
+"""The one-program evaluation (``LaneRunner``, ``evaluate_lanes``): every policy at every robot
+count as lanes of one loop plays the episodes of the separate runs, and ``record_lanes`` keeps
+the states of chosen episodes only."""
+
+import jax
+import numpy as np
+import pytest
+
+from sgjax.environment.options import MakeOptions
+from sgjax.evaluation.evaluate import evaluate, evaluate_lanes, params_by_count, run_episodes
+from sgjax.evaluation.policies import only_local
+from sgjax.evaluation.runner import EpisodeRunner, LaneRunner
+
+SCENARIO = "doorway"
+# random reads the per-step keys, stop_when_blocked the state: both must match lane by lane
+POLICIES = ["random", "only_local", "stop_when_blocked"]
+COUNTS = [2, 3]
+EPISODES = 3
+SEED = 5
+OPTIONS = MakeOptions.from_keywords("test", time_limit=12.0)
+
+
+def leaves_equal(a, b) -> None:
+    for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b), strict=True):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("at_once", [False, True])
+def test_lanes_play_the_episodes_of_separate_runs(at_once):
+    """Per-episode values of every (policy, count) lane equal ``run_episodes`` of that policy at
+    that count with the same key, whether the counts are calls of the program or lanes too;
+    the summaries equal ``evaluate``'s; the recorded lane is that episode, state for state, as
+    a separate recording run plays it."""
+    record = (2, COUNTS[0], 1)  # stop_when_blocked at 2 robots, episode 1
+    results, values, states = evaluate_lanes(SCENARIO, POLICIES, COUNTS, EPISODES, seed=SEED,
+                                             options=OPTIONS, record=record,
+                                             counts_at_once=at_once)
+    assert values["success"].shape == (len(POLICIES), len(COUNTS), EPISODES)
+    env, by_count = params_by_count(SCENARIO, COUNTS, options=OPTIONS)
+    for p, policy in enumerate(POLICIES):
+        for k, n in enumerate(COUNTS):
+            alone = run_episodes(env, by_count[n], policy, jax.random.key(SEED), EPISODES,
+                                 record=(p, n) == record[:2])
+            for name, per_episode in alone.values.items():
+                # The same episodes (states equal below, to the bit); a metric that sums
+                # floats over steps may round differently in the two programs (XLA fuses
+                # them differently: jerk_mean once differed by 1 ulp), so those agree to
+                # float32 rounding.
+                np.testing.assert_allclose(values[name][p, k], per_episode, rtol=1e-6,
+                                           atol=0, err_msg=f"{policy} at {n} robots: {name}")
+            if alone.states is not None:
+                leaves_equal(states, jax.tree.map(lambda leaf: leaf[:, record[2]],
+                                                  alone.states))
+    separate = evaluate([SCENARIO], POLICIES, COUNTS, EPISODES, seed=SEED, options=OPTIONS,
+                        log=None)
+    assert [(r.policy, r.num_agents) for r in results] == [
+        (r.policy, r.num_agents) for r in separate]
+    for mine, theirs in zip(results, separate, strict=True):
+        ours, others = mine.as_dict()["metrics"], theirs.as_dict()["metrics"]
+        assert ours.keys() == others.keys()
+        for name in ours:
+            for field, value in ours[name].items():
+                if isinstance(value, float):
+                    assert value == pytest.approx(others[name][field], rel=1e-6, abs=1e-9,
+                                                  nan_ok=True), (name, field)
+                else:
+                    assert value == others[name][field], (name, field)
+        assert mine.steps_played >= theirs.steps_played
+    assert results[0].compile_seconds > 0
+    assert all(r.compile_seconds == 0.0 for r in results[1:])  # one program for them all
+
+
+def test_record_lanes_keeps_only_those_episodes():
+    """``record_lanes`` records the chosen episodes as ``record=True`` does (and stops early);
+    the other results are unchanged."""
+    env, by_count = params_by_count("open", [2], options=OPTIONS.replace(time_limit=4.0))
+    params, key = by_count[2], jax.random.key(1)
+    every = EpisodeRunner(env, only_local(env), 3, int(params.max_steps), record=True)(key, params)
+    some = EpisodeRunner(env, only_local(env), 3, int(params.max_steps),
+                         record_lanes=[2, 0])(key, params)
+    leaves_equal(some.values, every.values)
+    leaves_equal(some.states, jax.tree.map(lambda leaf: leaf[:, [2, 0]], every.states))
+    assert np.shape(some.states.time) == (int(params.max_steps) + 1, 2)
+    with pytest.raises(ValueError, match="give one"):
+        EpisodeRunner(env, only_local(env), 3, 10, record=True, record_lanes=[0])
+    with pytest.raises(ValueError, match=r"indices in \[0, 3\)"):
+        EpisodeRunner(env, only_local(env), 3, 10, record_lanes=[3])
+    with pytest.raises(ValueError, match="pairs"):
+        LaneRunner(env, [only_local(env)], 1, 3, 10, record_lanes=[(1, 0)])
