@@ -58,6 +58,13 @@ def test_the_supersuit_route_ends_episodes_together_under_black_death():
     assert done.all()
 
 
+@pytest.fixture(autouse=True)
+def sb3_logs_in_tmp_path(tmp_path, monkeypatch):
+    """SB3's default logger makes an empty ``SB3-<date>`` folder in the system's temporary
+    folder on every ``learn``; ``SB3_LOGDIR`` puts it in the test's own folder instead."""
+    monkeypatch.setenv("SB3_LOGDIR", str(tmp_path / "sb3"))
+
+
 @pytest.mark.slow
 def test_ppo_trains_through_the_supersuit_route():
     """PPO runs updates on the route (learning itself is shown through the native VecEnv below,
