@@ -365,3 +365,12 @@ def test_ablation_variant_sets_a_mapping_and_a_bad_one_fails_before_training(tmp
     with pytest.raises(SystemExit, match="progres"):
         ablation.main(["--config", str(ROOT / "train/configs/doorway.yaml"),
                        "--variants", str(variants)])
+
+
+def test_the_papers_printed_averages_are_checked_against_its_rows():
+    from train.reproduce import PAPER_TABLE_4, paper_average_slips
+
+    assert paper_average_slips() == [("open", "cadrl", 7, pytest.approx(13.6))]
+    assert paper_average_slips({"open": {"x": (10, 20, 30, 40, 50, 30)}}) == []
+    assert paper_average_slips({"open": {"x": (1, 2, 3, 4, 5, 4)}}) == [("open", "x", 4, 3.0)]
+    assert len(PAPER_TABLE_4) == 5
