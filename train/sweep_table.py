@@ -76,7 +76,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("sweep", help="sweep.json of train.sweep")
     parser.add_argument("--rows", required=True, help="parameter whose values are the rows")
     parser.add_argument("--columns", required=True, help="parameter whose values are the columns")
-    parser.add_argument("--fraction", action="store_true", help="values as they are, not in %")
+    parser.add_argument("--fraction", action="store_true", help="values as they are, not in %%")
     parser.add_argument("--out", default=None, help="also write the table to this file")
     args = parser.parse_args(argv)
     try:
