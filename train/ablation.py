@@ -1,4 +1,4 @@
-"""Reward and observation ablations trained as lanes of one function (the paper's Table 4).
+"""Reward and observation ablations trained as lanes of one function (the paper's Table 5).
 
 A *variant* switches reward terms off (a multiplier of 0 on ``info["reward_terms"]``) and hides
 observation features (a 0 in the observation mask). Reward weights and the mask are arrays in
@@ -11,7 +11,7 @@ architecture (MLP or GRU) needs its own.
     trainer = Trainer(config)
     runner, logs = train_variants(trainer, variants, seeds=3)
 
-Command line (the paper's Table 4 variants, or a variants file; prints the table)::
+Command line (the paper's Table 5 variants, or a variants file; prints the table)::
 
     python -m train.ablation --config train/configs/ablation.yaml --seeds 3 --lanes-per-run 24
 
@@ -154,7 +154,7 @@ def lane_metrics(trainer: Trainer, runner: Any, env: Any, env_params: Any, episo
     return {name: np.asarray(v) for name, v in values.items()}
 
 
-# The paper's Table 4 (intersection, 4 robots): a change from its PPO baseline, and the
+# The paper's Table 5 (intersection, 4 robots): a change from its PPO baseline, and the
 # percentage of seed runs that did better than the baseline. Its "entropy penalty" is
 # SocialGym's stuck detector (sgjax's ``stuck`` penalty), "thetas" the headings, and its
 # LSTM policy is a GRU here; its clipped goal distance is approximated by hiding the distance,
@@ -314,7 +314,7 @@ def format_table(scores: Mapping[str, list[float]], paper: Mapping[str, int | No
         rows.append([name, format_summary(summarize(np.asarray(values), binary=False), True),
                      beats, "" if cited is None else str(cited), difference, probability])
     seeds = len(scores[BASELINE])
-    title = ("SocialGym 2.0 Table 4 (reward and observation ablation), reproduced with sgjax"
+    title = ("SocialGym 2.0 Table 5 (reward and observation ablation), reproduced with sgjax"
              if paper else "Variants against the baseline")
     lines = [f"# {title}", "",
              f"Team success (%) on {scenario} with {robots} robots, {episodes} episodes per "
@@ -335,12 +335,12 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(
         prog="python -m train.ablation",
         description="Train reward and observation ablations as vmap lanes and print the "
-                    "paper's Table 4 (the share of seeds beating the baseline).")
+                    "paper's Table 5 (the share of seeds beating the baseline).")
     parser.add_argument("--config", required=True, help="YAML file (train/configs/ablation.yaml)")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                         help="override one config key (repeatable)")
     parser.add_argument("--variants", default=None,
-                        help="YAML variants file (default: the paper's Table 4 variants)")
+                        help="YAML variants file (default: the paper's Table 5 variants)")
     parser.add_argument("--seeds", type=int, default=3, help="seeds per variant")
     parser.add_argument("--lanes-per-run", type=int, default=None,
                         help="lanes per compiled call (default: all lanes in one call)")
