@@ -298,6 +298,19 @@ def _storage(url: str, engine_kwargs: dict, attempts: int = 5) -> Any:
     raise AssertionError("unreachable")
 
 
+def tell(study: Any, trial: Any, value: float | None = None, **state: Any) -> None:
+    """``study.tell``, where a grid sampler's signal that its grid is done is not an error.
+    Optuna's ``GridSampler.after_trial`` calls ``Study.stop()`` once every grid point has been
+    asked, and outside ``Study.optimize`` (ask-and-tell, as here) ``stop`` raises
+    ``RuntimeError``; the trial's state and value are stored before (a ``finally`` in Optuna's
+    tell), and the sweep ends by counting its trials, so the signal is dropped."""
+    try:
+        study.tell(trial, value, **state)
+    except RuntimeError as err:
+        if "Study.stop" not in str(err):
+            raise
+
+
 def counted(trials: Sequence[Any]) -> list[Any]:
     """The trials that count toward the study's size (not the surplus ones a process asked
     while another took the last place)."""
@@ -355,7 +368,7 @@ class Sweep:
                       if t.number < trial.number]
             if len(before) >= self.trials:  # another process took the last place meanwhile
                 trial.set_user_attr("surplus", True)
-                self.study.tell(trial, state=optuna.trial.TrialState.FAIL)
+                tell(self.study, trial, state=optuna.trial.TrialState.FAIL)
                 return None
             return trial, values
         finally:
@@ -460,13 +473,13 @@ class Sweep:
                 slot.trial.set_user_attr("seed_scores", [float(scores[j]) for j in slot.lanes])
                 if slot.evaluations >= self.space.evaluations:
                     if math.isfinite(value):
-                        self.study.tell(slot.trial, value)
+                        tell(self.study, slot.trial, value)
                     else:
                         slot.trial.set_user_attr("error", f"objective {value}")
-                        self.study.tell(slot.trial, state=optuna.trial.TrialState.FAIL)
+                        tell(self.study, slot.trial, state=optuna.trial.TrialState.FAIL)
                     slots[i] = None
                 elif not math.isfinite(value) or slot.trial.should_prune():
-                    self.study.tell(slot.trial, state=optuna.trial.TrialState.PRUNED)
+                    tell(self.study, slot.trial, state=optuna.trial.TrialState.PRUNED)
                     slots[i] = None
             self.seconds["storage"] += time.perf_counter() - t0
             runners = self._fill(group, key, runners, slots)

@@ -180,6 +180,24 @@ def test_trials_run_as_lanes_and_groups_and_write_the_results(tmp_path):
     assert set(variants) == {"baseline", f"tuned (trial {document['best']['number']})"}
 
 
+def test_a_grid_sweep_runs_its_whole_grid_and_ends(tmp_path):
+    """Optuna's grid sampler signals its last point with ``Study.stop()``, which raises outside
+    ``Study.optimize``; the sweep ran the paper's Table 6 grid to its last trial and died there
+    before writing its outputs. Every point runs once, and the sweep ends normally."""
+    data = {**SPACE, "trial": {"seeds": 1, "evaluations": 1},
+            "sweep": {"trials": 3, "lanes": 2, "sampler": "grid", "pruner": "none"},
+            "params": {"algorithm.learning_rate": {"choices": [1e-3, 3e-4, 1e-4]}}}
+    space = load_space(write(tmp_path / "space.yaml", data))
+    (tmp_path / "out").mkdir()
+    study = open_study(space, f"sqlite:///{tmp_path}/out/study.db", "grid", 0)
+    sweep = Sweep(space, TINY, "tiny", study, tmp_path / "out", progress=False,
+                  log=lambda _: None)
+    sweep.run()
+    trials = study.get_trials()
+    assert [t.state.name for t in trials] == ["COMPLETE"] * 3
+    assert sorted(t.params["algorithm.learning_rate"] for t in trials) == [1e-4, 3e-4, 1e-3]
+
+
 def test_pruned_trials_free_their_lanes_for_the_next(tmp_path):
     """A pruner that stops every trial at its first evaluation: each trial ends pruned after
     one evaluation, and the lanes go on to the next trials until the study has them all."""
