@@ -302,8 +302,8 @@ def tell(study: Any, trial: Any, value: float | None = None, **state: Any) -> No
     """``study.tell``, where a grid sampler's signal that its grid is done is not an error.
     Optuna's ``GridSampler.after_trial`` calls ``Study.stop()`` once every grid point has been
     asked, and outside ``Study.optimize`` (ask-and-tell, as here) ``stop`` raises
-    ``RuntimeError``; the trial's state and value are stored before (a ``finally`` in Optuna's
-    tell), and the sweep ends by counting its trials, so the signal is dropped."""
+    ``RuntimeError``; the trial's state and value are stored all the same (a ``finally`` in
+    Optuna's tell), and the sweep ends by counting its trials, so the signal is dropped."""
     try:
         study.tell(trial, value, **state)
     except RuntimeError as err:
