@@ -113,6 +113,12 @@ class RobotState:
         return jnp.where(self.parked[:, None], 0.0, self.velocity)
 
     @property
+    def body_velocity_xy(self) -> tuple[Array, Array]:
+        """:attr:`body_velocity` as its x and y components, ``[R]`` each (m/s): for kernels that
+        work on components (the planner), where XLA then drops the ``[R, 2]`` stack."""
+        return tuple(jnp.where(self.parked, 0.0, self.velocity[:, i]) for i in (0, 1))
+
+    @property
     def finished(self) -> Array:
         """``[R]`` bool: terminated (arrived, or ended by an ender)."""
         return self.succeeded | self.ended

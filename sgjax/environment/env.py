@@ -530,14 +530,10 @@ class SocialNavEnv:
             to_goal = jnp.maximum(state.route.goal_distance(robots.x, robots.y), 1e-12)
             speed_limit = jnp.where(robots.settling, jnp.sqrt(2.0 * rp.max_decel * to_goal),
                                     rp.max_speed)
-        # The robots as moving bodies (``RobotState.body_velocity``), as x and y components:
-        # XLA drops the [R, 2] stack, which would otherwise be a pass of its own.
-        velocity = robots.velocity
-        vx, vy = (jnp.where(robots.parked, 0.0, velocity[:, i]) for i in (0, 1))
         forward, turn = plan(
             cfg.planner, params.planner, rp, params.map, robots.x, robots.y, robots.heading,
             robots.kin.v_forward, params.dt, robots.in_world, carrot_x, carrot_y,
-            velocity=(vx, vy), bodies=self._pedestrian_bodies(state, params),
+            velocity=robots.body_velocity_xy, bodies=self._pedestrian_bodies(state, params),
             speed_limit=speed_limit,
         )
         go = (actions == GO) | robots.settling
