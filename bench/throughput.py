@@ -2,8 +2,10 @@
 
 Prints one table: agent-steps/s, env-steps/s, compile time and peak memory for each simulator,
 action mode, robot count and number of environments. The whole step is timed (dynamics,
-contacts, planner for GO/STOP, observations, rewards, auto-reset), run as ``jit(scan(vmap(step)))``
-with random actions drawn inside the scan.
+contacts, planner for GO/STOP, observations, rewards, auto-reset), run as
+``jit(scan(env.step_batch))`` (``--resets vmap``: ``jit(scan(vmap(env.step)))``) with random
+actions drawn inside the scan, from episodes whose clocks are staggered over the time limit so
+that they end at a long rollout's steady rate.
 
 Peers (skipped with a note when not installed): JaxMARL ``MPE_simple_spread_v3`` (pip jaxmarl)
 with N agents and N landmarks, stepped the same way; VMAS ``navigation`` on the CPU (pip vmas,
@@ -83,16 +85,24 @@ def _prepare_jax(rollout: Callable, state, steps: int) -> Prepared:
 
 
 def bench_sgjax(mode: str, robots: int, num_envs: int, steps: int, scenario: str,
-                humans: int = 0, terms: str = "default", human_model: str = "moussaid"
-                ) -> Prepared:
-    """``terms``: an observation preset; its reward preset too when one has that name."""
+                humans: int = 0, terms: str = "default", human_model: str = "moussaid",
+                batched_reset: bool = True) -> Prepared:
+    """``terms``: an observation preset; its reward preset too when one has that name.
+    ``batched_reset``: step with ``env.step_batch`` (new episodes sampled for the ended
+    environments alone), else with ``jax.vmap(env.step)`` (sampled for all, kept where ended)."""
     rewards = terms if terms in REWARD_PRESETS else "default"
     env, params = sgjax.make(scenario, num_agents=robots, action_mode=mode, num_humans=humans,
                              observation_preset=terms, reward_preset=rewards,
                              human_model=human_model)
     keys = jax.random.split(jax.random.key(0), num_envs)
     _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
-    vstep = jax.vmap(env.step, in_axes=(0, 0, 0, None))
+    # Episodes at staggered clocks, uniform over the time limit: they end at a long rollout's
+    # steady rate (num_envs / limit per step, more where robots finish early) instead of all
+    # at once, or never within the timed steps.
+    clocks = jax.random.randint(jax.random.key(2), (num_envs,), 0, params.max_steps)
+    state = state.replace(time=clocks.astype(state.time.dtype))
+    vstep = (env.step_batch if batched_reset
+             else jax.vmap(env.step, in_axes=(0, 0, 0, None)))
 
     def step_fn(key, st, actions):
         return vstep(jax.random.split(key, num_envs), st, actions, params)[1]
@@ -277,9 +287,12 @@ def _prepare_row(args, robots: int, envs: int, steps: int) -> list[tuple[str, Pr
     prepared = []
     for terms in args.terms:
         for mode in args.modes:
-            name = f"sgjax {mode}" + ("" if terms == "default" else f" [{terms}]")
-            prepared.append((name, bench_sgjax(mode, robots, envs, steps, args.scenario,
-                                               terms=terms)))
+            for resets in args.resets:
+                name = (f"sgjax {mode}" + ("" if terms == "default" else f" [{terms}]")
+                        + ("" if resets == "batched" else " [vmap(step)]"))
+                prepared.append((name, bench_sgjax(mode, robots, envs, steps, args.scenario,
+                                                   terms=terms,
+                                                   batched_reset=resets == "batched")))
     for peer in args.peers:
         try:
             if peer == "jaxmarl":
@@ -320,6 +333,11 @@ def main() -> None:
     parser.add_argument("--terms", nargs="+", default=["default"],
                         help="observation/reward presets to time (docs/terms.md), e.g. "
                              "default socialgym enforced_order")
+    parser.add_argument("--resets", nargs="+", choices=["batched", "vmap"],
+                        default=["batched"],
+                        help="how sgjax's auto-reset is stepped: batched (env.step_batch, new "
+                             "episodes sampled for the ended environments alone) and/or vmap "
+                             "(jax.vmap(env.step): sampled for every environment each step)")
     args = parser.parse_args()
 
     print(f"jax {jax.__version__} on {jax.devices()[0].platform} "

@@ -127,8 +127,7 @@ class EnvBatch:
         parts = []
         for env, params, k, s, a in zip(self.envs, self._params(num_agents), keys, states,
                                         self._split(actions), strict=True):
-            obs, state, reward, term, trunc, info = jax.vmap(
-                env.step, in_axes=(0, 0, 0, None))(k, s, a, params)
+            obs, state, reward, term, trunc, info = env.step_batch(k, s, a, params)
             final = info["final_robots"]
             parts.append((obs, state, reward, term, trunc, {
                 "was_active": info["was_active"], "episode_done": info["episode_done"],

@@ -47,7 +47,7 @@ class SgjaxVecEnv(VecEnv):
         super().__init__(num_envs * num_agents, self.env.observation_space(self.params),
                          self.env.action_space(self.params))
         self._discrete = isinstance(self.action_space, gymnasium.spaces.Discrete)
-        vstep = jax.vmap(self.env.step, in_axes=(0, 0, 0, None))
+        vstep = self.env.step_batch  # vmap(step), resetting only the ended worlds
         vreset = jax.vmap(self.env.reset, in_axes=(0, None))
         self._reset_fn = jax.jit(lambda key, p: vreset(jax.random.split(key, num_envs), p))
         self._step_fn = jax.jit(self._step_batch(vstep))

@@ -350,6 +350,70 @@ class SocialNavEnv:
         next_state = next_state.replace(total_steps=state.total_steps + 1)  # not reset
         return obs, next_state, reward, terminated, truncated, info
 
+    def step_batch(
+        self, keys: Array, states: EnvState, actions: Array, params: EnvParams,
+        reset_chunk: int | None = None,
+    ) -> tuple[Array, EnvState, Array, Array, Array, dict]:
+        """:meth:`step` over a batch of ``N`` environments: the same returns, with a leading
+        ``[N]`` axis, as ``jax.vmap(env.step, in_axes=(0, 0, 0, None))(keys, states, actions,
+        params)``, bitwise, at a lower cost.
+
+        ``vmap(step)`` samples a new episode for every environment at every step and keeps it
+        only where the episode ended (a ``where`` cannot skip work); here the new episodes are
+        sampled for the environments whose episode ended alone, ``reset_chunk`` of them at a
+        time in a ``while_loop`` that runs ``ceil(ended / reset_chunk)`` times (default
+        ``reset_chunk``: ``max(8, ceil(N / 16))``). Each environment's new episode comes from
+        its own key, as in :meth:`step`, so which ones share a chunk changes nothing.
+
+        ``keys [N]`` (or ``[N, 2]`` raw keys), ``states`` with a leading ``[N]`` axis,
+        ``actions [N, R]`` (GO/STOP) or ``[N, R, A]`` (continuous); ``params`` shared.
+        """
+        reject_invalid_actions(actions, self.config.action_mode == "continuous")
+        if reset_chunk is not None and (not isinstance(reset_chunk, int) or reset_chunk < 1):
+            raise ValueError(f"step_batch: reset_chunk must be a positive int, got {reset_chunk!r}")
+        return self._step_batch_compiled(keys, states, actions, params, reset_chunk)
+
+    def _step_batch(
+        self, keys: Array, states: EnvState, actions: Array, params: EnvParams,
+        reset_chunk: int | None,
+    ) -> tuple[Array, EnvState, Array, Array, Array, dict]:
+        num_envs = keys.shape[0]
+        chunk = reset_chunk or max(8, -(-num_envs // 16))
+        chunk = min(chunk, num_envs)
+        both = jax.vmap(jax.random.split)(keys)  # as _step splits each environment's key
+        key_step, key_reset = both[:, 0], both[:, 1]
+        obs, next_state, reward, terminated, truncated, info = jax.vmap(
+            self._step_env, in_axes=(0, 0, 0, None))(key_step, states, actions, params)
+        episode_done = jnp.all(~next_state.robots.present | terminated | truncated, axis=1)
+        info["episode_done"] = episode_done
+        info["final_observation"] = obs
+        info["final_robots"] = next_state.robots
+        info["final_collisions"] = next_state.collisions
+        info["final_time"] = next_state.time
+        rank = jnp.cumsum(episode_done.astype(jnp.int32)) - 1  # [N]: order among the ended
+        ended = jnp.sum(episode_done.astype(jnp.int32))
+
+        def more(carry: tuple) -> Array:
+            return carry[0] * chunk < ended
+
+        def reset_some(carry: tuple) -> tuple:
+            """Reset the ``chunk`` ended environments of rank ``[i chunk, (i + 1) chunk)``;
+            unused places of the chunk point past the batch and are dropped."""
+            i, obs, state = carry
+            (index,) = jnp.nonzero(episode_done & (rank // chunk == i), size=chunk,
+                                   fill_value=num_envs)
+            fresh_obs, fresh = jax.vmap(self._reset, in_axes=(0, None))(
+                key_reset[jnp.minimum(index, num_envs - 1)], params)
+            obs = obs.at[index].set(fresh_obs, mode="drop")
+            state = jax.tree.map(lambda old, new: old.at[index].set(new, mode="drop"),
+                                 state, fresh)
+            return i + 1, obs, state
+
+        _, obs, next_state = jax.lax.while_loop(
+            more, reset_some, (jnp.int32(0), obs, next_state))
+        next_state = next_state.replace(total_steps=states.total_steps + 1)  # not reset
+        return obs, next_state, reward, terminated, truncated, info
+
     def step_env(
         self, key: Array, state: EnvState, actions: Array, params: EnvParams
     ) -> tuple[Array, EnvState, Array, Array, Array, dict]:
@@ -566,6 +630,7 @@ class SocialNavEnv:
     _reset_subset_compiled = jax.jit(_reset, static_argnums=0)
     _step_compiled = jax.jit(_step, static_argnums=0)
     _step_env_compiled = jax.jit(_step_env, static_argnums=0)
+    _step_batch_compiled = jax.jit(_step_batch, static_argnums=(0, 5))
 
 
 def invalid_actions(actions: Array, continuous: bool) -> Array:

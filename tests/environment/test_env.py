@@ -1,6 +1,8 @@
 """The environment's API contract: shapes, spaces, determinism, jit/vmap equivalence, retracing,
 auto-reset and episode ends, and clear errors for bad input."""
 
+import os
+
 import chex
 import gymnasium
 import jax
@@ -115,6 +117,79 @@ def test_vmap_equals_loop():
         single = step(step_keys[i], state_i, actions[i], params)
         chex.assert_trees_all_close(jax.tree.map(lambda leaf, i=i: leaf[i], batched[:5]),
                                     single[:5], rtol=1e-5, atol=1e-6)
+
+
+def _batch_rollout(env, params, num_envs, steps, step_fn, key):
+    """``steps`` steps of ``num_envs`` environments with random actions; every step's returns."""
+    _, states = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(key, num_envs), params)
+    # Staggered clocks: some episodes end alone, others in bursts (time limit 2 s = 20 steps).
+    clocks = jnp.maximum(jnp.arange(num_envs) - 3, 0) * 3  # 0 0 0 0 3 6 9 ...
+    states = states.replace(time=clocks.astype(states.time.dtype))
+    continuous = env.config.action_mode == "continuous"
+    outputs = []
+    for t in range(steps):
+        k_act, k_step = jax.random.split(jax.random.fold_in(key, t))
+        shape = (num_envs, env.max_agents) + ((2,) if continuous else ())
+        actions = (jax.random.uniform(k_act, shape, minval=-1, maxval=1) if continuous
+                   else (jax.random.uniform(k_act, shape) < 0.3).astype(jnp.int32))
+        out = step_fn(jax.random.split(k_step, num_envs), states, actions, params)
+        states = out[1]
+        outputs.append(out)
+    return outputs
+
+
+@pytest.mark.parametrize("action_mode", ["go_stop", "continuous"])
+def test_step_batch_is_vmap_of_step_bitwise(action_mode):
+    """``env.step_batch`` resets only the ended environments, a few per chunk, and returns
+    exactly what ``vmap(step)`` (which resets every environment, keeping the ended ones')
+    returns: observations, states, rewards, flags and infos, over 45 steps in which episodes
+    end alone and in bursts larger than the chunk."""
+    env, params = sgjax.make("doorway", num_agents=3, action_mode=action_mode, time_limit=2.0)
+    vstep = jax.jit(jax.vmap(env.step, in_axes=(0, 0, 0, None)))
+    bstep = jax.jit(lambda k, s, a, p: env.step_batch(k, s, a, p, reset_chunk=2))
+    key = jax.random.key(11)
+    expected = _batch_rollout(env, params, 9, 45, vstep, key)
+    got = _batch_rollout(env, params, 9, 45, bstep, key)
+    ended = [int(out[5]["episode_done"].sum()) for out in expected]
+    assert sum(ended) >= 18 and max(ended) > 2 and 1 in ended, ended  # alone and in bursts
+    # Bitwise under the default compile; the suite's fast-compile flags (tests/conftest.py)
+    # let XLA round the two programs' floats differently, by about 1e-6 m.
+    exact = os.environ.get("SGJAX_TEST_FULL_OPTIMIZATION") == "1"
+    for t, (a, b) in enumerate(zip(expected, got, strict=True)):
+        assert jax.tree.structure(a) == jax.tree.structure(b)
+        for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b), strict=True):
+            x, y = np.asarray(x), np.asarray(y)
+            if exact or not np.issubdtype(x.dtype, np.floating):
+                np.testing.assert_array_equal(x, y, err_msg=f"step {t}")
+            else:
+                np.testing.assert_allclose(x, y, rtol=1e-5, atol=2e-5, err_msg=f"step {t}")
+
+
+def test_step_batch_under_an_outer_vmap_and_its_errors():
+    """Lanes (an outer ``vmap``, as the trainer's seeds) with different numbers of ended
+    episodes step as each lane alone; a bad chunk and a bad action are errors."""
+    env, params = sgjax.make("doorway", num_agents=2, time_limit=1.0)
+    keys = jax.random.split(jax.random.key(3), 6)
+    _, states = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+    # Lane 0: every episode ends at the next step; lane 1: none does.
+    clocks = jnp.stack([jnp.full(3, 9), jnp.zeros(3)]).astype(states.time.dtype)
+    lanes = jax.tree.map(lambda leaf: leaf.reshape(2, 3, *leaf.shape[1:]), states)
+    lanes = lanes.replace(time=clocks)
+    actions = jnp.zeros((2, 3, env.max_agents), jnp.int32)
+    step_keys = jax.random.split(jax.random.key(4), 6).reshape(2, 3)
+    both = jax.jit(jax.vmap(lambda k, s, a: env.step_batch(k, s, a, params, 1)))(
+        step_keys, lanes, actions)
+    vstep = jax.jit(jax.vmap(env.step, in_axes=(0, 0, 0, None)))
+    for lane in range(2):
+        alone = vstep(step_keys[lane], jax.tree.map(lambda leaf, i=lane: leaf[i], lanes),
+                      actions[lane], params)
+        chex.assert_trees_all_close(jax.tree.map(lambda leaf, i=lane: leaf[i], both), alone,
+                                    rtol=1e-5, atol=2e-5)
+    assert both[5]["episode_done"].tolist() == [[True] * 3, [False] * 3]
+    with pytest.raises(ValueError, match="reset_chunk must be a positive int, got 0"):
+        env.step_batch(keys, states, jnp.zeros((6, 2), jnp.int32), params, reset_chunk=0)
+    with pytest.raises(ValueError, match="robot slot 1 of batch index 2"):
+        env.step_batch(keys, states, jnp.zeros((6, 2), jnp.int32).at[2, 1].set(5), params)
 
 
 def test_no_retrace_when_robot_count_changes():
