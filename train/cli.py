@@ -31,7 +31,7 @@ from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.render import episode_frames, save_gif
 from sgjax.evaluation.report import summary_tables, write_all
 from sgjax.evaluation.runner import Episodes
-from sgjax.evaluation.statistics import Summary, paired_difference
+from sgjax.evaluation.statistics import Summary, paired_difference, seed_aggregate
 from sgjax.files import write_atomic
 from sgjax.maps.io import load as load_map
 from sgjax.terms.base import ConfigError
@@ -298,21 +298,25 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
     t0 = time.perf_counter()
     print(f"\nfinal evaluation of {path} ({e.episodes} episodes per configuration)")
     actor = _checkpoint_actor(path)
+    seeds = _checkpoint_seeds(path)
     counts = list(e.num_agents)
     shown = min(counts, key=lambda n: (abs(n - config.env.curriculum[-1][1]), n))
-    trained, baseline, recorded, paired = [], [], None, {}
+    trained, per_seed, baseline, recorded, paired, spread = [], [], [], None, {}, {}
     for i, scenario in enumerate(config.env.scenarios):
         record = shown if e.gif and i == 0 else None
-        mine, theirs, episode, paired[scenario] = _evaluate_scenario(config, actor, scenario,
-                                                                     record)
+        mine, theirs, episode, paired[scenario], by_seed = _evaluate_scenario(
+            config, actor, scenario, record, seeds)
         trained, baseline = trained + mine, baseline + theirs
+        per_seed += by_seed.pop("results", [])
+        spread[scenario] = by_seed
         recorded = recorded if episode is None else episode
-    results = trained + baseline
+    results = trained + per_seed + baseline
     made = provenance(config.to_dict(), seeds=run_seeds(config),
                       episodes_per_cell=e.episodes)
     write_all(results, out / "eval", DEFAULT_CONSTANTS, made)
     print(summary_tables(results))
     _print_paired(paired, e.baseline, _trained_name(config), e.episodes)
+    _print_seed_spread(spread, e.baseline, e.episodes)
     summary = {(r.policy, r.num_agents, r.scenario): r.metrics["team_success"].mean
                for r in results}
     seconds = {"final evaluation": time.perf_counter() - t0}
@@ -327,7 +331,7 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
         print(f"\n{scenario}, {count} robots: team success {mine:.3f} trained vs {base:.3f} "
               f"{e.baseline}")
     return {"trained_team_success": mine, "baseline_team_success": base, "results": results,
-            "paired": paired, "seconds": seconds}
+            "paired": paired, "seed_spread": spread, "seconds": seconds}
 
 
 def run_seeds(config: TrainConfig) -> dict[str, list[int]]:
@@ -352,8 +356,40 @@ def _print_paired(paired: dict[str, dict[int, Summary]], baseline: str | None, n
               f"episodes (mean [95% t interval]) by robots: {cells}")
 
 
+def _print_seed_spread(spread: dict[str, dict[int, dict[str, Any]]], baseline: str | None,
+                       episodes: int) -> None:
+    """Every training seed's team success on the same episodes, their mean and interquartile
+    mean with bootstrap intervals over seeds, and how many seeds beat the baseline (paired
+    interval above 0); nothing for a one-seed run."""
+    for scenario, by_count in spread.items():
+        if not by_count:
+            continue
+        seeds = len(next(iter(by_count.values()))["seeds"])
+        print(f"{scenario}: team success of each of the {seeds} training seeds on the same "
+              f"{episodes} episodes (mean and IQM over seeds [95% bootstrap interval])"
+              + (f"; seeds whose paired interval against {baseline} is above 0" if baseline
+                 else "") + ":")
+        for n, cell in by_count.items():
+            a = cell["aggregate"]
+            line = (f"  {n} robots: seeds {' '.join(f'{v:.2f}' for v in cell['seeds'])}; "
+                    f"mean {a['mean']:.3f} [{a['mean_low']:.3f}, {a['mean_high']:.3f}], "
+                    f"IQM {a['iqm']:.3f} [{a['iqm_low']:.3f}, {a['iqm_high']:.3f}]")
+            if "paired" in cell:
+                wins = sum(d.ci_low > 0 for d in cell["paired"])
+                line += f"; {wins} of {seeds} above {baseline}"
+            print(line)
+
+
 def _trained_name(config: TrainConfig) -> str:
     return f"trained ({config.algorithm.name})"
+
+
+def _checkpoint_seeds(path: Path) -> list[tuple[int, ActorWeights]]:
+    """Every seed's acting weights of a checkpoint, ``(seed index, weights)``."""
+    _, _, raw = checkpoint.read(path)
+    weights = checkpoint.stored_weights(raw)
+    count = int(np.shape(weights.obs_stats.mean)[0])
+    return [(i, weights.seed(i)) for i in range(count)]
 
 
 def _checkpoint_actor(path: Path) -> tuple[NetworkConfig, ActorLayout, ActorWeights]:
@@ -367,7 +403,9 @@ def _checkpoint_actor(path: Path) -> tuple[NetworkConfig, ActorLayout, ActorWeig
 
 
 def _evaluate_scenario(config: TrainConfig, actor: tuple, scenario: str,
-                       record_count: int | None) -> tuple[list, list, Any, dict]:
+                       record_count: int | None,
+                       seeds: list[tuple[int, ActorWeights]] | None = None
+                       ) -> tuple[list, list, Any, dict, dict]:
     """The trained policy's and the baseline's results on one scenario at every evaluation
     count: one program, both policies its lanes, called once per count (on the 2-core CPU
     faster than every count as lanes of one call, whose loop waits for the slowest episode of
@@ -375,7 +413,14 @@ def _evaluate_scenario(config: TrainConfig, actor: tuple, scenario: str,
     count as ``(states [T + 1, ...], length in steps, params)`` (else None). Last, ``{count:
     Summary}``: the paired difference trained - baseline in team success over the episodes
     both played (:func:`sgjax.evaluation.statistics.paired_difference`; empty without a
-    baseline in the same environment)."""
+    baseline in the same environment).
+
+    With ``seeds`` (every seed's weights, :func:`_checkpoint_seeds`) of more than one seed,
+    each seed plays the same episodes through the same program (the weights are its
+    argument), and the fifth return is ``{count: {"seeds": [S] team success, "aggregate":
+    seed_aggregate(...), "paired": [S] Summary (each seed - baseline, when together)},
+    "results": [ConfigResult of each seed, policy "<trained> seed <i>"]}`` (empty for one
+    seed)."""
     e, (network, layout, weights) = config.evaluation, actor
     counts, seed = list(e.num_agents), config.seed + EVALUATION_SEED_OFFSET
     env, by_count = policy_environment(scenario, counts, None, config.env.options)
@@ -388,7 +433,8 @@ def _evaluate_scenario(config: TrainConfig, actor: tuple, scenario: str,
     params = by_count[counts[0]]
     evaluator = table_evaluator(network, layout, env, params, names[1:], 1, e.episodes,
                                 e.deterministic, None if record_count is None else [(0, 0)])
-    mine, theirs, recorded, paired = [], [], None, {}
+    mine, theirs, recorded, paired, spread = [], [], None, {}, {}
+    many = seeds is not None and len(seeds) > 1
     for n in counts:
         t0 = time.perf_counter()
         (values, _, states), compile_s = evaluator(weights, jax.random.key(seed), [n])
@@ -400,13 +446,45 @@ def _evaluate_scenario(config: TrainConfig, actor: tuple, scenario: str,
         mine, theirs = mine + results[:1], theirs + results[1:]
         if together:  # [policy, episode]: the same episodes, common random numbers
             paired[n] = paired_difference(*batch.values["team_success"][:2])
+        if many:
+            spread[n] = _seed_cell(evaluator, seeds, seed, n, scenario, names, params,
+                                   batch if together else None)
+            spread.setdefault("results", [])
+            spread["results"] += spread[n].pop("results")
         if n == record_count:
             recorded = (jax.tree.map(lambda leaf: leaf[:, 0], states),
                         int(batch.values["episode_length"][0, 0]), by_count[n])
     if e.baseline is not None and not together:
         theirs = evaluate([scenario], [e.baseline], num_agents=counts, episodes=e.episodes,
                           seed=seed, options=go_stop, log=None)
-    return mine, theirs, recorded, paired
+    return mine, theirs, recorded, paired, spread
+
+
+def _seed_cell(evaluator: Any, seeds: list[tuple[int, ActorWeights]], key_seed: int, count: int,
+               scenario: str, names: list[str], params: Any,
+               together: Episodes | None) -> dict[str, Any]:
+    """One robot count of :func:`_evaluate_scenario`'s seed spread: every seed's episodes
+    (key ``key_seed``, so the same episodes as the best seed's and the baseline's), its
+    results, the aggregate over seeds and, with ``together`` (the baseline's batch from the
+    same program), each seed's paired difference against the baseline."""
+    per_seed, results, differences = [], [], []
+    for index, weights in seeds:
+        t0 = time.perf_counter()
+        (values, _, _), compile_s = evaluator(weights, jax.random.key(key_seed), [count])
+        values = {k: np.asarray(v)[:1] for k, v in jax.device_get(values).items()}
+        batch = Episodes(values=values, robot={}, compile_seconds=compile_s,
+                         run_seconds=time.perf_counter() - t0 - compile_s)
+        results += lane_results(scenario, [f"{names[0]} seed {index}"], [count], key_seed,
+                                params, batch)
+        success = values["team_success"][0]
+        per_seed.append(float(np.mean(success)))
+        if together is not None:
+            differences.append(paired_difference(success, together.values["team_success"][1]))
+    cell = {"seeds": per_seed, "aggregate": seed_aggregate(np.asarray(per_seed)),
+            "results": results}
+    if together is not None:
+        cell["paired"] = differences
+    return cell
 
 
 def _write_gif(scenario: str, states: Any, length: int, params: Any, count: int,

@@ -124,7 +124,7 @@ def test_final_evaluation_evaluates_like_separate_evaluate_calls_and_records_its
     with Image.open(tmp_path / "eval" / "episode.gif") as gif:
         assert gif.n_frames > 1
     # The GIF's episode: episode 0 of the trained policy at 2 robots (the curriculum's count).
-    mine, theirs, (states, length, params), paired = _evaluate_scenario(
+    mine, theirs, (states, length, params), paired, _ = _evaluate_scenario(
         config, _checkpoint_actor(path), "open", 2)
     assert mine[0].compile_seconds == 0.0  # the final evaluation compiled this program
     # The paired difference's mean is the difference of the two means (the same episodes).
@@ -139,6 +139,46 @@ def test_final_evaluation_evaluates_like_separate_evaluate_calls_and_records_its
             jax.tree.map(lambda leaf: leaf[:, 0], replay.states)), strict=True):
         np.testing.assert_array_equal(np.asarray(ours), np.asarray(theirs))
     np.testing.assert_array_equal(states.robots.x[length], replay.states.robots.x[length, 0])
+
+
+def test_final_evaluation_reports_every_training_seed(tmp_path, capsys):
+    """A run of two seeds: the final evaluation plays each seed on the same episodes as the
+    best seed and the baseline (rows "trained (ippo) seed i", seed i's results as its own
+    policy gives them), aggregates them over seeds and prints the spread."""
+    import jax
+    import numpy as np
+    from test_train import tiny
+
+    from sgjax.evaluation.evaluate import policy_environment, run_episodes
+    from train.checkpoint import load_checkpoint_policy, save
+    from train.cli import final_evaluation
+    from train.ppo import Trainer, seed_keys
+
+    config = tiny(num_seeds=2, env={"time_limit": 10.0},
+                  evaluation={"episodes": 4, "num_agents": [2], "gif": False})
+    trainer = Trainer(config)
+    runner = jax.jit(jax.vmap(trainer.init))(seed_keys(config))
+    path = save(tmp_path / "best.msgpack", config, runner, {"best_seed": 1}, trainer.actor)
+    summary = final_evaluation(config, tmp_path, path)
+    rows = {r.policy: r for r in summary["results"]}
+    assert list(rows) == ["trained (ippo)", "trained (ippo) seed 0", "trained (ippo) seed 1",
+                          "only_local"]
+    team = {name: r.metrics["team_success"].mean for name, r in rows.items()}
+    assert team["trained (ippo)"] == team["trained (ippo) seed 1"]  # the best seed
+    env, by_count = policy_environment("open", [2], None, config.env.options)
+    key = jax.random.key(config.seed + EVALUATION_SEED_OFFSET)
+    for index in (0, 1):
+        alone = run_episodes(env, by_count[2], load_checkpoint_policy(path, seed_index=index),
+                             key, 4)
+        assert team[f"trained (ippo) seed {index}"] == pytest.approx(
+            float(np.mean(alone.values["team_success"])))
+    cell = summary["seed_spread"]["open"][2]
+    assert cell["seeds"] == [team["trained (ippo) seed 0"], team["trained (ippo) seed 1"]]
+    assert cell["aggregate"]["mean"] == pytest.approx(np.mean(cell["seeds"]))
+    assert len(cell["paired"]) == 2
+    out = capsys.readouterr().out
+    assert "team success of each of the 2 training seeds on the same 4 episodes" in out
+    assert "  2 robots: seeds " in out and "above only_local" in out
 
 
 @pytest.mark.slow
