@@ -138,6 +138,7 @@ def _batch_rollout(env, params, num_envs, steps, step_fn, key):
     return outputs
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("action_mode", ["go_stop", "continuous"])
 def test_step_batch_is_vmap_of_step_bitwise(action_mode):
     """``env.step_batch`` resets only the ended environments, a few per chunk, and returns

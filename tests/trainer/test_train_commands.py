@@ -141,6 +141,7 @@ def test_final_evaluation_evaluates_like_separate_evaluate_calls_and_records_its
     np.testing.assert_array_equal(states.robots.x[length], replay.states.robots.x[length, 0])
 
 
+@pytest.mark.slow
 def test_final_evaluation_reports_every_training_seed(tmp_path, capsys):
     """A run of two seeds: the final evaluation plays each seed on the same episodes as the
     best seed and the baseline (rows "trained (ippo) seed i", seed i's results as its own
