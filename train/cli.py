@@ -30,6 +30,7 @@ from sgjax.evaluation.metrics import DEFAULT_CONSTANTS
 from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.render import episode_frames, save_gif
 from sgjax.evaluation.report import summary_tables, write_all
+from sgjax.evaluation.result_schema import SEED_SPREAD
 from sgjax.evaluation.runner import Episodes
 from sgjax.evaluation.statistics import Summary, paired_difference, seed_aggregate
 from sgjax.files import write_atomic
@@ -317,6 +318,10 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
     print(summary_tables(results))
     _print_paired(paired, e.baseline, _trained_name(config), e.episodes)
     _print_seed_spread(spread, e.baseline, e.episodes)
+    if any(spread.values()):
+        write_atomic(out / "eval" / "seed_spread.json", json.dumps(
+            _seed_spread_document(spread, _trained_name(config), e.baseline, e.episodes, made),
+            indent=1) + "\n")
     summary = {(r.policy, r.num_agents, r.scenario): r.metrics["team_success"].mean
                for r in results}
     seconds = {"final evaluation": time.perf_counter() - t0}
@@ -378,6 +383,28 @@ def _print_seed_spread(spread: dict[str, dict[int, dict[str, Any]]], baseline: s
                 wins = sum(d.ci_low > 0 for d in cell["paired"])
                 line += f"; {wins} of {seeds} above {baseline}"
             print(line)
+
+
+def _seed_spread_document(spread: dict[str, dict[int, dict[str, Any]]], policy: str,
+                          baseline: str | None, episodes: int,
+                          made: dict[str, Any]) -> dict[str, Any]:
+    """``eval/seed_spread.json`` (``sgjax.seed_spread/1``) of :func:`_print_seed_spread`'s
+    values."""
+    def summary(d: Summary) -> dict[str, float | int | None]:
+        as_float = lambda x: None if not math.isfinite(x) else float(x)  # noqa: E731
+        return {"mean": as_float(d.mean), "ci_low": as_float(d.ci_low),
+                "ci_high": as_float(d.ci_high), "std": as_float(d.std), "n": int(d.n)}
+
+    scenarios = {}
+    for scenario, by_count in spread.items():
+        cells = {}
+        for n, cell in by_count.items():
+            cells[str(n)] = {"team_success": cell["seeds"], "aggregate": cell["aggregate"]}
+            if "paired" in cell:
+                cells[str(n)]["paired"] = [summary(d) for d in cell["paired"]]
+        scenarios[scenario] = cells
+    return {"schema_version": SEED_SPREAD, "provenance": made, "policy": policy,
+            "baseline": baseline, "episodes": episodes, "scenarios": scenarios}
 
 
 def _trained_name(config: TrainConfig) -> str:

@@ -8,6 +8,9 @@ Every result file names its format in ``schema_version``:
   3-4: per-seed values of every metric per mini-game, baseline and robot count, and per-episode
   team success for the paired comparisons);
 - ``sgjax.ablation/1``: ``ablation.json`` of ``python -m train.ablation`` (Table 5);
+- ``sgjax.seed_spread/1``: ``RUN/eval/seed_spread.json`` of a training run of several seeds
+  (every seed's team success on the final evaluation's episodes, the aggregate over seeds and
+  each seed's paired difference against the baseline);
 - a training run's ``provenance.json`` is the provenance block itself
   (``sgjax.provenance/1``, :data:`sgjax.evaluation.provenance.PROVENANCE_SCHEMA`).
 
@@ -30,6 +33,7 @@ EVALUATE = "sgjax.evaluate/1"
 REPRODUCE = "sgjax.reproduce/1"
 ABLATION = "sgjax.ablation/1"
 SWEEP = "sgjax.sweep/1"
+SEED_SPREAD = "sgjax.seed_spread/1"
 
 _NUMBER_OR_NULL = {"type": ["number", "null"]}
 _SUMMARY = {
@@ -160,9 +164,36 @@ SWEEP_SCHEMA: dict[str, Any] = {
     },
 }
 
+_BOUNDED = {"type": "object", "required": ["mean", "mean_low", "mean_high", "iqm", "iqm_low",
+                                             "iqm_high", "seeds"]}
+SEED_SPREAD_SCHEMA: dict[str, Any] = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "title": "sgjax training run eval/seed_spread.json",
+    "type": "object",
+    "required": ["schema_version", "provenance", "policy", "baseline", "episodes",
+                 "scenarios"],
+    "properties": {
+        "schema_version": {"const": SEED_SPREAD},
+        "provenance": PROVENANCE_SCHEMA,
+        "policy": {"type": "string"},
+        "baseline": {"type": ["string", "null"]},
+        "episodes": {"type": "integer", "minimum": 1},
+        # scenario -> robot count -> the cell
+        "scenarios": {"type": "object", "additionalProperties": {
+            "type": "object", "patternProperties": {_COUNT_KEY: {
+                "type": "object", "required": ["team_success", "aggregate"],
+                "properties": {
+                    "team_success": {"type": "array", "items": {"type": "number"},
+                                     "minItems": 2},
+                    "aggregate": _BOUNDED,
+                    "paired": {"type": "array", "items": _SUMMARY}}}},
+            "additionalProperties": False}},
+    },
+}
+
 RESULT_SCHEMAS: dict[str, dict[str, Any]] = {
     EVALUATE: EVALUATE_SCHEMA, REPRODUCE: REPRODUCE_SCHEMA, ABLATION: ABLATION_SCHEMA,
-    SWEEP: SWEEP_SCHEMA}
+    SWEEP: SWEEP_SCHEMA, SEED_SPREAD: SEED_SPREAD_SCHEMA}
 
 
 def schema_for(document: Any) -> dict[str, Any]:

@@ -177,6 +177,9 @@ def test_final_evaluation_reports_every_training_seed(tmp_path, capsys):
     assert cell["seeds"] == [team["trained (ippo) seed 0"], team["trained (ippo) seed 1"]]
     assert cell["aggregate"]["mean"] == pytest.approx(np.mean(cell["seeds"]))
     assert len(cell["paired"]) == 2
+    document = json.loads((tmp_path / "eval" / "seed_spread.json").read_text())
+    check_document(document)
+    assert document["scenarios"]["open"]["2"]["team_success"] == cell["seeds"]
     out = capsys.readouterr().out
     assert "team success of each of the 2 training seeds on the same 4 episodes" in out
     assert "  2 robots: seeds " in out and "above only_local" in out
