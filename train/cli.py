@@ -29,7 +29,7 @@ from sgjax.evaluation.evaluate import evaluate, lane_results, params_by_count, p
 from sgjax.evaluation.metrics import DEFAULT_CONSTANTS
 from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.render import episode_frames, save_gif
-from sgjax.evaluation.report import summary_tables, write_all
+from sgjax.evaluation.report import markdown_table, summary_tables, write_all
 from sgjax.evaluation.result_schema import SEED_SPREAD
 from sgjax.evaluation.runner import Episodes
 from sgjax.evaluation.statistics import Summary, paired_difference, seed_aggregate
@@ -319,9 +319,10 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
     _print_paired(paired, e.baseline, _trained_name(config), e.episodes)
     _print_seed_spread(spread, e.baseline, e.episodes)
     if any(spread.values()):
-        write_atomic(out / "eval" / "seed_spread.json", json.dumps(
-            _seed_spread_document(spread, _trained_name(config), e.baseline, e.episodes, made),
-            indent=1) + "\n")
+        document = _seed_spread_document(spread, _trained_name(config), e.baseline,
+                                         e.episodes, made)
+        write_atomic(out / "eval" / "seed_spread.json", json.dumps(document, indent=1) + "\n")
+        write_atomic(out / "eval" / "seed_spread.md", seed_spread_markdown(document))
     summary = {(r.policy, r.num_agents, r.scenario): r.metrics["team_success"].mean
                for r in results}
     seconds = {"final evaluation": time.perf_counter() - t0}
@@ -405,6 +406,33 @@ def _seed_spread_document(spread: dict[str, dict[int, dict[str, Any]]], policy: 
         scenarios[scenario] = cells
     return {"schema_version": SEED_SPREAD, "provenance": made, "policy": policy,
             "baseline": baseline, "episodes": episodes, "scenarios": scenarios}
+
+
+def seed_spread_markdown(document: dict[str, Any]) -> str:
+    """A markdown table of a ``seed_spread.json`` document: per scenario and robot count, each
+    seed's team success, the mean and IQM over seeds with their 95% bootstrap intervals, and
+    each seed's paired difference against the baseline (mean [95% t interval] over the same
+    episodes)."""
+    baseline = document["baseline"]
+    header = ["Scenario", "Robots", "Team success per seed", "Mean [95% CI]", "IQM [95% CI]"]
+    if baseline:
+        header.append(f"Each seed - {baseline}, paired")
+    rows = []
+    for scenario, cells in document["scenarios"].items():
+        for count, cell in cells.items():
+            a = cell["aggregate"]
+            row = [scenario, count, " ".join(f"{v:.3f}" for v in cell["team_success"]),
+                   f"{a['mean']:.3f} [{a['mean_low']:.3f}, {a['mean_high']:.3f}]",
+                   f"{a['iqm']:.3f} [{a['iqm_low']:.3f}, {a['iqm_high']:.3f}]"]
+            if baseline:
+                row.append("; ".join(f"{d['mean']:+.3f} [{d['ci_low']:+.3f}, {d['ci_high']:+.3f}]"
+                                     for d in cell.get("paired", [])) or "n/a")
+            rows.append(row)
+    commit = (document["provenance"].get("git") or {}).get("commit") or "unknown"
+    lines = [f"{document['policy']}: team success of every training seed on the same "
+             f"{document['episodes']} evaluation episodes (commit {commit[:7]}).", "",
+             *markdown_table(header, rows)]
+    return "\n".join(lines) + "\n"
 
 
 def _trained_name(config: TrainConfig) -> str:

@@ -180,6 +180,8 @@ def test_final_evaluation_reports_every_training_seed(tmp_path, capsys):
     document = json.loads((tmp_path / "eval" / "seed_spread.json").read_text())
     check_document(document)
     assert document["scenarios"]["open"]["2"]["team_success"] == cell["seeds"]
+    table = (tmp_path / "eval" / "seed_spread.md").read_text()
+    assert f"| open | 2 | {cell['seeds'][0]:.3f} {cell['seeds'][1]:.3f} |" in table
     out = capsys.readouterr().out
     assert "team success of each of the 2 training seeds on the same 4 episodes" in out
     assert "  2 robots: seeds " in out and "above only_local" in out
