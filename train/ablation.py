@@ -33,6 +33,8 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
+import hashlib
 import json
 import time
 from collections.abc import Mapping, Sequence
@@ -225,31 +227,64 @@ def _variant_config(config: TrainConfig, variant: Variant, seeds: int) -> TrainC
     return config_from_dict(data, where)
 
 
+def variant_groups(variants: Mapping[str, Variant]) -> list[dict[str, Variant]]:
+    """The variants that train as one vmap: those with the same network and settings, in
+    order of first appearance."""
+    groups: dict[tuple, dict[str, Variant]] = {}
+    for name, variant in variants.items():
+        groups.setdefault((variant.network, variant.settings), {})[name] = variant
+    return list(groups.values())
+
+
+def group_name(group: Mapping[str, Variant]) -> str:
+    """A group's key in a partial result: its variants' names."""
+    return " | ".join(group)
+
+
 def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: int,
                  lanes_per_run: int | None, episodes: int, robots: int | Sequence[int],
-                 log=print, processes: Processes | None = None) -> dict:
+                 log=print, processes: Processes | None = None,
+                 done: Mapping[str, Mapping[str, Any]] | None = None,
+                 on_group=None) -> dict:
     """Train every variant x seed (one vmap per network architecture and settings), evaluate
     every lane on the config's first scenario with ``robots`` robots (one count or several:
     one compiled evaluation serves them all); returns ``{"scores": {variant: [seeds]},
     "scores_by_robots": {count: {variant: [seeds]}}, "seconds": {phase: s}}`` (team success per
     seed; ``scores`` at the first count). Under several ``processes`` each trains and evaluates
     its share of every group's lanes and the scores are gathered, so every process returns the
-    whole sweep's."""
+    whole sweep's.
+
+    ``done`` (``{group_name: {"scores": {count: {variant: [seeds]}}, "seconds": {...}}}``, a
+    partial run's finished groups) skips those groups' training; ``on_group(name, record)`` is
+    called with each newly finished group's record (for a partial result file)."""
     processes = processes or Processes()
+    done = dict(done or {})
     counts = [robots] if isinstance(robots, int) else [int(n) for n in robots]
-    groups: dict[tuple, dict[str, Variant]] = {}
-    for name, variant in variants.items():
-        groups.setdefault((variant.network, variant.settings), {})[name] = variant
+    groups = variant_groups(variants)
     # Every group's config, environment and network first (terms, weights, shapes; nothing is
     # compiled): a bad variant fails before any training.
     trainers = [Trainer(_variant_config(config, next(iter(group.values())), seeds))
-                for group in groups.values()]
+                for group in groups]
     scores: dict[int, dict[str, list[float]]] = {n: {} for n in counts}
     seconds = {"compile and train": 0.0, "evaluate": 0.0}
     scenario = config.env.scenarios[0]
     key = jax.random.PRNGKey(config.seed + EVALUATION_SEED_OFFSET)
-    for group, trainer in zip(groups.values(), trainers, strict=True):
+    for index, (group, trainer) in enumerate(zip(groups, trainers, strict=True)):
+        name_of_group = group_name(group)
+        if name_of_group in done:
+            record = done[name_of_group]
+            for n in counts:
+                for name in group:
+                    scores[n][name] = [float(v) for v in record["scores"][str(n)][name]]
+            for phase, value in record["seconds"].items():
+                seconds[phase] += float(value)
+            log(f"group {index + 1} of {len(groups)} ({', '.join(group)}): kept from the "
+                f"partial run")
+            continue
         labels = [(name, seed) for name in group for seed in range(seeds)]
+        log(f"group {index + 1} of {len(groups)} ({', '.join(group)}; network "
+            f"{trainer.config.network.kind}): training {len(labels)} lanes of "
+            f"{trainer.config.algorithm.total_steps:,} environment steps")
         share = lane_share(len(labels), processes)
         t0 = t1 = time.perf_counter()
         team = np.zeros((len(counts), 0))
@@ -272,6 +307,10 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
             for (name, _), value in zip(labels, gather_lanes(row, len(labels), processes),
                                         strict=True):
                 scores[n].setdefault(name, []).append(float(value))
+        if on_group is not None:
+            on_group(name_of_group, {
+                "scores": {str(n): {name: scores[n][name] for name in group} for n in counts},
+                "seconds": {"compile and train": t1 - t0, "evaluate": t2 - t1}})
         where = "" if processes.count == 1 else (
             f" (process {processes.index} of {processes.count}: lanes {share.tolist()})")
         log(f"trained and evaluated {len(share)} of {len(labels)} lanes ({', '.join(group)}; "
@@ -279,6 +318,37 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
             f"{where}")
     by_robots = {n: {name: scores[n][name] for name in variants} for n in counts}
     return {"scores": by_robots[counts[0]], "scores_by_robots": by_robots, "seconds": seconds}
+
+
+PARTIAL = "ablation.partial.json"
+
+
+def run_fingerprint(config: TrainConfig, variants: Mapping[str, Variant], seeds: int,
+                    episodes: int, counts: Sequence[int]) -> str:
+    """A hash of everything that decides a run's scores: a partial result is resumed only by
+    the run that wrote it."""
+    described = {"config": config.to_dict(), "seeds": seeds, "episodes": episodes,
+                 "robots": [int(n) for n in counts],
+                 "variants": {name: dataclasses.asdict(v) for name, v in variants.items()}}
+    text = json.dumps(described, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def read_partial(path: Path, fingerprint: str) -> dict[str, Any]:
+    """The finished groups of a partial result file (``{}`` when there is none), or an error
+    naming the file when it is unreadable or was written by a run with other arguments."""
+    if not path.is_file():
+        return {}
+    try:
+        data = json.loads(path.read_text())
+        groups, written = data["groups"], data["fingerprint"]
+    except (ValueError, KeyError, TypeError) as err:
+        raise ConfigError(f"{path}: not a partial ablation result ({err}); delete it to start "
+                          f"afresh") from None
+    if written != fingerprint:
+        raise ConfigError(f"{path}: written by a run with another config, variants, seeds, "
+                          f"episodes or robot counts; rerun with those, or delete the file")
+    return groups
 
 
 def paired_against_baseline(scores: Mapping[str, list[float]]) -> dict[str, dict]:
@@ -351,9 +421,13 @@ def main(argv: list[str] | None = None) -> None:
                              "a table per count")
     parser.add_argument("--out", default=None,
                         help="folder for ablation.md and ablation.json (written atomically "
-                             "at the end; a killed run does not resume: its lanes train in "
-                             "one call, so run it again, or use train.sweep's grid, which "
-                             "resumes)")
+                             "at the end); while it runs, ablation.partial.json keeps every "
+                             "finished group of variants (one network and settings: one "
+                             "vmap), which --resume reuses")
+    parser.add_argument("--resume", action="store_true",
+                        help="continue a killed run with the same arguments: the groups in "
+                             "<out>/ablation.partial.json are not trained again (a group "
+                             "killed midway trains again from its start)")
     add_cache_arguments(parser)
     add_arguments(parser)
     args = parser.parse_args(argv)
@@ -372,9 +446,29 @@ def main(argv: list[str] | None = None) -> None:
         counts = args.robots or [config.env.curriculum[-1][1]]
         if min(counts) < 1:
             raise ConfigError(f"--robots: counts must be at least 1, got {counts}")
+        if args.resume and args.out is None:
+            raise ConfigError("--resume needs --out (the folder of the run to continue)")
+        if args.resume and processes.count > 1:
+            raise ConfigError("--resume runs in one process (the partial result is process "
+                              "0's); continue without --coordinator")
         start = time.perf_counter()
+        log = functools.partial(print, flush=True)
+        partial = None if args.out is None else Path(args.out) / PARTIAL
+        fingerprint = run_fingerprint(config, variants, args.seeds, episodes, counts)
+        done = read_partial(partial, fingerprint) if args.resume else {}
+        if args.resume:
+            log(f"resuming {partial}: {len(done)} finished group(s)")
+
+        def keep(name: str, record: dict) -> None:
+            if partial is None or not processes.is_main:
+                return
+            done[name] = record
+            partial.parent.mkdir(parents=True, exist_ok=True)
+            write_atomic(partial, json.dumps({"fingerprint": fingerprint, "groups": done},
+                                             indent=1))
+
         result = run_ablation(config, variants, args.seeds, args.lanes_per_run, episodes,
-                              counts, processes=processes)
+                              counts, log=log, processes=processes, done=done, on_group=keep)
         table = "\n".join(format_table(scores, paper, config.env.scenarios[0], n, episodes)
                           for n, scores in result["scores_by_robots"].items())
         t_write = time.perf_counter()
@@ -400,6 +494,8 @@ def main(argv: list[str] | None = None) -> None:
                             result["scores_by_robots"].items()},
                  "variants": {name: dataclasses.asdict(v) for name, v in variants.items()},
                  "seconds": result["seconds"]}, indent=1))
+            if partial.is_file():
+                partial.unlink()
         print("\n" + table)
         times = {**result["seconds"], "write": time.perf_counter() - t_write}
         print("time: " + ", ".join(f"{k} {v:.0f} s" for k, v in times.items())

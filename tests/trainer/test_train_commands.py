@@ -292,6 +292,54 @@ def test_ablation_command_prints_the_table(tmp_path, capsys):
                        "--variants", str(variants), "--set", "algorithm.total_steps=64"])
 
 
+@pytest.mark.slow
+def test_a_killed_ablation_resumes_its_finished_groups(tmp_path, monkeypatch, capsys):
+    """The ablation keeps each finished group of variants in ablation.partial.json; a run
+    killed in its second group, resumed with --resume, trains only that group and writes the
+    same first-group scores; a partial file of other arguments is refused by name."""
+    import train.ablation as ablation
+
+    variants = tmp_path / "variants.yaml"
+    variants.write_text("baseline: {}\nteam reward: {set: {algorithm.team_reward: 1.0}}\n")
+    out = tmp_path / "out"
+    args = ["--config", str(ROOT / "train/configs/ablation.yaml"),
+            "--set", "algorithm.total_steps=64", "--set", "algorithm.num_envs=8",
+            "--set", "algorithm.num_steps=8", "--set", "env.time_limit=3",
+            "--set", "env.scenarios=[open]", "--variants", str(variants),
+            "--seeds", "2", "--episodes", "2", "--out", str(out)]
+    trained = ablation.train_variants
+    calls = []
+
+    def killed_in_the_second_group(trainer, group, *rest, **kwargs):
+        calls.append(list(group))
+        if len(calls) == 2:
+            raise KeyboardInterrupt("killed")
+        return trained(trainer, group, *rest, **kwargs)
+
+    monkeypatch.setattr(ablation, "train_variants", killed_in_the_second_group)
+    with pytest.raises(KeyboardInterrupt):
+        ablation.main(args)
+    partial = json.loads((out / ablation.PARTIAL).read_text())
+    assert list(partial["groups"]) == ["baseline"]
+    first = partial["groups"]["baseline"]["scores"]["4"]["baseline"]
+    assert not (out / "ablation.json").exists()
+
+    calls.clear()
+    ablation.main([*args, "--resume"])
+    assert calls == [["team reward"]]  # the finished group was not trained again
+    saved = json.loads((out / "ablation.json").read_text())
+    assert saved["team_success"]["baseline"] == first and len(saved["team_success"]) == 2
+    assert not (out / ablation.PARTIAL).exists()
+    assert "group 1 of 2 (baseline): kept from the partial run" in capsys.readouterr().out
+
+    (out / ablation.PARTIAL).write_text(json.dumps(partial))
+    with pytest.raises(SystemExit, match="ablation.partial.json: written by a run with another"):
+        ablation.main([*args[:-2], "--seeds", "3", "--out", str(out), "--resume"])
+    (out / ablation.PARTIAL).write_text("{not json")
+    with pytest.raises(SystemExit, match="ablation.partial.json: not a partial ablation result"):
+        ablation.main([*args, "--resume"])
+
+
 def _free_port() -> int:
     with socket.socket() as sock:
         sock.bind(("127.0.0.1", 0))
