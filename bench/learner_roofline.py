@@ -47,7 +47,7 @@ from compiled import compile_measured
 
 from train.config import TrainConfig, load_config
 from train.networks import log_prob, sample
-from train.ppo import COMPACT_CHUNKS, Rollout, RunnerState, Trainer, _critic_in, _divisor_up_to
+from train.ppo import COMPACT_CHUNKS, Rollout, RunnerState, Trainer, _critic_in, divisor_up_to
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "train/configs/doorway.yaml"
@@ -268,7 +268,7 @@ class Phases:
             batches = jax.jit(lane(cut))(order, self.rollout)
             if name == "compact":
                 units = batches[2].shape[-1]
-                chunk = units // _divisor_up_to(units, COMPACT_CHUNKS)
+                chunk = units // divisor_up_to(units, COMPACT_CHUNKS)
                 run = -(-np.asarray(batches[-1]) // chunk) * chunk
                 share = float(np.sum(run) / (units * len(run)))
                 out["computed"] = share

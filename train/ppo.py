@@ -687,7 +687,7 @@ class Trainer:
         normalised over the whole minibatch first (they are data, not parameters)."""
         memory, sub, adv, target, count = batch
         units = adv.shape[1]
-        chunk = units // _divisor_up_to(units, COMPACT_CHUNKS)
+        chunk = units // divisor_up_to(units, COMPACT_CHUNKS)
         adv, counts = _normalised_advantages(sub, adv)
 
         def piece(i: Array, tree: Any, axis: int) -> Any:
@@ -806,7 +806,7 @@ def _active_first(mask: Array) -> Array:
     return jnp.zeros_like(index).at[rows, where].set(index, unique_indices=True)
 
 
-def _divisor_up_to(n: int, most: int) -> int:
+def divisor_up_to(n: int, most: int) -> int:
     """The largest divisor of ``n`` that is at most ``most``."""
     return max(d for d in range(1, most + 1) if n % d == 0)
 

@@ -66,11 +66,12 @@ from sgjax.evaluation.runner import EpisodeRunner
 from sgjax.evaluation.statistics import paired_difference, seed_aggregate, summarize
 from sgjax.files import write_atomic
 from sgjax.terms.presets import REWARD_PRESETS
+from train import checkpoint
 from train.actor import ActorWeights, lane_evaluator
 from train.config import EVALUATION_SEED_OFFSET, TrainConfig, config_from_dict
 from train.marl_eval import to_marl_eval
 from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
-from train.ppo import Trainer, seed_keys
+from train.ppo import Trainer, divisor_up_to, seed_keys
 
 BASELINES = {
     "cadrl": {"env": {"preset": "cadrl"}, "network": {}},
@@ -167,15 +168,43 @@ def only_local_options(profile: str, time_limit: float | None) -> MakeOptions:
         robots=trained.robots.robots, arrived=trained.robots.arrived, enders=enders)
 
 
-def train_baseline(config: Any) -> tuple[Trainer, Any, float, float]:
-    """Train every seed of ``config`` at once; returns the trainer, the seed-batched runner,
-    the seconds spent compiling and the seconds spent training."""
+CALLS_PER_CELL = 10  # a cell's training in about this many calls, each ending in a checkpoint
+
+
+def train_baseline(config: Any, partial: Path | None = None, resume: bool = False
+                   ) -> tuple[Trainer, Any, float, float]:
+    """Train every seed of ``config`` at once, as lanes (``Trainer.update_chunk_lanes``), in
+    about :data:`CALLS_PER_CELL` calls of equal numbers of updates; returns the trainer, the
+    seed-batched runner, the seconds spent compiling and the seconds spent training.
+
+    With ``partial`` (a checkpoint path) the runner is saved there after every call (atomically,
+    with the updates done) and a ``resume`` run finding the file continues from it (the same
+    config, or an error naming the file), so a cell killed midway loses at most one call's
+    work (a run without ``resume`` deletes a file it finds); the caller deletes the file once
+    the cell is written."""
     trainer = Trainer(config)
-    keys = seed_keys(config)
+    updates = config.algorithm.num_updates
+    per_call = divisor_up_to(updates, max(1, -(-updates // CALLS_PER_CELL)))
     t0 = time.perf_counter()
-    compiled = jax.jit(trainer.train_lanes).lower(keys).compile()
+    runner = jax.jit(jax.vmap(trainer.init))(seed_keys(config))
+    step = jax.jit(lambda r: trainer.update_chunk_lanes(r, per_call)[0]).lower(runner).compile()
     t1 = time.perf_counter()
-    runner, _ = compiled(keys)
+    done = 0
+    if partial is not None and partial.is_file() and not resume:
+        partial.unlink()
+    if partial is not None and partial.is_file():
+        contents = checkpoint.read(partial)
+        if contents[0].to_dict() != config.to_dict():
+            raise ValueError(f"{partial}: a partly trained cell of another configuration; "
+                             f"delete it to train this cell afresh")
+        runner, meta = checkpoint.restore(partial, trainer, contents)
+        done = int(meta["updates"])
+        print(f"    resuming {partial} at update {done} of {updates}", flush=True)
+    while done < updates:
+        runner = step(runner)
+        done += per_call
+        if partial is not None:
+            checkpoint.save(partial, config, runner, {"updates": done, "of": updates})
     jax.block_until_ready(runner.params)
     return trainer, runner, t1 - t0, time.perf_counter() - t1
 
@@ -542,7 +571,9 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
                     config = baseline_config(name, scenario, len(share), total_steps, num_envs,
                                              seed + int(share[0]),
                                              75.0 if time_limit is None else time_limit)
-                trainer, runner, compile_s, train_s = train_baseline(config)
+                partial = (out / "partial" / f"{scenario}-{name}.msgpack"
+                           if processes.count == 1 else None)
+                trainer, runner, compile_s, train_s = train_baseline(config, partial, resume)
                 timing[f"{scenario}/{name}"] = train_s
                 cell.update(compile=compile_s, train=train_s)
                 t0 = time.perf_counter()
@@ -564,6 +595,9 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
             if processes.is_main:  # a killed run keeps every finished cell
                 out.mkdir(parents=True, exist_ok=True)
                 write_atomic(path, json.dumps(document(), indent=1))
+                finished = out / "partial" / f"{scenario}-{name}.msgpack"
+                if finished.is_file():
+                    finished.unlink()
     if not processes.is_main:
         print(f"process {processes.index}: done; process 0 writes the tables")
         return results

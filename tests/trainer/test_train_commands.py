@@ -188,6 +188,46 @@ def test_final_evaluation_reports_every_training_seed(tmp_path, capsys):
 
 
 @pytest.mark.slow
+def test_a_reproduce_cell_killed_midway_resumes_from_its_last_call(tmp_path, monkeypatch):
+    """A cell trains in calls, each ending in a checkpoint; killed after its first call and
+    resumed, it ends with the same weights as a cell never killed; a run without resume, or a
+    checkpoint of another config, does not continue from a stale file."""
+    import jax
+    import numpy as np
+    from test_train import tiny
+
+    import train.reproduce as reproduce
+    from train import checkpoint
+
+    config = tiny(num_seeds=2, algorithm={"total_steps": 4 * 8 * 8})  # 4 updates
+    assert config.algorithm.num_updates == 4
+    _, whole, _, _ = reproduce.train_baseline(config)
+    partial = tmp_path / "partial" / "open-cadrl.msgpack"
+    saved = checkpoint.save
+    saves = []
+
+    def killed_at_the_second_save(*args, **kwargs):
+        saves.append(args[3]["updates"])
+        if len(saves) == 2:
+            raise KeyboardInterrupt("killed")
+        return saved(*args, **kwargs)
+
+    monkeypatch.setattr(checkpoint, "save", killed_at_the_second_save)
+    with pytest.raises(KeyboardInterrupt):
+        reproduce.train_baseline(config, partial)
+    monkeypatch.setattr(checkpoint, "save", saved)
+    assert checkpoint.read(partial)[1]["updates"] == 1
+    _, resumed, _, _ = reproduce.train_baseline(config, partial, resume=True)
+    for a, b in zip(jax.tree.leaves(whole.params), jax.tree.leaves(resumed.params), strict=True):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    assert checkpoint.read(partial)[1]["updates"] == 4
+    other = tiny(num_seeds=2, algorithm={"total_steps": 4 * 8 * 8, "learning_rate": 1e-3})
+    with pytest.raises(ValueError, match="open-cadrl.msgpack: a partly trained cell of another"):
+        reproduce.train_baseline(other, partial, resume=True)
+    reproduce.train_baseline(other, partial)  # no resume: the stale file is not read
+
+
+@pytest.mark.slow
 def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
     from train.reproduce import reproduce
 
