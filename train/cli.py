@@ -391,18 +391,13 @@ def _seed_spread_document(spread: dict[str, dict[int, dict[str, Any]]], policy: 
                           made: dict[str, Any]) -> dict[str, Any]:
     """``eval/seed_spread.json`` (``sgjax.seed_spread/1``) of :func:`_print_seed_spread`'s
     values."""
-    def summary(d: Summary) -> dict[str, float | int | None]:
-        as_float = lambda x: None if not math.isfinite(x) else float(x)  # noqa: E731
-        return {"mean": as_float(d.mean), "ci_low": as_float(d.ci_low),
-                "ci_high": as_float(d.ci_high), "std": as_float(d.std), "n": int(d.n)}
-
     scenarios = {}
     for scenario, by_count in spread.items():
         cells = {}
         for n, cell in by_count.items():
             cells[str(n)] = {"team_success": cell["seeds"], "aggregate": cell["aggregate"]}
             if "paired" in cell:
-                cells[str(n)]["paired"] = [summary(d) for d in cell["paired"]]
+                cells[str(n)]["paired"] = [d.as_dict() for d in cell["paired"]]
         scenarios[scenario] = cells
     return {"schema_version": SEED_SPREAD, "provenance": made, "policy": policy,
             "baseline": baseline, "episodes": episodes, "scenarios": scenarios}
@@ -439,12 +434,14 @@ def _trained_name(config: TrainConfig) -> str:
     return f"trained ({config.algorithm.name})"
 
 
-def _checkpoint_seeds(path: Path) -> list[tuple[int, ActorWeights]]:
-    """Every seed's acting weights of a checkpoint, ``(seed index, weights)``."""
-    _, _, raw = checkpoint.read(path)
+def _checkpoint_seeds(path: Path) -> list[tuple[int, ActorWeights, bool]]:
+    """Every seed's acting weights of a checkpoint, ``(seed index, weights, best)``; ``best``
+    marks the seed :func:`_checkpoint_actor` takes."""
+    _, meta, raw = checkpoint.read(path)
     weights = checkpoint.stored_weights(raw)
     count = int(np.shape(weights.obs_stats.mean)[0])
-    return [(i, weights.seed(i)) for i in range(count)]
+    best = int(meta.get("best_seed", 0))
+    return [(i, weights.seed(i), i == best) for i in range(count)]
 
 
 def _checkpoint_actor(path: Path) -> tuple[NetworkConfig, ActorLayout, ActorWeights]:
@@ -459,7 +456,7 @@ def _checkpoint_actor(path: Path) -> tuple[NetworkConfig, ActorLayout, ActorWeig
 
 def _evaluate_scenario(config: TrainConfig, actor: tuple, scenario: str,
                        record_count: int | None,
-                       seeds: list[tuple[int, ActorWeights]] | None = None
+                       seeds: list[tuple[int, ActorWeights, bool]] | None = None
                        ) -> tuple[list, list, Any, dict, dict]:
     """The trained policy's and the baseline's results on one scenario at every evaluation
     count: one program, both policies its lanes, called once per count (on the 2-core CPU
@@ -503,7 +500,7 @@ def _evaluate_scenario(config: TrainConfig, actor: tuple, scenario: str,
             paired[n] = paired_difference(*batch.values["team_success"][:2])
         if many:
             spread[n] = _seed_cell(evaluator, seeds, seed, n, scenario, names, params,
-                                   batch if together else None)
+                                   batch if together else None, batch)
             spread.setdefault("results", [])
             spread["results"] += spread[n].pop("results")
         if n == record_count:
@@ -515,20 +512,27 @@ def _evaluate_scenario(config: TrainConfig, actor: tuple, scenario: str,
     return mine, theirs, recorded, paired, spread
 
 
-def _seed_cell(evaluator: Any, seeds: list[tuple[int, ActorWeights]], key_seed: int, count: int,
+def _seed_cell(evaluator: Any, seeds: list[tuple[int, ActorWeights, bool]], key_seed: int,
+               count: int,
                scenario: str, names: list[str], params: Any,
-               together: Episodes | None) -> dict[str, Any]:
+               together: Episodes | None, first: Episodes) -> dict[str, Any]:
     """One robot count of :func:`_evaluate_scenario`'s seed spread: every seed's episodes
-    (key ``key_seed``, so the same episodes as the best seed's and the baseline's), its
+    (key ``key_seed``, so the same episodes as the best seed's and the baseline's; the best
+    seed is ``first``'s trained lane, not played again), its
     results, the aggregate over seeds and, with ``together`` (the baseline's batch from the
     same program), each seed's paired difference against the baseline."""
     per_seed, results, differences = [], [], []
-    for index, weights in seeds:
-        t0 = time.perf_counter()
-        (values, _, _), compile_s = evaluator(weights, jax.random.key(key_seed), [count])
-        values = {k: np.asarray(v)[:1] for k, v in jax.device_get(values).items()}
-        batch = Episodes(values=values, robot={}, compile_seconds=compile_s,
-                         run_seconds=time.perf_counter() - t0 - compile_s)
+    for index, weights, best in seeds:
+        if best:  # played already: ``first``
+            values = {k: np.asarray(v)[:1] for k, v in first.values.items()}
+            batch = Episodes(values=values, robot={}, compile_seconds=0.0,
+                             run_seconds=first.run_seconds)
+        else:
+            t0 = time.perf_counter()
+            (values, _, _), compile_s = evaluator(weights, jax.random.key(key_seed), [count])
+            values = {k: np.asarray(v)[:1] for k, v in jax.device_get(values).items()}
+            batch = Episodes(values=values, robot={}, compile_seconds=compile_s,
+                             run_seconds=time.perf_counter() - t0 - compile_s)
         results += lane_results(scenario, [f"{names[0]} seed {index}"], [count], key_seed,
                                 params, batch)
         success = values["team_success"][0]
