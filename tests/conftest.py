@@ -2,8 +2,11 @@
 
 Tests compile many identical programs (the same environment's step in several tests, and every
 primitive that eager-mode tests dispatch); a persistent compilation cache shared by the xdist
-workers of one session compiles each of them once. The cache lives in a fresh temporary folder
-per session (a run from a fresh clone pays every compile once), unless
+workers of one session compiles each of them once. Programs that compile in under 0.1 s (the
+single primitives that eager-mode tests dispatch, hundreds per test) are not written to it:
+writing and looking them up cost more than compiling them again (three eager-heavy test files
+140 s -> 131 s alone). The cache lives in a fresh temporary folder per session (a run from a
+fresh clone pays every compile once), unless
 ``SGJAX_TEST_COMPILATION_CACHE`` names a folder to keep between runs. ``SGJAX_TEST_NO_CACHE=1``
 turns it off.
 
@@ -11,8 +14,11 @@ Tests compile far more than they run, and most of an XLA:CPU compile is LLVM opt
 generated code: the tests compile with ``--xla_backend_optimization_level=0`` (about a third off)
 and ``--xla_cpu_use_fusion_emitters=false`` (XLA:CPU's older elemental emitters: the same
 arithmetic, half the compile time again; doorway step 2.2 s -> 0.9 s, a tiny trainer update
-5 s -> 2.5 s on the 2-core machine), appended to ``XLA_FLAGS`` so that subprocesses inherit
-them. ``SGJAX_TEST_FULL_OPTIMIZATION=1`` compiles as users do (one test's margin depends on it:
+5 s -> 2.5 s on the 2-core machine) and ``--xla_cpu_parallel_codegen_split_count=1`` (one LLVM
+module per program: the split only pays where idle cores wait, and the suite's two workers
+leave none; tests/trainer/test_train.py + tests/terms/test_presets.py 225 s -> 210 s),
+appended to ``XLA_FLAGS`` so that subprocesses inherit them.
+``SGJAX_TEST_FULL_OPTIMIZATION=1`` compiles as users do (one test's margin depends on it:
 tests/kernels/test_orca_humans.py's corridor counter-flow overlaps by 12 mm, tolerance 10 mm,
 when fully optimised; see the note there).
 
@@ -34,7 +40,8 @@ import matplotlib
 
 matplotlib.use("Agg")
 
-FAST_COMPILE = ("--xla_backend_optimization_level=0", "--xla_cpu_use_fusion_emitters=false")
+FAST_COMPILE = ("--xla_backend_optimization_level=0", "--xla_cpu_use_fusion_emitters=false",
+                "--xla_cpu_parallel_codegen_split_count=1")
 if os.environ.get("SGJAX_TEST_FULL_OPTIMIZATION") != "1":
     _flags = os.environ.get("XLA_FLAGS", "")
     _missing = [flag for flag in FAST_COMPILE if flag.split("=")[0] not in _flags]
@@ -56,7 +63,7 @@ def pytest_configure(config):
     # Read by JAX at import (workers and subprocesses inherit them), and set here too in case
     # JAX is already imported.
     settings = {"jax_compilation_cache_dir": os.environ[_CACHE_ENV],
-                "jax_persistent_cache_min_compile_time_secs": 0.0,
+                "jax_persistent_cache_min_compile_time_secs": 0.1,
                 "jax_persistent_cache_min_entry_size_bytes": 0}
     for name, value in settings.items():
         os.environ[name.upper()] = str(value)
