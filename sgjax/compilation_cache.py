@@ -20,7 +20,8 @@ backends): the same arithmetic and the same speed once compiled (doorway trainin
 CPU: 42,700 vs 41,500 agent-steps/s), in about half the compile time (the doorway main job at
 262k steps: 115 s instead of 138 s end to end). It changes nothing on a GPU. Keep XLA's default
 with ``SGJAX_XLA_DEFAULT_EMITTERS=1`` or by putting ``--xla_cpu_use_fusion_emitters`` in
-``XLA_FLAGS`` yourself.
+``XLA_FLAGS`` yourself. Only jaxlib 0.10 gets the flag: 0.11 dropped it (XLA aborts on a flag
+it does not know).
 """
 
 from __future__ import annotations
@@ -49,8 +50,20 @@ def fast_cpu_compile() -> bool:
         return FAST_CPU_COMPILE in flags
     if os.environ.get(ENV_DEFAULT_EMITTERS) == "1" or xla_bridge.backends_are_initialized():
         return False
+    if not knows_fast_cpu_compile():
+        return False
     os.environ["XLA_FLAGS"] = f"{flags} {FAST_CPU_COMPILE}".strip()
     return True
+
+
+def knows_fast_cpu_compile() -> bool:
+    """Whether the installed jaxlib's XLA takes :data:`FAST_CPU_COMPILE`: XLA aborts the
+    process at start-up on a flag it does not know, and jaxlib 0.11 (seen with 0.11.2 on a GPU
+    machine) no longer has this one; 0.10 has it (measured there)."""
+    from jaxlib import version
+
+    major_minor = tuple(int(part) for part in version.__version__.split(".")[:2])
+    return major_minor == (0, 10)
 
 
 def default_cache_dir() -> Path:

@@ -67,3 +67,21 @@ def test_commands_compile_with_the_elemental_emitters_unless_told_not_to():
     assert flags({"SGJAX_XLA_DEFAULT_EMITTERS": "1"})[:2] == ["False", "False"]
     mine = "--xla_cpu_use_fusion_emitters=true --xla_backend_optimization_level=2"
     assert flags({"XLA_FLAGS": mine}) == ["False", "False", repr(mine) + "\n"]
+
+
+def test_a_jaxlib_without_the_emitter_flag_never_gets_it(monkeypatch):
+    """XLA aborts the process on a flag it does not know (jaxlib 0.11.2 on a GPU machine, on
+    ``--xla_cpu_use_fusion_emitters``): only jaxlib 0.10 is given it."""
+    from jaxlib import version
+
+    from sgjax import compilation_cache
+
+    monkeypatch.setattr(version, "__version__", "0.11.2")
+    assert not compilation_cache.knows_fast_cpu_compile()
+    monkeypatch.setattr(compilation_cache.jax._src.xla_bridge, "backends_are_initialized",
+                        lambda: False)
+    monkeypatch.setenv("XLA_FLAGS", "--xla_dump_to=/tmp/x")
+    assert compilation_cache.fast_cpu_compile() is False
+    assert os.environ["XLA_FLAGS"] == "--xla_dump_to=/tmp/x"
+    monkeypatch.setattr(version, "__version__", "0.10.2")
+    assert compilation_cache.knows_fast_cpu_compile()

@@ -249,3 +249,17 @@ def test_importing_every_module_starts_no_xla_backend():
     out = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True,
                          cwd=ROOT, timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
+
+
+def test_every_package_is_installed_by_pyproject():
+    """``pyproject.toml`` lists its packages by name: a package folder missing from the list
+    works in the editable install the suite uses and is absent from a wheel (``pip install .``:
+    sgjax.evaluation.metrics was, and every command failed to import on a GPU machine)."""
+    import tomllib
+
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+                 ["packages"])
+    found = {".".join(init.parent.relative_to(ROOT).parts)
+             for top in ("sgjax", "train") for init in (ROOT / top).rglob("__init__.py")}
+    assert found - listed == set(), f"pyproject.toml's packages lack {sorted(found - listed)}"
+    assert listed - found <= {"sgjax.shipped_maps"}, sorted(listed - found)
