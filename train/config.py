@@ -183,8 +183,10 @@ class AlgorithmConfig:
     # active rows (MLP networks; whole agent sequences with an active step for a GRU) in
     # chunks whose gradients add up to the masked minibatch's, so inactive robot slots
     # (absent, settled, parked) cost no FLOPs. The same minibatches, losses and optimiser
-    # steps as False (the masked path) up to float rounding (docs/training.md).
-    compact: bool = True
+    # steps as False (the masked path) up to float rounding (docs/training.md). "auto": on a
+    # CPU, masked elsewhere (on an H200 the compacted update took 1.6x longer: its chunks are
+    # too small for the GPU, docs/benchmark.md).
+    compact: bool | str = "auto"
     # Multipliers on the reward terms the trainer sums (``info["reward_terms"]``: the
     # environment's reward terms and the enders that pay, such as stuck), {term: factor}; a
     # term not named keeps 1. Numbers of the runner state, not of the compiled program:
@@ -207,6 +209,8 @@ class AlgorithmConfig:
                                  f"{factor!r}")
         object.__setattr__(self, "term_weights", freeze(dict(self.term_weights)))
         check_choice("lanes", self.lanes, LANE_MODES)
+        if self.compact not in (True, False, "auto"):
+            raise ValueError(f"compact must be true, false or 'auto', got {self.compact!r}")
         for field in ("total_steps", "num_envs", "num_steps", "update_epochs",
                       "num_minibatches"):
             check_int(field, getattr(self, field))

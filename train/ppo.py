@@ -257,6 +257,9 @@ class Trainer:
         self.mappo = a.name == "mappo"
         self.sequential_lanes = (a.lanes == "sequential"
                                  or (a.lanes == "auto" and jax.default_backend() == "cpu"))
+        # algorithm.compact "auto": the compacted learning phase on a CPU, masked elsewhere
+        self.compact = a.compact is True or (a.compact == "auto"
+                                             and jax.default_backend() == "cpu")
         self.actor = ActorLayout(
             obs_size=self.batch.obs_size, slots=self.slots, discrete=self.batch.discrete,
             action_dim=self.batch.action_dim, normalize=a.normalize_observations,
@@ -579,9 +582,9 @@ class Trainer:
         minibatches and the optimiser steps are the same either way."""
         a = self.config.algorithm
         hyper = self.default_hyper() if hyper is None else hyper
-        method = self._compact_step if a.compact else self._masked_step
+        method = self._compact_step if self.compact else self._masked_step
         step = lambda carry, batch: method(carry, batch, hyper)  # noqa: E731
-        cut = self._compact_batches if a.compact else self._masked_batches
+        cut = self._compact_batches if self.compact else self._masked_batches
 
         def epoch(carry, key):
             order = jax.random.permutation(key, self.num_agents)

@@ -461,6 +461,20 @@ COMPACT_NETWORKS = {
 }
 
 
+def test_compact_auto_is_on_for_a_cpu_and_off_elsewhere(monkeypatch):
+    """The default ``algorithm.compact: auto``: compacted on a CPU (the learning phase 2.3x
+    faster there), masked on a GPU (1.6x slower compacted on an H200); true/false win; any
+    other value is an error naming the key."""
+    assert tiny().algorithm.compact == "auto"
+    assert Trainer(tiny()).compact is True
+    assert Trainer(tiny(algorithm={"compact": False})).compact is False
+    monkeypatch.setattr(ppo.jax, "default_backend", lambda: "gpu")
+    assert Trainer(tiny()).compact is False
+    assert Trainer(tiny(algorithm={"compact": True})).compact is True
+    with pytest.raises(ConfigError, match="compact must be true, false or 'auto', got 'yes'"):
+        tiny(algorithm={"compact": "yes"})
+
+
 def _compact_trainers(network: dict, **algorithm) -> tuple[Trainer, Trainer, ppo.Rollout]:
     """A masked and a compacted trainer of the same tiny run (two robots in three slots: one
     slot is always absent), and a rollout of the first update."""
