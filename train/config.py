@@ -230,6 +230,18 @@ class AlgorithmConfig:
         return max(1, self.total_steps // self.steps_per_update)
 
 
+def resolved_compact(value: bool | str, backend: str) -> bool:
+    """``algorithm.compact`` as a trainer on ``backend`` (``jax.default_backend()``) runs it:
+    ``"auto"`` is the compacted learning phase on a CPU, the masked one elsewhere."""
+    return value is True or (value == "auto" and backend == "cpu")
+
+
+def resolved_lanes(value: str, backend: str) -> str:
+    """``algorithm.lanes`` as a trainer on ``backend`` runs it: ``"auto"`` is sequential on a
+    CPU, batched elsewhere."""
+    return value if value != "auto" else ("sequential" if backend == "cpu" else "batched")
+
+
 @dataclasses.dataclass(frozen=True)
 class NetworkConfig:
     """Actor and critic: an optional encoder pooling the ``others`` observation block

@@ -45,7 +45,7 @@ from train.actor import (
     actor_features,
     head_log_std,
 )
-from train.config import TrainConfig
+from train.config import TrainConfig, resolved_compact, resolved_lanes
 from train.networks import (
     ActorCritic,
     entropy,
@@ -255,11 +255,8 @@ class Trainer:
             raise ConfigError(f"algorithm.num_minibatches ({a.num_minibatches}) must divide "
                               f"num_envs x robot slots ({self.num_agents})")
         self.mappo = a.name == "mappo"
-        self.sequential_lanes = (a.lanes == "sequential"
-                                 or (a.lanes == "auto" and jax.default_backend() == "cpu"))
-        # algorithm.compact "auto": the compacted learning phase on a CPU, masked elsewhere
-        self.compact = a.compact is True or (a.compact == "auto"
-                                             and jax.default_backend() == "cpu")
+        self.sequential_lanes = resolved_lanes(a.lanes, jax.default_backend()) == "sequential"
+        self.compact = resolved_compact(a.compact, jax.default_backend())
         self.actor = ActorLayout(
             obs_size=self.batch.obs_size, slots=self.slots, discrete=self.batch.discrete,
             action_dim=self.batch.action_dim, normalize=a.normalize_observations,

@@ -508,3 +508,18 @@ def test_the_papers_printed_averages_are_checked_against_its_rows():
     assert paper_average_slips({"open": {"x": (10, 20, 30, 40, 50, 30)}}) == []
     assert paper_average_slips({"open": {"x": (1, 2, 3, 4, 5, 4)}}) == [("open", "x", 4, 3.0)]
     assert len(PAPER_TABLE_4) == 5
+
+
+def test_a_partial_cell_of_compact_true_resumes_under_auto_on_a_cpu_only():
+    """A cell checkpointed when ``algorithm.compact`` defaulted to true is the same computation
+    as ``auto`` on a CPU (resumed), not on a GPU (refused, as any other config)."""
+    from train.config import config_from_dict
+    from train.reproduce import as_trained
+
+    auto = config_from_dict(TINY, "test").to_dict()
+    old = {**auto, "algorithm": {**auto["algorithm"], "compact": True}}
+    assert auto["algorithm"]["compact"] == "auto"
+    assert as_trained(old, "cpu") == as_trained(auto, "cpu")
+    assert as_trained(old, "gpu") != as_trained(auto, "gpu")
+    masked = {**auto, "algorithm": {**auto["algorithm"], "compact": False}}
+    assert as_trained(masked, "cpu") != as_trained(auto, "cpu")
