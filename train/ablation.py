@@ -58,6 +58,7 @@ from train.actor import ActorWeights, lane_evaluator
 from train.config import (
     EVALUATION_SEED_OFFSET,
     TrainConfig,
+    as_trained,
     config_from_dict,
     load_config,
     read_yaml,
@@ -327,7 +328,7 @@ def run_fingerprint(config: TrainConfig, variants: Mapping[str, Variant], seeds:
                     episodes: int, counts: Sequence[int]) -> str:
     """A hash of everything that decides a run's scores: a partial result is resumed only by
     the run that wrote it."""
-    described = {"config": config.to_dict(), "seeds": seeds, "episodes": episodes,
+    described = {"config": as_trained(config.to_dict()), "seeds": seeds, "episodes": episodes,
                  "robots": [int(n) for n in counts],
                  "variants": {name: dataclasses.asdict(v) for name, v in variants.items()}}
     text = json.dumps(described, sort_keys=True, default=str)

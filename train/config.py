@@ -242,6 +242,19 @@ def resolved_lanes(value: str, backend: str) -> str:
     return value if value != "auto" else ("sequential" if backend == "cpu" else "batched")
 
 
+def as_trained(config: dict[str, Any], backend: str | None = None) -> dict[str, Any]:
+    """A config dict (``TrainConfig.to_dict()``) with ``algorithm.compact`` written as a trainer
+    on ``backend`` (default this process's) runs it, for comparing a saved run with a new one:
+    a run saved when the default was ``true`` matches ``"auto"`` on a CPU, where the
+    computation is the same (``train.reproduce --resume``, ``train.ablation --resume``)."""
+    import jax
+
+    backend = backend or jax.default_backend()
+    algorithm = dict(config["algorithm"])
+    algorithm["compact"] = resolved_compact(algorithm.get("compact", True), backend)
+    return {**config, "algorithm": algorithm}
+
+
 @dataclasses.dataclass(frozen=True)
 class NetworkConfig:
     """Actor and critic: an optional encoder pooling the ``others`` observation block

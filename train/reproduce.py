@@ -68,13 +68,7 @@ from sgjax.files import write_atomic
 from sgjax.terms.presets import REWARD_PRESETS
 from train import checkpoint
 from train.actor import ActorWeights, lane_evaluator
-from train.config import (
-    EVALUATION_SEED_OFFSET,
-    TrainConfig,
-    config_from_dict,
-    resolved_compact,
-    resolved_lanes,
-)
+from train.config import EVALUATION_SEED_OFFSET, TrainConfig, as_trained, config_from_dict
 from train.marl_eval import to_marl_eval
 from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
 from train.ppo import Trainer, divisor_up_to, seed_keys
@@ -175,17 +169,6 @@ def only_local_options(profile: str, time_limit: float | None) -> MakeOptions:
 
 
 CALLS_PER_CELL = 10  # a cell's training in about this many calls, each ending in a checkpoint
-
-
-def as_trained(config: dict[str, Any], backend: str | None = None) -> dict[str, Any]:
-    """A config dict (``TrainConfig.to_dict()``) with its ``"auto"`` learner settings written as
-    a trainer on ``backend`` (default this process's) runs them: a cell checkpointed before a
-    default became ``"auto"`` resumes where the computation is the same."""
-    backend = backend or jax.default_backend()
-    algorithm = dict(config["algorithm"])
-    algorithm["compact"] = resolved_compact(algorithm.get("compact", True), backend)
-    algorithm["lanes"] = resolved_lanes(algorithm.get("lanes", "auto"), backend)
-    return {**config, "algorithm": algorithm}
 
 
 def train_baseline(config: Any, partial: Path | None = None, resume: bool = False

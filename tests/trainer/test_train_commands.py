@@ -513,8 +513,7 @@ def test_the_papers_printed_averages_are_checked_against_its_rows():
 def test_a_partial_cell_of_compact_true_resumes_under_auto_on_a_cpu_only():
     """A cell checkpointed when ``algorithm.compact`` defaulted to true is the same computation
     as ``auto`` on a CPU (resumed), not on a GPU (refused, as any other config)."""
-    from train.config import config_from_dict
-    from train.reproduce import as_trained
+    from train.config import as_trained, config_from_dict
 
     auto = config_from_dict(TINY, "test").to_dict()
     old = {**auto, "algorithm": {**auto["algorithm"], "compact": True}}
