@@ -40,14 +40,15 @@ import matplotlib
 
 matplotlib.use("Agg")
 
-FAST_COMPILE = ("--xla_backend_optimization_level=0", "--xla_cpu_use_fusion_emitters=false",
+from sgjax.compilation_cache import FAST_CPU_COMPILE, knows_fast_cpu_compile  # noqa: E402
+
+# The commands' elemental-emitter flag only where this jaxlib knows it (XLA aborts otherwise).
+FAST_COMPILE = ("--xla_backend_optimization_level=0",
+                *((FAST_CPU_COMPILE,) if knows_fast_cpu_compile() else ()),
                 "--xla_cpu_parallel_codegen_split_count=1")
 if os.environ.get("SGJAX_TEST_FULL_OPTIMIZATION") != "1":
-    from sgjax.compilation_cache import knows_fast_cpu_compile
-
     _flags = os.environ.get("XLA_FLAGS", "")
-    _known = FAST_COMPILE if knows_fast_cpu_compile() else FAST_COMPILE[:1]
-    _missing = [flag for flag in _known if flag.split("=")[0] not in _flags]
+    _missing = [flag for flag in FAST_COMPILE if flag.split("=")[0] not in _flags]
     os.environ["XLA_FLAGS"] = " ".join([_flags, *_missing]).strip()
 
 _CACHE_ENV = "SGJAX_TEST_COMPILATION_CACHE"

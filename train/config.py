@@ -209,7 +209,7 @@ class AlgorithmConfig:
                                  f"{factor!r}")
         object.__setattr__(self, "term_weights", freeze(dict(self.term_weights)))
         check_choice("lanes", self.lanes, LANE_MODES)
-        if self.compact not in (True, False, "auto"):
+        if not (isinstance(self.compact, bool) or self.compact == "auto"):  # 1 == True
             raise ValueError(f"compact must be true, false or 'auto', got {self.compact!r}")
         for field in ("total_steps", "num_envs", "num_steps", "update_epochs",
                       "num_minibatches"):
