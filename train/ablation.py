@@ -45,7 +45,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
+from sgjax.compilation_cache import (
+    add_cache_arguments,
+    cache_from_arguments,
+    learner_compiler_options,
+)
 from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import format_summary, markdown_table
@@ -127,7 +131,7 @@ def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
     count = len(labels)
     width = count if lanes_per_run is None else max(1, min(lanes_per_run, count))
 
-    @jax.jit
+    @functools.partial(jax.jit, compiler_options=learner_compiler_options())
     def run(keys, weights, masks):
         runners = jax.vmap(trainer.init)(keys, weights, masks)
         return trainer.update_chunk_lanes(runners, updates)

@@ -1,10 +1,13 @@
 """The commands' persistent compilation cache: its folder, the switch that turns it off, and a
 second process that compiles nothing the first compiled."""
 
+import json
 import os
 import subprocess
 import sys
 from pathlib import Path
+
+import numpy as np
 
 from sgjax.compilation_cache import default_cache_dir
 
@@ -47,26 +50,37 @@ def test_a_second_process_reads_what_the_first_wrote_and_off_means_off(tmp_path)
 
 
 FLAGS = """
-import os, jax
-from sgjax.compilation_cache import fast_cpu_compile
+import json, os, jax
+from sgjax.compilation_cache import fast_cpu_compile, learner_compiler_options
 before = fast_cpu_compile()
 jax.devices()  # backends start: too late to change the flags afterwards
-print(before, fast_cpu_compile(), repr(os.environ.get("XLA_FLAGS", "")))
+options = learner_compiler_options()
+# a program compiled with the options runs (XLA takes them as flag overrides)
+value = float(jax.jit(lambda x: jax.numpy.tanh(x) @ x, compiler_options=options)(
+    jax.numpy.ones((3, 3))).sum())
+print(json.dumps([before, fast_cpu_compile(), options, os.environ.get("XLA_FLAGS", ""),
+                  round(value, 4)]))
 """
 
 
 def test_commands_compile_with_the_elemental_emitters_unless_told_not_to():
+    """The commands' programs compile with the elemental emitters, the trainer's update
+    (learner_compiler_options) with XLA's default ones; a user's choice is left alone."""
     def flags(env):
         clean = {k: v for k, v in os.environ.items()
                  if not k.startswith(("JAX_", "SGJAX_")) and k != "XLA_FLAGS"}
-        return subprocess.run([sys.executable, "-c", FLAGS], env={**clean, **env},
-                              capture_output=True, text=True, timeout=300,
-                              check=True).stdout.split(maxsplit=2)
+        return json.loads(subprocess.run([sys.executable, "-c", FLAGS], env={**clean, **env},
+                                         capture_output=True, text=True, timeout=300,
+                                         check=True).stdout)
 
-    assert flags({}) == ["True", "True", "'--xla_cpu_use_fusion_emitters=false'\n"]
-    assert flags({"SGJAX_XLA_DEFAULT_EMITTERS": "1"})[:2] == ["False", "False"]
+    value = round(float((np.tanh(np.ones((3, 3))) @ np.ones((3, 3))).sum()), 4)
+    assert flags({}) == [True, True, {"xla_cpu_use_fusion_emitters": True},
+                         "--xla_cpu_use_fusion_emitters=false", value]
+    assert flags({"SGJAX_XLA_DEFAULT_EMITTERS": "1"}) == [False, False, None, "", value]
     mine = "--xla_cpu_use_fusion_emitters=true --xla_backend_optimization_level=2"
-    assert flags({"XLA_FLAGS": mine}) == ["False", "False", repr(mine) + "\n"]
+    assert flags({"XLA_FLAGS": mine}) == [False, False, None, mine, value]
+    elemental = "--xla_cpu_use_fusion_emitters=false"  # the user's own (as the tests set it)
+    assert flags({"XLA_FLAGS": elemental}) == [True, True, None, elemental, value]
 
 
 def test_a_jaxlib_without_the_emitter_flag_never_gets_it(monkeypatch):
