@@ -44,6 +44,7 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import numpy as np
+from flax import serialization
 
 from sgjax.compilation_cache import (
     add_cache_arguments,
@@ -58,6 +59,7 @@ from sgjax.evaluation.statistics import paired_difference, probability_of_improv
 from sgjax.files import write_atomic
 from sgjax.terms.base import ConfigError
 from sgjax.validation import check_keys, freeze, thaw
+from train import checkpoint
 from train.actor import ActorWeights, lane_evaluator
 from train.config import (
     EVALUATION_SEED_OFFSET,
@@ -68,7 +70,11 @@ from train.config import (
     read_yaml,
 )
 from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
-from train.ppo import Trainer, observation_mask
+from train.ppo import Trainer, divisor_up_to, observation_mask
+
+# A group's lanes train in about this many calls, each ending in a checkpoint of the group with
+# --out (<out>/ablation.partial/), which --resume continues.
+CALLS_PER_GROUP = 10
 
 
 @dataclasses.dataclass(frozen=True)
@@ -110,7 +116,8 @@ def variant_inputs(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
 
 
 def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int,
-                   lanes_per_run: int | None = None, lanes: Sequence[int] | None = None
+                   lanes_per_run: int | None = None, lanes: Sequence[int] | None = None,
+                   partial: Path | None = None, resume: bool = False
                    ) -> tuple[Any, dict, list[tuple[str, int]]]:
     """Train every variant x seed as lanes of one jitted function
     (``Trainer.update_chunk_lanes``): all lanes in one call, or ``lanes_per_run`` lanes at a
@@ -118,7 +125,14 @@ def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
     ``lanes`` picks some of the lanes (indices into the variant x seed order; this process's
     share of a multi-process sweep). Returns the lane-batched runner, the per-update logs
     ``[lanes, updates]`` and the lane labels ``(variant, seed)``. Wide vmaps used to hang on
-    XLA:CPU; the cause is fixed (docs/xla-cpu-deadlock.md)."""
+    XLA:CPU; the cause is fixed (docs/xla-cpu-deadlock.md).
+
+    Each call of lanes trains in about :data:`CALLS_PER_GROUP` calls of equal numbers of
+    updates. With ``partial`` (a file path) every call ends in a checkpoint there (atomically:
+    the runners and logs of the calls so far), and a ``resume`` run finding the file continues
+    from it (the same trainer config and lanes, or an error naming the file), so a group killed
+    midway loses at most one call's work; a run without ``resume`` deletes a file it finds, and
+    the caller deletes it once the group's scores are kept."""
     keys, weights, masks, labels = variant_inputs(trainer, variants, seeds)
     if lanes is not None:
         index = np.asarray(lanes, int)
@@ -130,19 +144,68 @@ def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
     updates = trainer.config.algorithm.num_updates
     count = len(labels)
     width = count if lanes_per_run is None else max(1, min(lanes_per_run, count))
-
-    @functools.partial(jax.jit, compiler_options=learner_compiler_options())
-    def run(keys, weights, masks):
-        runners = jax.vmap(trainer.init)(keys, weights, masks)
-        return trainer.update_chunk_lanes(runners, updates)
-
-    outputs = []
-    for start in range(0, count, width):
-        index = np.minimum(np.arange(start, start + width), count - 1)
-        pick = lambda x, index=index: x[index]  # noqa: E731
-        outputs.append(run(pick(keys), jax.tree.map(pick, weights), pick(masks)))
-    runner, logs = jax.tree.map(lambda *xs: jnp.concatenate(xs)[:count], *outputs)
+    per_call = divisor_up_to(updates, max(1, -(-updates // CALLS_PER_GROUP)))
+    start = jax.jit(jax.vmap(trainer.init))
+    advance = jax.jit(lambda r: trainer.update_chunk_lanes(r, per_call),
+                      compiler_options=learner_compiler_options())
+    runs = [np.minimum(np.arange(first, first + width), count - 1)
+            for first in range(0, count, width)]  # the last run padded
+    inputs = [jax.tree.map(lambda x, index=index: x[index], (keys, weights, masks))
+              for index in runs]
+    meta = {"labels": [list(label) for label in labels], "width": width,
+            "per_call": per_call, "of": updates}
+    trained: list[tuple[Any, dict]] = []  # (runner, logs [width, updates done]) per run
+    done = 0  # updates done in the last of ``trained``
+    if partial is not None and partial.is_file() and not resume:
+        partial.unlink()
+    if partial is not None and partial.is_file():
+        template = jax.eval_shape(start, *inputs[0])
+        trained, done = _read_group_partial(partial, trainer, meta, template)
+        print(f"    resuming {partial} at update {done} of {updates} of lane call "
+              f"{len(trained)} of {len(runs)}", flush=True)
+    for number, args in enumerate(inputs):
+        if number == len(trained):
+            trained.append((start(*args), {}))
+            done = 0
+        elif number < len(trained) - 1 or done == updates:
+            continue
+        runner, logs = trained[number]
+        while done < updates:
+            runner, new = advance(runner)
+            logs = new if not logs else jax.tree.map(
+                lambda a, b: jnp.concatenate([a, b], axis=1), logs, new)
+            done += per_call
+            trained[number] = (runner, logs)
+            if partial is not None:
+                checkpoint.save(partial, trainer.config,
+                                {str(i): {"runner": r, "logs": g}
+                                 for i, (r, g) in enumerate(trained)},
+                                {**meta, "updates": done})
+    runner, logs = jax.tree.map(lambda *xs: jnp.concatenate(xs)[:count], *trained)
     return runner, logs, labels
+
+
+def _read_group_partial(path: Path, trainer: Trainer, meta: dict, template: Any
+                        ) -> tuple[list[tuple[Any, dict]], int]:
+    """The lane calls saved in a group's partial checkpoint (:func:`train_variants`): their
+    runners (``template``'s shapes) and logs, and the updates done in the last; an error naming
+    the file when it was written for another trainer config or other lanes."""
+    config, saved, raw = checkpoint.read(path)
+    same = {key: saved.get(key) for key in meta} == meta
+    if not same or as_trained(config.to_dict()) != as_trained(trainer.config.to_dict()):
+        raise ValueError(f"{path}: a partly trained group of other lanes or another "
+                         f"configuration; delete it to train this group afresh")
+    trained = []
+    try:
+        for number in range(len(raw)):
+            entry = raw[str(number)]
+            runner = serialization.from_state_dict(template, entry["runner"])
+            logs = {name: jnp.asarray(value) for name, value in entry["logs"].items()}
+            trained.append((jax.tree.map(jnp.asarray, runner), logs))
+    except (KeyError, ValueError, TypeError) as err:
+        raise ValueError(f"{path}: does not fit this group's lanes ({err}); delete it to "
+                         f"train this group afresh") from err
+    return trained, int(saved["updates"])
 
 
 def evaluate_lanes(trainer: Trainer, runner: Any, env: Any, env_params: Any, episodes: int,
@@ -250,7 +313,8 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
                  lanes_per_run: int | None, episodes: int, robots: int | Sequence[int],
                  log=print, processes: Processes | None = None,
                  done: Mapping[str, Mapping[str, Any]] | None = None,
-                 on_group=None) -> dict:
+                 on_group=None, partial_dir: Path | None = None, resume: bool = False
+                 ) -> dict:
     """Train every variant x seed (one vmap per network architecture and settings), evaluate
     every lane on the config's first scenario with ``robots`` robots (one count or several:
     one compiled evaluation serves them all); returns ``{"scores": {variant: [seeds]},
@@ -261,7 +325,10 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
 
     ``done`` (``{group_name: {"scores": {count: {variant: [seeds]}}, "seconds": {...}}}``, a
     partial run's finished groups) skips those groups' training; ``on_group(name, record)`` is
-    called with each newly finished group's record (for a partial result file)."""
+    called with each newly finished group's record (for a partial result file).
+    ``partial_dir``: each group's lanes checkpoint there while they train
+    (``group-<n>.msgpack``, :func:`train_variants`), continued when ``resume``; a group's file
+    is deleted once ``on_group`` kept its record."""
     processes = processes or Processes()
     done = dict(done or {})
     counts = [robots] if isinstance(robots, int) else [int(n) for n in robots]
@@ -294,7 +361,9 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
         t0 = t1 = time.perf_counter()
         team = np.zeros((len(counts), 0))
         if len(share):
-            runner, _, _ = train_variants(trainer, group, seeds, lanes_per_run, share)
+            lane_file = None if partial_dir is None else partial_dir / f"group-{index + 1}.msgpack"
+            runner, _, _ = train_variants(trainer, group, seeds, lanes_per_run, share,
+                                          partial=lane_file, resume=resume)
             jax.block_until_ready(runner.params)
             t1 = time.perf_counter()
             env, by_count = params_by_count(scenario, counts,
@@ -316,6 +385,8 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
             on_group(name_of_group, {
                 "scores": {str(n): {name: scores[n][name] for name in group} for n in counts},
                 "seconds": {"compile and train": t1 - t0, "evaluate": t2 - t1}})
+        if partial_dir is not None:
+            (partial_dir / f"group-{index + 1}.msgpack").unlink(missing_ok=True)
         where = "" if processes.count == 1 else (
             f" (process {processes.index} of {processes.count}: lanes {share.tolist()})")
         log(f"trained and evaluated {len(share)} of {len(labels)} lanes ({', '.join(group)}; "
@@ -326,6 +397,7 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
 
 
 PARTIAL = "ablation.partial.json"
+LANE_PARTIALS = "ablation.partial"  # the folder of the running group's lane checkpoints
 
 
 def run_fingerprint(config: TrainConfig, variants: Mapping[str, Variant], seeds: int,
@@ -431,8 +503,10 @@ def main(argv: list[str] | None = None) -> None:
                              "vmap), which --resume reuses")
     parser.add_argument("--resume", action="store_true",
                         help="continue a killed run with the same arguments: the groups in "
-                             "<out>/ablation.partial.json are not trained again (a group "
-                             "killed midway trains again from its start)")
+                             "<out>/ablation.partial.json are not trained again, and a group "
+                             "killed midway continues from its last checkpoint in "
+                             "<out>/ablation.partial/ (one of about ten per group; a run "
+                             "of several processes restarts such a group)")
     add_cache_arguments(parser)
     add_arguments(parser)
     args = parser.parse_args(argv)
@@ -472,8 +546,11 @@ def main(argv: list[str] | None = None) -> None:
             write_atomic(partial, json.dumps({"fingerprint": fingerprint, "groups": done},
                                              indent=1))
 
+        lane_files = None if partial is None or processes.count > 1 else (
+            Path(args.out) / LANE_PARTIALS)
         result = run_ablation(config, variants, args.seeds, args.lanes_per_run, episodes,
-                              counts, log=log, processes=processes, done=done, on_group=keep)
+                              counts, log=log, processes=processes, done=done, on_group=keep,
+                              partial_dir=lane_files, resume=args.resume)
         table = "\n".join(format_table(scores, paper, config.env.scenarios[0], n, episodes)
                           for n, scores in result["scores_by_robots"].items())
         t_write = time.perf_counter()
@@ -501,6 +578,8 @@ def main(argv: list[str] | None = None) -> None:
                  "seconds": result["seconds"]}, indent=1))
             if partial.is_file():
                 partial.unlink()
+            if lane_files is not None and lane_files.is_dir() and not any(lane_files.iterdir()):
+                lane_files.rmdir()
         print("\n" + table)
         times = {**result["seconds"], "write": time.perf_counter() - t_write}
         print("time: " + ", ".join(f"{k} {v:.0f} s" for k, v in times.items())

@@ -380,6 +380,62 @@ def test_a_killed_ablation_resumes_its_finished_groups(tmp_path, monkeypatch, ca
         ablation.main([*args, "--resume"])
 
 
+def test_an_ablation_group_killed_midway_resumes_from_its_last_call(tmp_path, monkeypatch):
+    """A group's lanes train in calls, each ending in a checkpoint of every lane call so far;
+    killed in its second lane call and resumed, the group ends with the weights and logs of a
+    group never killed; a checkpoint of other lanes is refused by name, and a run without
+    resume does not read a stale file."""
+    import jax
+    import numpy as np
+    from test_train import tiny
+
+    import train.ablation as ablation
+    from train import checkpoint
+    from train.ppo import Trainer
+
+    monkeypatch.setattr(ablation, "CALLS_PER_GROUP", 4)  # one update per call
+    trainer = Trainer(tiny(algorithm={"total_steps": 4 * 8 * 8}))  # 4 updates
+    variants = {"baseline": ablation.Variant(),
+                "no collision": ablation.Variant(rewards_off=("collision",))}
+    whole, whole_logs, labels = ablation.train_variants(trainer, variants, 1, lanes_per_run=1)
+    assert labels == [("baseline", 0), ("no collision", 0)]
+    partial = tmp_path / "ablation.partial" / "group-1.msgpack"
+    saved = checkpoint.save
+    saves = []
+
+    def killed_at_the_sixth_save(*args, **kwargs):
+        saves.append((len(args[2]), args[3]["updates"]))
+        if len(saves) == 6:
+            raise KeyboardInterrupt("killed")
+        return saved(*args, **kwargs)
+
+    monkeypatch.setattr(checkpoint, "save", killed_at_the_sixth_save)
+    with pytest.raises(KeyboardInterrupt):
+        ablation.train_variants(trainer, variants, 1, lanes_per_run=1, partial=partial)
+    assert saves[:5] == [(1, 1), (1, 2), (1, 3), (1, 4), (2, 1)]
+    assert checkpoint.read(partial)[1]["updates"] == 1  # the second lane call's first update
+
+    def recorded(*args, **kwargs):
+        saves.append((len(args[2]), args[3]["updates"]))
+        return saved(*args, **kwargs)
+
+    saves.clear()
+    monkeypatch.setattr(checkpoint, "save", recorded)
+    resumed, logs, _ = ablation.train_variants(trainer, variants, 1, lanes_per_run=1,
+                                               partial=partial, resume=True)
+    assert saves == [(2, 2), (2, 3), (2, 4)]  # only the updates not yet done
+    monkeypatch.setattr(checkpoint, "save", saved)
+    for a, b in zip(jax.tree.leaves((whole.params, whole_logs)),
+                    jax.tree.leaves((resumed.params, logs)), strict=True):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    assert logs["steps"].shape == (2, 4)
+    with pytest.raises(ValueError, match="group-1.msgpack: a partly trained group of other"):
+        ablation.train_variants(trainer, variants, 1, lanes_per_run=2, partial=partial,
+                                resume=True)
+    ablation.train_variants(trainer, {"baseline": ablation.Variant()}, 1, partial=partial)
+    assert checkpoint.read(partial)[1]["labels"] == [["baseline", 0]]
+
+
 def _free_port() -> int:
     with socket.socket() as sock:
         sock.bind(("127.0.0.1", 0))
