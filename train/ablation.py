@@ -72,8 +72,8 @@ from train.config import (
 from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
 from train.ppo import Trainer, divisor_up_to, observation_mask
 
-# A group's lanes train in about this many calls, each ending in a checkpoint of the group with
-# --out (<out>/ablation.partial/), which --resume continues.
+# With --out, a group's lanes are checkpointed about this many times while they train
+# (<out>/ablation.partial/), which --resume continues.
 CALLS_PER_GROUP = 10
 
 
@@ -127,12 +127,13 @@ def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
     ``[lanes, updates]`` and the lane labels ``(variant, seed)``. Wide vmaps used to hang on
     XLA:CPU; the cause is fixed (docs/xla-cpu-deadlock.md).
 
-    Each call of lanes trains in about :data:`CALLS_PER_GROUP` calls of equal numbers of
-    updates. With ``partial`` (a file path) every call ends in a checkpoint there (atomically:
-    the runners and logs of the calls so far), and a ``resume`` run finding the file continues
-    from it (the same trainer config and lanes, or an error naming the file), so a group killed
-    midway loses at most one call's work; a run without ``resume`` deletes a file it finds, and
-    the caller deletes it once the group's scores are kept."""
+    Each call of lanes trains in calls of equal numbers of updates, and with ``partial`` (a
+    file path) is checkpointed there about :data:`CALLS_PER_GROUP` times
+    (:func:`train.checkpoint.checkpoint_due`; atomically: the runners and logs of the lane
+    calls so far); a ``resume`` run finding the file continues from it (the same trainer
+    config and lanes, or an error naming the file), so a group killed midway loses at most a
+    tenth of a lane call's work; a run without ``resume`` deletes a file it finds, and the
+    caller deletes it once the group's scores are kept."""
     keys, weights, masks, labels = variant_inputs(trainer, variants, seeds)
     if lanes is not None:
         index = np.asarray(lanes, int)
@@ -176,7 +177,8 @@ def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
                 lambda a, b: jnp.concatenate([a, b], axis=1), logs, new)
             done += per_call
             trained[number] = (runner, logs)
-            if partial is not None:
+            if partial is not None and checkpoint.checkpoint_due(done, per_call, updates,
+                                                                 CALLS_PER_GROUP):
                 checkpoint.save(partial, trainer.config,
                                 {str(i): {"runner": r, "logs": g}
                                  for i, (r, g) in enumerate(trained)},
@@ -505,7 +507,7 @@ def main(argv: list[str] | None = None) -> None:
                         help="continue a killed run with the same arguments: the groups in "
                              "<out>/ablation.partial.json are not trained again, and a group "
                              "killed midway continues from its last checkpoint in "
-                             "<out>/ablation.partial/ (one of about ten per group; a run "
+                             "<out>/ablation.partial/ (about ten per group; a run "
                              "of several processes restarts such a group)")
     add_cache_arguments(parser)
     add_arguments(parser)

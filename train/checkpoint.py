@@ -56,6 +56,15 @@ def save(path: str | Path, config: TrainConfig, runner: Any, meta: dict[str, Any
     return write_atomic(path, serialization.msgpack_serialize(payload))
 
 
+def checkpoint_due(done: int, per_call: int, total: int, times: int) -> bool:
+    """Whether a run of ``total`` updates, trained in calls of ``per_call`` updates and
+    checkpointed about ``times`` times, saves after the call that brought it to ``done``: at
+    the first call past each multiple of ``ceil(total / times)`` updates, and at the end (a
+    run of 122 updates in calls of 2 saves 10 times, not 61)."""
+    every = max(1, -(-total // times))
+    return done >= total or done // every > (done - per_call) // every
+
+
 def read(path: str | Path) -> tuple[TrainConfig, dict[str, Any], dict[str, Any]]:
     """``(config, meta, raw runner state dict)`` of a checkpoint file."""
     path = resolve(path)

@@ -172,20 +172,22 @@ def only_local_options(profile: str, time_limit: float | None) -> MakeOptions:
         robots=trained.robots.robots, arrived=trained.robots.arrived, enders=enders)
 
 
-CALLS_PER_CELL = 10  # a cell's training in about this many calls, each ending in a checkpoint
+CALLS_PER_CELL = 10  # a cell's training checkpointed about this many times (in equal calls)
 
 
 def train_baseline(config: Any, partial: Path | None = None, resume: bool = False
                    ) -> tuple[Trainer, Any, float, float]:
     """Train every seed of ``config`` at once, as lanes (``Trainer.update_chunk_lanes``), in
-    about :data:`CALLS_PER_CELL` calls of equal numbers of updates; returns the trainer, the
+    calls of equal numbers of updates (about :data:`CALLS_PER_CELL` of them where the update
+    count has a divisor near a tenth of it, more otherwise); returns the trainer, the
     seed-batched runner, the seconds spent compiling and the seconds spent training.
 
-    With ``partial`` (a checkpoint path) the runner is saved there after every call (atomically,
-    with the updates done) and a ``resume`` run finding the file continues from it (the same
-    config, or an error naming the file), so a cell killed midway loses at most one call's
-    work (a run without ``resume`` deletes a file it finds); the caller deletes the file once
-    the cell is written."""
+    With ``partial`` (a checkpoint path) the runner is saved there about
+    :data:`CALLS_PER_CELL` times (:func:`train.checkpoint.checkpoint_due`; atomically, with the
+    updates done) and a ``resume`` run finding the file continues from it (the same config, or
+    an error naming the file), so a cell killed midway loses at most a tenth of its work (a run
+    without ``resume`` deletes a file it finds); the caller deletes the file once the cell is
+    written."""
     trainer = Trainer(config)
     updates = config.algorithm.num_updates
     per_call = divisor_up_to(updates, max(1, -(-updates // CALLS_PER_CELL)))
@@ -208,7 +210,8 @@ def train_baseline(config: Any, partial: Path | None = None, resume: bool = Fals
     while done < updates:
         runner = step(runner)
         done += per_call
-        if partial is not None:
+        if partial is not None and checkpoint.checkpoint_due(done, per_call, updates,
+                                                             CALLS_PER_CELL):
             checkpoint.save(partial, config, runner, {"updates": done, "of": updates})
     jax.block_until_ready(runner.params)
     return trainer, runner, t1 - t0, time.perf_counter() - t1

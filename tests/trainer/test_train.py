@@ -624,3 +624,14 @@ def test_active_first_is_a_stable_partition():
     mask = mask.at[0].set(True).at[1].set(False)
     np.testing.assert_array_equal(ppo._active_first(mask),
                                   jnp.argsort(~mask, axis=-1, stable=True))
+
+
+def test_long_runs_checkpoint_about_the_number_of_times_asked():
+    """train.reproduce and train.ablation train in equal calls (a divisor of the update
+    count) and save about ten times: 122 updates in calls of 2 save 10 times, the last at the
+    end; a run shorter than ten updates saves after every call."""
+    due = [done for done in range(2, 123, 2) if checkpoint.checkpoint_due(done, 2, 122, 10)]
+    assert len(due) == 10 and due[-1] == 122
+    assert all(b - a <= 14 for a, b in zip([0, *due], due, strict=False))  # at most 13 + 1 lost
+    assert [d for d in range(1, 5) if checkpoint.checkpoint_due(d, 1, 4, 10)] == [1, 2, 3, 4]
+    assert [d for d in (61, 122) if checkpoint.checkpoint_due(d, 61, 122, 10)] == [61, 122]
