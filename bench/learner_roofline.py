@@ -19,7 +19,8 @@ Prints, in one run:
   loop's body counts once there, so a phase's FLOPs are its body's times its trip count, the
   GRU's gradient counted on its rows as sequences of one step), GFLOP/s and as a share of the
   two peaks; then the host's work per call of the command line's chunk of updates (dispatch,
-  and fetching the logs), and whole updates with ``algorithm.compact`` off and on.
+  and fetching the logs), whole updates with ``algorithm.compact`` off and on, and the
+  update's two halves (the rollout, the learning phase) as the update compiles them.
 
 The configuration is the README's main job (``train/configs/doorway.yaml``: 256 environments
 x 64 steps x 5 robot slots, 4 epochs x 4 minibatches, MLP 128 x 128, GO/STOP) with the options
@@ -381,7 +382,17 @@ def report(name: str, config: TrainConfig, updates: int, peaks: tuple[float, flo
           f"{learning['compact']:.3f} s ({learning['masked'] / learning['compact']:.2f}x; "
           f"{learn['active']:.0%} of the units can learn, {learn['computed']:.0%} computed)")
     print(f"agent-steps/s (slots x envs x steps / s): compact off {agent_steps / off:,.0f}, "
-          f"on {agent_steps / on:,.0f} ({off / on:.2f}x)", flush=True)
+          f"on {agent_steps / on:,.0f} ({off / on:.2f}x)")
+    # The update's two halves as the update compiles them (the phases above are each compiled
+    # alone, which can over- or understate a phase: the normalisation phase alone writes every
+    # step's inputs to memory).
+    rollout_s, _ = timed(lane(masked.collect), runner, repeats=2)
+    halves = {name: timed(lane(t._learn_lane), runner.params, runner.opt_state, runner.key,
+                          rollout, runner.hyper, repeats=2)[0]
+              for t, name in ((masked, "masked"), (compact, "compact"))}
+    print(f"as compiled in the update: rollout (steps, forward, normalisation, GAE) "
+          f"{rollout_s:.3f} s; learning phase masked {halves['masked']:.3f} s, compact "
+          f"{halves['compact']:.3f} s ({halves['masked'] / halves['compact']:.2f}x)", flush=True)
 
 
 def main() -> None:
