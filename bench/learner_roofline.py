@@ -309,7 +309,7 @@ def time_updates(trainer: Trainer, runner: RunnerState, count: int
     """Seconds per update of ``count`` updates of one lane (best of two calls after a warm-up,
     as the command line compiles them: ``update_chunk_lanes``), the host's work per call
     (dispatch, and fetching the logs once computed) and the runner after."""
-    chunk = jax.jit(lambda r: trainer.update_chunk_lanes(r, count))
+    chunk = trainer.jitted_chunk_lanes(count)
     compiled, _, _ = compile_measured(chunk.lower(runner))
     runner, logs = compiled(runner)
     jax.block_until_ready(logs)

@@ -63,8 +63,7 @@ def per_update(config: str, space_path: str, counts: list[int], sets: list[str])
         group = Group(data, {}, space.replace(lanes=count * space.seeds), count * space.seeds,
                       "bench")
         group.per_chunk = 2
-        group._chunk = jax.jit(lambda r, g=group: g.trainer.update_chunk_lanes(r, 2),
-                               donate_argnums=0)
+        group._chunk = group.trainer.jitted_chunk_lanes(2, donate=True)
         runners = group.start()
         runners, _ = group.advance(runners)
         jax.block_until_ready(runners.steps)

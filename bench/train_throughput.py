@@ -38,7 +38,7 @@ def time_updates(config: dict, seeds: int, updates: int) -> tuple[float, float, 
     config = dict(config, seed=0, num_seeds=seeds)
     trainer = Trainer(config_from_dict(config))
     runner = jax.jit(jax.vmap(trainer.init))(seed_keys(trainer.config))
-    chunk = jax.jit(lambda r: trainer.update_chunk_lanes(r, updates))
+    chunk = trainer.jitted_chunk_lanes(updates)
     compiled, compile_s, peak_bytes = compile_measured(chunk.lower(runner))
     runner, _ = compiled(runner)  # warm
     jax.block_until_ready(runner.params)

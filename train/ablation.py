@@ -46,11 +46,7 @@ import jax.numpy as jnp
 import numpy as np
 from flax import serialization
 
-from sgjax.compilation_cache import (
-    add_cache_arguments,
-    cache_from_arguments,
-    learner_compiler_options,
-)
+from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import format_summary, markdown_table
@@ -147,8 +143,7 @@ def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
     width = count if lanes_per_run is None else max(1, min(lanes_per_run, count))
     per_call = divisor_up_to(updates, max(1, -(-updates // CALLS_PER_GROUP)))
     start = jax.jit(jax.vmap(trainer.init))
-    advance = jax.jit(lambda r: trainer.update_chunk_lanes(r, per_call),
-                      compiler_options=learner_compiler_options())
+    advance = trainer.jitted_chunk_lanes(per_call)
     runs = [np.minimum(np.arange(first, first + width), count - 1)
             for first in range(0, count, width)]  # the last run padded
     inputs = [jax.tree.map(lambda x, index=index: x[index], (keys, weights, masks))

@@ -24,11 +24,7 @@ import jax
 import numpy as np
 import yaml
 
-from sgjax.compilation_cache import (
-    add_cache_arguments,
-    cache_from_arguments,
-    learner_compiler_options,
-)
+from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluation.evaluate import evaluate, lane_results, params_by_count, policy_environment
 from sgjax.evaluation.metrics import DEFAULT_CONSTANTS
 from sgjax.evaluation.provenance import provenance
@@ -182,8 +178,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
         runner = shard_runner(runner, device_mesh(devices), trainer.num_envs)
 
     per_chunk = _updates_per_chunk(config)
-    chunk = jax.jit(lambda r: trainer.update_chunk_lanes(r, per_chunk), donate_argnums=0,
-                    compiler_options=learner_compiler_options())
+    chunk = trainer.jitted_chunk_lanes(per_chunk, donate=True)
     t0 = time.perf_counter()
     compiled = chunk.lower(runner).compile()
     compile_s = time.perf_counter() - t0
@@ -203,8 +198,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
     while meta["updates"] < a.num_updates:
         if meta["updates"] + per_chunk > a.num_updates:  # the last, shorter chunk
             per_chunk = a.num_updates - meta["updates"]
-            compiled = jax.jit(lambda r, n=per_chunk: trainer.update_chunk_lanes(r, n),
-                               compiler_options=learner_compiler_options())
+            compiled = trainer.jitted_chunk_lanes(per_chunk)
         t0 = time.perf_counter()
         runner, logs = compiled(runner)
         logs = jax.device_get(logs)

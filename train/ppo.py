@@ -33,6 +33,7 @@ import optax
 from flax import struct
 from jax import Array
 
+from sgjax.compilation_cache import learner_compiler_options
 from sgjax.environment.env import SocialNavEnv
 from sgjax.environment.registry import make
 from sgjax.evaluation.metrics import team_success
@@ -773,6 +774,15 @@ class Trainer:
         runners, metrics = jax.lax.scan(lambda r, _: self.update_lanes(r), runners, None,
                                         count)
         return runners, jax.tree.map(lambda x: jnp.swapaxes(x, 0, 1), metrics)
+
+    def jitted_chunk_lanes(self, count: int, donate: bool = False) -> Callable:
+        """``jax.jit`` of :meth:`update_chunk_lanes` of ``count`` updates, as every command
+        compiles its training calls (the runner donated if ``donate``): with
+        ``sgjax.compilation_cache.learner_compiler_options`` (XLA:CPU's default emitters where
+        the command chose the fast-compiling ones for its other programs)."""
+        return jax.jit(lambda runners: self.update_chunk_lanes(runners, count),
+                       donate_argnums=0 if donate else (),
+                       compiler_options=learner_compiler_options())
 
     def train(self, key: Array) -> tuple[RunnerState, dict]:
         """A whole run: ``init`` then every update, one jittable function of the key."""

@@ -54,11 +54,7 @@ from typing import Any
 import jax
 import numpy as np
 
-from sgjax.compilation_cache import (
-    add_cache_arguments,
-    cache_from_arguments,
-    learner_compiler_options,
-)
+from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.environment.options import MakeOptions
 from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.policies import load_policy, policy_options
@@ -193,8 +189,7 @@ def train_baseline(config: Any, partial: Path | None = None, resume: bool = Fals
     per_call = divisor_up_to(updates, max(1, -(-updates // CALLS_PER_CELL)))
     t0 = time.perf_counter()
     runner = jax.jit(jax.vmap(trainer.init))(seed_keys(config))
-    step = jax.jit(lambda r: trainer.update_chunk_lanes(r, per_call)[0],
-                   compiler_options=learner_compiler_options()).lower(runner).compile()
+    step = trainer.jitted_chunk_lanes(per_call).lower(runner).compile()
     t1 = time.perf_counter()
     done = 0
     if partial is not None and partial.is_file() and not resume:
@@ -208,7 +203,7 @@ def train_baseline(config: Any, partial: Path | None = None, resume: bool = Fals
         done = int(meta["updates"])
         print(f"    resuming {partial} at update {done} of {updates}", flush=True)
     while done < updates:
-        runner = step(runner)
+        runner, _ = step(runner)
         done += per_call
         if partial is not None and checkpoint.checkpoint_due(done, per_call, updates,
                                                              CALLS_PER_CELL):

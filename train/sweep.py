@@ -59,11 +59,7 @@ import jax.numpy as jnp
 import numpy as np
 import yaml
 
-from sgjax.compilation_cache import (
-    add_cache_arguments,
-    cache_from_arguments,
-    learner_compiler_options,
-)
+from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import markdown_table
@@ -159,9 +155,7 @@ class Group:
         self.updates = self.per_chunk * space.evaluations
         self.steps = self.updates * a.steps_per_update  # environment steps per trial
         trainer = self.trainer
-        self._chunk = jax.jit(lambda r: trainer.update_chunk_lanes(r, self.per_chunk),
-                              donate_argnums=0,
-                              compiler_options=learner_compiler_options())
+        self._chunk = trainer.jitted_chunk_lanes(self.per_chunk, donate=True)
         self._init = jax.jit(jax.vmap(trainer.init))
         self._place = jax.jit(lambda runners, index, fresh: jax.tree.map(
             lambda a, b: a.at[index].set(b), runners, fresh), donate_argnums=0)
