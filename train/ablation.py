@@ -48,7 +48,7 @@ from flax import serialization
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluation.evaluate import params_by_count
-from sgjax.evaluation.provenance import provenance
+from sgjax.evaluation.provenance import cpu_model, git_state, provenance
 from sgjax.evaluation.report import format_summary, markdown_table
 from sgjax.evaluation.result_schema import ABLATION
 from sgjax.evaluation.statistics import paired_difference, probability_of_improvement, summarize
@@ -292,13 +292,24 @@ def _variant_config(config: TrainConfig, variant: Variant, seeds: int) -> TrainC
     return config_from_dict(data, where)
 
 
-def variant_groups(variants: Mapping[str, Variant]) -> list[dict[str, Variant]]:
+def variant_groups(variants: Mapping[str, Variant], per_group: int | None = None
+                   ) -> list[dict[str, Variant]]:
     """The variants that train as one vmap: those with the same network and settings, in
-    order of first appearance."""
-    groups: dict[tuple, dict[str, Variant]] = {}
+    order of first appearance; with ``per_group``, each such set cut into consecutive groups
+    of at most that many variants (smaller groups finish, and are kept in the partial result,
+    sooner: a long run then loses less when it is stopped)."""
+    if per_group is not None and per_group < 1:
+        raise ValueError(f"variants per group must be at least 1, got {per_group}")
+    kinds: dict[tuple, dict[str, Variant]] = {}
     for name, variant in variants.items():
-        groups.setdefault((variant.network, variant.settings), {})[name] = variant
-    return list(groups.values())
+        kinds.setdefault((variant.network, variant.settings), {})[name] = variant
+    groups = []
+    for kind in kinds.values():
+        names = list(kind)
+        size = per_group or len(names)
+        groups += [{name: kind[name] for name in names[i:i + size]}
+                   for i in range(0, len(names), size)]
+    return groups
 
 
 def group_name(group: Mapping[str, Variant]) -> str:
@@ -310,8 +321,8 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
                  lanes_per_run: int | None, episodes: int, robots: int | Sequence[int],
                  log=print, processes: Processes | None = None,
                  done: Mapping[str, Mapping[str, Any]] | None = None,
-                 on_group=None, partial_dir: Path | None = None, resume: bool = False
-                 ) -> dict:
+                 on_group=None, partial_dir: Path | None = None, resume: bool = False,
+                 variants_per_group: int | None = None) -> dict:
     """Train every variant x seed (one vmap per network architecture and settings), evaluate
     every lane on the config's first scenario with ``robots`` robots (one count or several:
     one compiled evaluation serves them all); returns ``{"scores": {variant: [seeds]},
@@ -325,15 +336,21 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
     called with each newly finished group's record (for a partial result file).
     ``partial_dir``: each group's lanes checkpoint there while they train
     (``group-<n>.msgpack``, :func:`train_variants`), continued when ``resume``; a group's file
-    is deleted once ``on_group`` kept its record."""
+    is deleted once ``on_group`` kept its record. ``variants_per_group``: see
+    :func:`variant_groups` (the groups of one network and settings share their trainer)."""
     processes = processes or Processes()
     done = dict(done or {})
     counts = [robots] if isinstance(robots, int) else [int(n) for n in robots]
-    groups = variant_groups(variants)
+    groups = variant_groups(variants, variants_per_group)
     # Every group's config, environment and network first (terms, weights, shapes; nothing is
     # compiled): a bad variant fails before any training.
-    trainers = [Trainer(_variant_config(config, next(iter(group.values())), seeds))
-                for group in groups]
+    firsts = [next(iter(group.values())) for group in groups]
+    by_kind: dict[tuple, Trainer] = {}
+    for first in firsts:
+        if (first.network, first.settings) not in by_kind:
+            by_kind[first.network, first.settings] = Trainer(
+                _variant_config(config, first, seeds))
+    trainers = [by_kind[first.network, first.settings] for first in firsts]
     scores: dict[int, dict[str, list[float]]] = {n: {} for n in counts}
     seconds = {"compile and train": 0.0, "evaluate": 0.0}
     scenario = config.env.scenarios[0]
@@ -381,7 +398,9 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
         if on_group is not None:
             on_group(name_of_group, {
                 "scores": {str(n): {name: scores[n][name] for name in group} for n in counts},
-                "seconds": {"compile and train": t1 - t0, "evaluate": t2 - t1}})
+                "seconds": {"compile and train": t1 - t0, "evaluate": t2 - t1},
+                # a resumed run's groups may come from other commits or machines
+                "git": git_state(), "cpu": cpu_model()})
         if partial_dir is not None:
             (partial_dir / f"group-{index + 1}.msgpack").unlink(missing_ok=True)
         where = "" if processes.count == 1 else (
@@ -398,12 +417,15 @@ LANE_PARTIALS = "ablation.partial"  # the folder of the running group's lane che
 
 
 def run_fingerprint(config: TrainConfig, variants: Mapping[str, Variant], seeds: int,
-                    episodes: int, counts: Sequence[int]) -> str:
+                    episodes: int, counts: Sequence[int], variants_per_group: int | None = None
+                    ) -> str:
     """A hash of everything that decides a run's scores: a partial result is resumed only by
-    the run that wrote it."""
+    the run that wrote it (the grouping too: lanes batched differently round differently)."""
     described = {"config": as_trained(config.to_dict()), "seeds": seeds, "episodes": episodes,
                  "robots": [int(n) for n in counts],
                  "variants": {name: dataclasses.asdict(v) for name, v in variants.items()}}
+    if variants_per_group is not None:  # absent otherwise: earlier partial results still fit
+        described["variants_per_group"] = variants_per_group
     text = json.dumps(described, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()
 
@@ -488,6 +510,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seeds", type=int, default=3, help="seeds per variant")
     parser.add_argument("--lanes-per-run", type=int, default=None,
                         help="lanes per compiled call (default: all lanes in one call)")
+    parser.add_argument("--variants-per-group", type=int, default=None,
+                        help="train at most this many variants (x --seeds lanes) per group; "
+                             "default: every variant of one network and settings in one "
+                             "group. Smaller groups finish sooner, and --resume keeps every "
+                             "finished group (the paper's Table 5 at 10 seeds: its MLP group "
+                             "is 70 lanes, hours of CPU)")
     parser.add_argument("--episodes", type=int, default=None,
                         help="evaluation episodes per lane (default: evaluation.episodes)")
     parser.add_argument("--robots", type=int, nargs="+", default=None,
@@ -508,8 +536,10 @@ def main(argv: list[str] | None = None) -> None:
     add_arguments(parser)
     args = parser.parse_args(argv)
     try:
-        if args.seeds < 1 or (args.lanes_per_run is not None and args.lanes_per_run < 1):
-            raise ConfigError("--seeds and --lanes-per-run must be at least 1")
+        if args.seeds < 1 or any(value is not None and value < 1 for value in (
+                args.lanes_per_run, args.variants_per_group)):
+            raise ConfigError("--seeds, --lanes-per-run and --variants-per-group must be at "
+                              "least 1")
         cache_from_arguments(args)
         processes = initialize(args.coordinator, args.num_processes, args.process_id)
         config = load_config(args.config, args.set)
@@ -530,7 +560,8 @@ def main(argv: list[str] | None = None) -> None:
         start = time.perf_counter()
         log = functools.partial(print, flush=True)
         partial = None if args.out is None else Path(args.out) / PARTIAL
-        fingerprint = run_fingerprint(config, variants, args.seeds, episodes, counts)
+        fingerprint = run_fingerprint(config, variants, args.seeds, episodes, counts,
+                                      args.variants_per_group)
         done = read_partial(partial, fingerprint) if args.resume else {}
         if args.resume:
             log(f"resuming {partial}: {len(done)} finished group(s)")
@@ -547,7 +578,8 @@ def main(argv: list[str] | None = None) -> None:
             Path(args.out) / LANE_PARTIALS)
         result = run_ablation(config, variants, args.seeds, args.lanes_per_run, episodes,
                               counts, log=log, processes=processes, done=done, on_group=keep,
-                              partial_dir=lane_files, resume=args.resume)
+                              partial_dir=lane_files, resume=args.resume,
+                              variants_per_group=args.variants_per_group)
         table = "\n".join(format_table(scores, paper, config.env.scenarios[0], n, episodes)
                           for n, scores in result["scores_by_robots"].items())
         t_write = time.perf_counter()
@@ -572,6 +604,8 @@ def main(argv: list[str] | None = None) -> None:
                  "paired": {str(n): paired_against_baseline(v) for n, v in
                             result["scores_by_robots"].items()},
                  "variants": {name: dataclasses.asdict(v) for name, v in variants.items()},
+                 "groups": {name: {key: record[key] for key in ("git", "cpu", "seconds")
+                                   if key in record} for name, record in done.items()},
                  "seconds": result["seconds"]}, indent=1))
             if partial.is_file():
                 partial.unlink()

@@ -131,6 +131,11 @@ ABLATION_SCHEMA: dict[str, Any] = {
             _COUNT_KEY: {"type": "object"}}, "additionalProperties": False},
         "paired": {"type": "object"},
         "variants": {"type": "object"},
+        # group of variants -> where and how long it trained (a resumed run's groups may
+        # come from other commits or machines)
+        "groups": {"type": "object", "additionalProperties": {
+            "type": "object", "properties": {
+                "git": {"type": "object"}, "cpu": {"type": "string"}, "seconds": _SECONDS}}},
         "seconds": _SECONDS,
     },
 }

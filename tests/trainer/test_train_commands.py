@@ -369,15 +369,37 @@ def test_a_killed_ablation_resumes_its_finished_groups(tmp_path, monkeypatch, ca
     assert calls == [["team reward"]]  # the finished group was not trained again
     saved = json.loads((out / "ablation.json").read_text())
     assert saved["team_success"]["baseline"] == first and len(saved["team_success"]) == 2
+    assert set(saved["groups"]) == {"baseline", "team reward"}  # each with where it trained
+    assert all(len(g["git"]["commit"]) == 40 and g["cpu"] for g in saved["groups"].values())
     assert not (out / ablation.PARTIAL).exists()
     assert "group 1 of 2 (baseline): kept from the partial run" in capsys.readouterr().out
 
     (out / ablation.PARTIAL).write_text(json.dumps(partial))
     with pytest.raises(SystemExit, match="ablation.partial.json: written by a run with another"):
         ablation.main([*args[:-2], "--seeds", "3", "--out", str(out), "--resume"])
+    with pytest.raises(SystemExit, match="ablation.partial.json: written by a run with another"):
+        ablation.main([*args, "--variants-per-group", "1", "--resume"])  # grouped otherwise
     (out / ablation.PARTIAL).write_text("{not json")
     with pytest.raises(SystemExit, match="ablation.partial.json: not a partial ablation result"):
         ablation.main([*args, "--resume"])
+
+
+def test_variants_per_group_cuts_each_network_and_settings_set_in_order():
+    from train.ablation import Variant, main, variant_groups
+
+    gru = Variant(network=(("kind", "gru"),))
+    variants = {"baseline": Variant(), "a": Variant(rewards_off=("collision",)),
+                "memory": gru, "b": Variant(hide=("velocity",)), "c": Variant(hide=("goal",))}
+    names = lambda groups: [list(group) for group in groups]  # noqa: E731
+    assert names(variant_groups(variants)) == [["baseline", "a", "b", "c"], ["memory"]]
+    assert names(variant_groups(variants, 3)) == [["baseline", "a", "b"], ["c"], ["memory"]]
+    assert names(variant_groups(variants, 1)) == [["baseline"], ["a"], ["b"], ["c"],
+                                                  ["memory"]]
+    with pytest.raises(ValueError, match="variants per group must be at least 1, got 0"):
+        variant_groups(variants, 0)
+    with pytest.raises(SystemExit, match="--variants-per-group must be at least 1"):
+        main(["--config", str(ROOT / "train/configs/ablation.yaml"), "--variants-per-group",
+              "0"])
 
 
 def test_an_ablation_group_killed_midway_resumes_from_its_last_call(tmp_path, monkeypatch):
