@@ -3,6 +3,9 @@ which the SocialGym 2.0 paper found essential)."""
 
 from __future__ import annotations
 
+import functools
+
+import jax
 import jax.numpy as jnp
 from flax import struct
 from jax import Array
@@ -33,8 +36,10 @@ class RunningStats:
         w = mask.astype(jnp.float32)
         n = jnp.sum(w)
         safe_n = jnp.maximum(n, 1.0)
-        batch_mean = (w @ x) / safe_n
-        batch_var = (w @ jnp.square(x - batch_mean)) / safe_n
+        # float32 products at full precision (a GPU's default may round them to TF32)
+        weighted_sum = functools.partial(jnp.dot, w, precision=jax.lax.Precision.HIGHEST)
+        batch_mean = weighted_sum(x) / safe_n
+        batch_var = weighted_sum(jnp.square(x - batch_mean)) / safe_n
         total = self.count + n
         delta = batch_mean - self.mean
         mean = self.mean + delta * n / total
