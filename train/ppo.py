@@ -779,10 +779,15 @@ class Trainer:
         """``jax.jit`` of :meth:`update_chunk_lanes` of ``count`` updates, as every command
         compiles its training calls (the runner donated if ``donate``): with
         ``sgjax.compilation_cache.learner_compiler_options`` (XLA:CPU's default emitters where
-        the command chose the fast-compiling ones for its other programs)."""
-        return jax.jit(lambda runners: self.update_chunk_lanes(runners, count),
-                       donate_argnums=0 if donate else (),
-                       compiler_options=learner_compiler_options())
+        the command chose the fast-compiling ones for its other programs). One per ``(count,
+        donate)`` per trainer, so that callers sharing a trainer (the groups of an ablation)
+        trace it once."""
+        made = self.__dict__.setdefault("_jitted_chunks", {})
+        if (count, donate) not in made:
+            made[count, donate] = jax.jit(
+                lambda runners: self.update_chunk_lanes(runners, count),
+                donate_argnums=0 if donate else (), compiler_options=learner_compiler_options())
+        return made[count, donate]
 
     def train(self, key: Array) -> tuple[RunnerState, dict]:
         """A whole run: ``init`` then every update, one jittable function of the key."""
