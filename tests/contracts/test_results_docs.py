@@ -1,0 +1,50 @@
+"""docs/results.md's generated tables equal the files the runs wrote (train.results_doc)."""
+
+from pathlib import Path
+
+import pytest
+
+from train.results_doc import ROOT, DocumentError, main, refresh
+
+
+def test_every_generated_block_of_the_results_document_matches_its_file(capsys):
+    text = (ROOT / "docs" / "results.md").read_text()
+    _, stale = refresh(text, "docs/results.md")
+    assert stale == [], f"stale: {stale} (python -m train.results_doc docs/results.md --write)"
+    assert text.count("<!-- generated from docs/results/") >= 4
+
+
+def _doc(tmp_path: Path, body: str) -> str:
+    (tmp_path / "table.md").write_text("# A title the section replaces\n\nCaption.\n\n"
+                                       "| a |\n|---|\n| 0.5 |\n")
+    return ("# Results\n\nProse.\n\n<!-- generated from table.md -->\n"
+            f"{body}<!-- end generated -->\n")
+
+
+def test_a_hand_edited_number_is_stale_and_write_restores_the_file(tmp_path):
+    document = _doc(tmp_path, "Caption.\n\n| a |\n|---|\n| 0.5 |\n")
+    assert refresh(document, "doc.md", tmp_path)[1] == []
+    edited = document.replace("0.5", "0.6")
+    new, stale = refresh(edited, "doc.md", tmp_path)
+    assert stale == ["table.md"] and new == document
+    assert "A title" not in new  # the file's own title is left to the section's heading
+
+
+def test_a_missing_file_or_an_unclosed_block_names_the_document_and_line(tmp_path):
+    document = _doc(tmp_path, "").replace("table.md", "gone.md")
+    with pytest.raises(DocumentError, match=r"doc.md:5: generated block names gone.md"):
+        refresh(document, "doc.md", tmp_path)
+    with pytest.raises(DocumentError, match="1 '<!-- generated from' markers but 0 closed"):
+        refresh("<!-- generated from table.md -->\n| a |\n", "doc.md", tmp_path)
+
+
+def test_the_command_fails_on_a_stale_block_and_write_fixes_it(tmp_path, monkeypatch, capsys):
+    import train.results_doc as results_doc
+
+    monkeypatch.setattr(results_doc, "ROOT", tmp_path)
+    doc = tmp_path / "doc.md"
+    doc.write_text(_doc(tmp_path, "stale\n"))
+    assert main([str(doc)]) == 1
+    assert "1 block(s) differ from their files: table.md" in capsys.readouterr().out
+    assert main([str(doc), "--write"]) == 0
+    assert main([str(doc)]) == 0 and "| 0.5 |" in doc.read_text()
