@@ -35,6 +35,7 @@ max delta-V and team success per scenario and baseline, at ``--table-robots``),
 ``success_table.md`` (its Table 4: team success % by robot count, with the average),
 ``paper_comparison.md`` (ours beside the paper's Table 4), ``comparison_table.md`` (each
 trained baseline against Only Local, paired over the shared episodes, with seed aggregates),
+``baseline_comparison.md`` (each other trained baseline against CADRL, paired seed by seed),
 ``play_modes.md`` (trained policies playing greedily and sampling), ``results.json`` (every
 seed's value of every metric, per configuration, schema ``sgjax.reproduce/1``;
 ``--from-results`` writes the tables again from it) and ``marl_eval.json`` (the same results
@@ -63,7 +64,12 @@ from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import format_summary, markdown_table
 from sgjax.evaluation.result_schema import REPRODUCE
 from sgjax.evaluation.runner import EpisodeRunner
-from sgjax.evaluation.statistics import paired_difference, seed_aggregate, summarize
+from sgjax.evaluation.statistics import (
+    paired_difference,
+    probability_of_improvement,
+    seed_aggregate,
+    summarize,
+)
 from sgjax.files import write_atomic
 from sgjax.terms.presets import REWARD_PRESETS
 from train import checkpoint
@@ -340,6 +346,7 @@ def format_tables(results: dict, counts: Sequence[int], table_robots: int, seeds
             "success_table.md": "\n".join(success) + "\n",
             "paper_comparison.md": "\n".join(compare) + "\n",
             "comparison_table.md": comparison_table(results, counts, seeds),
+            "baseline_comparison.md": baseline_comparison_table(results, counts, seeds),
             "play_modes.md": play_mode_table(results, counts, seeds)}
 
 
@@ -410,6 +417,48 @@ def comparison_table(results: dict, counts: Sequence[int], seeds: int) -> str:
             "values (a results.json written before they were kept) or no Only Local row.", "",
             *markdown_table(["Scenario", "Baseline", "Robots", "Paired vs only_local",
                              "Mean over seeds", "IQM over seeds"], rows)]
+    return "\n".join(text) + "\n"
+
+
+# The trained baseline the others are compared with: the paper's plain PPO with the CADRL reward.
+REFERENCE_BASELINE = "cadrl"
+
+
+def baseline_comparison_table(results: dict, counts: Sequence[int], seeds: int,
+                              reference: str = REFERENCE_BASELINE) -> str:
+    """Every other trained baseline against ``reference`` (CADRL), cell by cell, paired seed
+    by seed: seed ``i`` of each was trained from the same key ``seed + i`` and played the same
+    evaluation episodes, so the difference of their team success (points) is taken per seed,
+    mean [95% Student-t interval over seeds], with the probability of improvement (a random
+    seed of the baseline above a random seed of the reference, ties half). The paper's
+    comparisons between its trained baselines (CADRL(L) against CADRL, the order rewards
+    against CADRL) hold in a cell only where the interval excludes 0."""
+    rows = []
+    for scenario, by_baseline in results.items():
+        mine = by_baseline.get(reference)
+        if mine is None:
+            continue
+        for baseline, by_count in by_baseline.items():
+            if baseline == reference or BASELINES.get(baseline) is None:
+                continue  # the reference itself, and untrained rows (in comparison_table.md)
+            for n in counts:
+                theirs = np.asarray(by_count[n]["team_success"], float)
+                ours = np.asarray(mine[n]["team_success"], float)
+                d = paired_difference(theirs, ours)
+                rows.append([scenario, baseline, str(n),
+                             f"{100 * np.nanmean(theirs):.0f}", f"{100 * np.nanmean(ours):.0f}",
+                             f"{100 * d.mean:+.0f} [{100 * d.ci_low:+.0f}, "
+                             f"{100 * d.ci_high:+.0f}]",
+                             f"{probability_of_improvement(theirs, ours):.2f}"])
+    text = [f"# Trained baselines against {reference} (team success, percentage points)", "",
+            f"Paired seed by seed: seed i of each baseline and of {reference} trained from the "
+            "same key and played the same evaluation episodes; the difference of their team "
+            f"success, mean [95% Student-t interval over {seeds} seeds] (an interval that "
+            "excludes 0 is a difference), and P(improvement): the chance that a random seed of "
+            f"the baseline beats a random seed of {reference} (ties half).", "",
+            *markdown_table(["Scenario", "Baseline", "Robots", "Baseline (%)",
+                             f"{reference} (%)", f"Paired vs {reference}", "P(improvement)"],
+                            rows)]
     return "\n".join(text) + "\n"
 
 

@@ -588,6 +588,21 @@ def test_the_papers_printed_averages_are_checked_against_its_rows():
     assert len(PAPER_TABLE_4) == 5
 
 
+def test_trained_baselines_are_paired_seed_by_seed_with_cadrl():
+    from train.reproduce import baseline_comparison_table
+
+    cell = {"team_success": [0.5, 0.6, 0.7]}
+    results = {"doorway": {"cadrl": {3: cell},
+                           "any_order": {3: {"team_success": [0.7, 0.7, 0.9]}},
+                           "only_local": {3: {"team_success": [0.4]}}},
+               "open": {"any_order": {3: cell}}}  # no cadrl row: nothing to pair with
+    table = baseline_comparison_table(results, [3], 3)
+    rows = [line for line in table.splitlines() if line.startswith("| doorway")]
+    # differences 20, 10, 20 points: 16.7 +- 4.303 * 5.77 / sqrt(3); P: 8 of 9 pairs (a tie half)
+    assert rows == ["| doorway | any_order | 3 | 77 | 60 | +17 [+2, +31] | 0.89 |"], table
+    assert "| open |" not in table and "only_local" not in table.split("|---")[1]
+
+
 def test_a_partial_cell_of_compact_true_resumes_under_auto_on_a_cpu_only():
     """A cell checkpointed when ``algorithm.compact`` defaulted to true is the same computation
     as ``auto`` on a CPU (resumed), not on a GPU (refused, as any other config)."""
