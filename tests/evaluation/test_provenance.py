@@ -107,5 +107,5 @@ def test_every_published_result_file_follows_its_schema():
         checked.append(name)
     assert "sweeps/doorway/sweep.json" in checked and "tuned_doorway/ablation.json" in checked
     assert "shipped_configs/doorway/seed_spread.json" in checked
-    assert "reproduce-protocol/results.json" in checked
+    assert "reproduce-protocol/results.json" in checked and "table5/ablation.json" in checked
     assert {p.relative_to(folder).as_posix() for p in found} >= LEGACY_RESULTS
