@@ -49,7 +49,7 @@ from flax import serialization
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.provenance import cpu_model, git_state, provenance
-from sgjax.evaluation.report import format_summary, markdown_table
+from sgjax.evaluation.report import format_points, format_summary, markdown_table
 from sgjax.evaluation.result_schema import ABLATION
 from sgjax.evaluation.statistics import paired_difference, probability_of_improvement, summarize
 from sgjax.files import write_atomic
@@ -473,9 +473,7 @@ def format_table(scores: Mapping[str, list[float]], paper: Mapping[str, int | No
         difference = probability = ""
         if name != BASELINE:
             d = paired[name]["difference"]
-            difference = (f"{100 * d['mean']:+.0f} [{100 * d['ci_low']:+.0f}, "
-                          f"{100 * d['ci_high']:+.0f}]" if d["ci_low"] is not None else
-                          f"{100 * d['mean']:+.0f}")
+            difference = format_points(d["mean"], d["ci_low"], d["ci_high"])
             probability = f"{paired[name]['probability_of_improvement']:.2f}"
         rows.append([name, format_summary(summarize(np.asarray(values), binary=False), True),
                      beats, "" if cited is None else str(cited), difference, probability])

@@ -247,6 +247,7 @@ class Trainer:
                               f"{list(LANE_SETTINGS)}")
         self.varied = frozenset(varied)
         self.config = config
+        self._jitted_chunks: dict[tuple[int, bool], Any] = {}  # jitted_chunk_lanes' jits
         a = config.algorithm
         self.batch = EnvBatch(config)
         self.num_envs = sum(self.batch.sizes)
@@ -782,12 +783,11 @@ class Trainer:
         the command chose the fast-compiling ones for its other programs). One per ``(count,
         donate)`` per trainer, so that callers sharing a trainer (the groups of an ablation)
         trace it once."""
-        made = self.__dict__.setdefault("_jitted_chunks", {})
-        if (count, donate) not in made:
-            made[count, donate] = jax.jit(
+        if (count, donate) not in self._jitted_chunks:
+            self._jitted_chunks[count, donate] = jax.jit(
                 lambda runners: self.update_chunk_lanes(runners, count),
                 donate_argnums=0 if donate else (), compiler_options=learner_compiler_options())
-        return made[count, donate]
+        return self._jitted_chunks[count, donate]
 
     def train(self, key: Array) -> tuple[RunnerState, dict]:
         """A whole run: ``init`` then every update, one jittable function of the key."""

@@ -61,7 +61,7 @@ from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.policies import load_policy, policy_options
 from sgjax.evaluation.protocols import MINI_GAMES, PAPER
 from sgjax.evaluation.provenance import provenance
-from sgjax.evaluation.report import format_summary, markdown_table
+from sgjax.evaluation.report import format_points, format_summary, markdown_table
 from sgjax.evaluation.result_schema import REPRODUCE
 from sgjax.evaluation.runner import EpisodeRunner
 from sgjax.evaluation.statistics import (
@@ -384,7 +384,7 @@ def _paired_cell(trained: dict, baseline: dict) -> str:
     mine = np.nanmean(np.asarray(trained[EPISODES_KEY], float), axis=0)  # [E]
     theirs = np.asarray(baseline[EPISODES_KEY], float)[0, :mine.size]  # its first E: the same
     d = paired_difference(mine, theirs)
-    return f"{100 * d.mean:+.0f} [{100 * d.ci_low:+.0f}, {100 * d.ci_high:+.0f}]"
+    return format_points(d.mean, d.ci_low, d.ci_high)
 
 
 def comparison_table(results: dict, counts: Sequence[int], seeds: int) -> str:
@@ -447,8 +447,7 @@ def baseline_comparison_table(results: dict, counts: Sequence[int], seeds: int,
                 d = paired_difference(theirs, ours)
                 rows.append([scenario, baseline, str(n),
                              f"{100 * np.nanmean(theirs):.0f}", f"{100 * np.nanmean(ours):.0f}",
-                             f"{100 * d.mean:+.0f} [{100 * d.ci_low:+.0f}, "
-                             f"{100 * d.ci_high:+.0f}]",
+                             format_points(d.mean, d.ci_low, d.ci_high),
                              f"{probability_of_improvement(theirs, ours):.2f}"])
     text = [f"# Trained baselines against {reference} (team success, percentage points)", "",
             f"Paired seed by seed: seed i of each baseline and of {reference} trained from the "

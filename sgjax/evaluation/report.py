@@ -84,6 +84,14 @@ def write_csv(results: Sequence[ConfigResult], path: Path) -> Path:
     return path
 
 
+def format_points(mean: float, low: float | None, high: float | None) -> str:
+    """A difference of two shares in percentage points with its interval: ``"+12 [+3, +21]"``,
+    or ``"+12"`` where there is no interval (``low`` None or NaN: one pair)."""
+    if low is None or high is None or math.isnan(low):
+        return f"{100 * mean:+.0f}"
+    return f"{100 * mean:+.0f} [{100 * low:+.0f}, {100 * high:+.0f}]"
+
+
 def format_summary(s: Summary, percent: bool = False) -> str:
     """``"mean ± half-width"`` of a summary (``n/a`` without values), optionally in %."""
     if s.n == 0 or math.isnan(s.mean):
