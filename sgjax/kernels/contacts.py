@@ -9,6 +9,11 @@ from sgjax.kernels.geometry import safe_norm, swept_disc_segment_toi
 from sgjax.maps.arrays import MapArrays
 
 WALL_SKIN = 1e-3  # m: robots stop this far short of the contact point with a wall
+# m: robots whose gap is at most this are in contact. Two robots pushed apart rest at a gap of
+# about +-1e-6 m (float32 rounding of positions of a few metres), so a test at exactly zero
+# called a resting pair touching or apart by the last bit, which differs between CPUs, and
+# counted a new collision onset at every flip. The same tolerance as the time-to-collision's.
+CONTACT_GAP = 1e-5
 
 
 def separate_robots(
@@ -19,15 +24,16 @@ def separate_robots(
 
     ``x, y, radius, in_world, movable`` are ``[R]``; robots not ``in_world`` neither push nor get
     pushed; robots not ``movable`` (default: all movable) push but are never pushed. Returns the
-    push ``(px, py)`` ``[R]`` (m) and a per-robot overlap flag ``[R]``.
+    push ``(px, py)`` ``[R]`` (m) and a per-robot contact flag ``[R]`` (overlapping, or apart by at
+    most ``CONTACT_GAP``).
     """
     num_robots = x.shape[0]
     dx = x[:, None] - x[None, :]
     dy = y[:, None] - y[None, :]
     dist = safe_norm(dx, dy)
     pair = in_world[:, None] & in_world[None, :] & ~jnp.eye(num_robots, dtype=bool)
-    overlap = jnp.where(pair, radius[:, None] + radius[None, :] - dist, 0.0)
-    touching = overlap > 0.0
+    overlap = jnp.where(pair, radius[:, None] + radius[None, :] - dist, -jnp.inf)
+    touching = overlap >= -CONTACT_GAP
     # Coincident centres: separate along x, lower index to the left.
     index = jnp.arange(num_robots)
     fallback = jnp.where(index[:, None] < index[None, :], -1.0, 1.0)
@@ -36,7 +42,7 @@ def separate_robots(
     uy = jnp.where(close, 0.0, dy / jnp.where(close, 1.0, dist))
     movable = in_world if movable is None else movable
     share = jnp.where(movable[:, None], jnp.where(movable[None, :], 0.5, 1.0), 0.0)
-    push = jnp.where(touching, share * overlap, 0.0)
+    push = jnp.where(overlap > 0.0, share * overlap, 0.0)
     return jnp.sum(push * ux, axis=1), jnp.sum(push * uy, axis=1), jnp.any(touching, axis=1)
 
 

@@ -2,10 +2,15 @@
 
 ``tests/data/pinned_episodes.json`` was written by this file's ``__main__`` on the code before the
 layer packages and the metric registry (commit after f491b8c); a change that moves code must
-leave these numbers alone (metrics within 1e-6, final poses within 1e-5 m). A deliberate change of
+leave these numbers alone (metrics within 1e-6 absolute plus 1e-6 relative, about 16 float32
+ulps: the same code on another CPU, with its own vector widths, rounds differently; final poses
+within 1e-5 m). A deliberate change of
 a metric's definition regenerates the file and says so in the commit:
 ``python tests/contracts/test_pinned_episodes.py`` (it compiles with the suite's XLA flags).
-Regenerated once since: the time-to-collision's touching tolerance (CHANGELOG.md, issue 39);
+Regenerated twice since: the time-to-collision's touching tolerance (CHANGELOG.md, issue 39),
+and the robot-robot contact's 10 um gap (robots resting against each other flipped between
+touching and apart with the last bit, so collision counts differed between an Intel and an AMD
+CPU; CHANGELOG.md);
 ``invalid_actions`` (issue 42) added by hand, 0 in every pinned episode (their policies' actions
 are all valid).
 """
@@ -66,7 +71,8 @@ def test_pinned_episode_values_unchanged(case):
     for name, values in pinned["metrics"].items():
         got = np.array([np.nan if v is None else v for v in now["metrics"][name]], float)
         want = np.array([np.nan if v is None else v for v in values], float)
-        np.testing.assert_allclose(got, want, rtol=0, atol=1e-6, equal_nan=True, err_msg=name)
+        np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-6, equal_nan=True,
+                                   err_msg=name)
     np.testing.assert_allclose(np.array(now["position"]), np.array(pinned["position"]),
                                rtol=0, atol=1e-5)
 

@@ -6,7 +6,7 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from sgjax.kernels.contacts import WALL_SKIN, clamp_to_walls, separate_robots
+from sgjax.kernels.contacts import CONTACT_GAP, WALL_SKIN, clamp_to_walls, separate_robots
 from sgjax.kernels.geometry import point_segment_distance
 from sgjax.maps import compile_map, parse_map
 
@@ -48,6 +48,8 @@ def test_clamped_motion_never_ends_inside_or_crosses_a_wall(wall, start, move, r
 @given(points=st.lists(st.tuples(coord, coord), min_size=2, max_size=6),
        radius=st.floats(0.1, 0.5))
 @example(points=[(0.0, 0.5), (0.0, 0.3)], radius=0.1)  # tangent in float64, 1e-8 apart in float32
+@example(points=[(0.0, 0.0), (0.0, 0.200005)], radius=0.1)  # 5 um apart: in contact, no push
+@example(points=[(0.0, 0.0), (0.0, 0.20002)], radius=0.1)  # 20 um apart: not in contact
 def test_separation_of_a_pair_is_exact_and_symmetric(points, radius):
     (ax, ay), (bx, by) = points[:2]
     x, y = jnp.array([ax, bx], jnp.float32), jnp.array([ay, by], jnp.float32)
@@ -57,11 +59,14 @@ def test_separation_of_a_pair_is_exact_and_symmetric(points, radius):
     gap_after = float(np.hypot(ax + px[0] - bx - px[1], ay + py[0] - by - py[1]))
     np.testing.assert_allclose([px[0] + px[1], py[0] + py[1]], [0.0, 0.0], atol=1e-5)
     # Positions are float32 and this oracle float64: a pair within float32 rounding of
-    # tangency (for example 0.5 - 0.3 against 2 x 0.1) may be called touching or not; either
-    # way it is pushed by no more than that rounding.
-    if abs(gap_before - 2 * radius) < 1e-6:
-        assert float(jnp.hypot(px, py).max()) < 1e-6
-    elif gap_before < 2 * radius:
+    # tangency (for example 0.5 - 0.3 against 2 x 0.1) may be pushed or not, by no more than
+    # that rounding; a pair apart by at most CONTACT_GAP is in contact without a push.
+    rounding = 1e-6
+    if gap_before < 2 * radius - rounding:
         assert bool(touching.all()) and abs(gap_after - 2 * radius) < 1e-4
     else:
-        assert not bool(touching.any()) and float(jnp.abs(px).max()) == 0.0
+        assert float(jnp.hypot(px, py).max()) < rounding
+        if gap_before < 2 * radius + CONTACT_GAP - rounding:
+            assert bool(touching.all())
+        elif gap_before > 2 * radius + CONTACT_GAP + rounding:
+            assert not bool(touching.any()) and float(jnp.abs(px).max()) == 0.0
