@@ -108,10 +108,12 @@ _COUNTS = {"/jax/compilation_cache/cache_hits": "cache_hits",
            "/jax/compilation_cache/cache_misses": "cache_misses"}
 
 
-def _listen(event: str, seconds: float, **_kwargs) -> None:
+def _listen(event: str, seconds: float, fun_name: str = "", **_kwargs) -> None:
     phase = _PHASES.get(event)
     if phase is not None:
         _spent[phase] = _spent.get(phase, 0.0) + seconds
+        if phase == "compile" and seconds >= 0.3:  # the programs that cost (name, seconds)
+            _spent.setdefault("programs", []).append([fun_name, round(seconds, 2)])
 
 
 def _count(event: str, **_kwargs) -> None:

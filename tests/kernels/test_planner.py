@@ -1,6 +1,8 @@
 """The local planner: every route of every shipped map is driven to its goal by one robot under
 GO within the time limit, without touching a wall; route geometry helpers."""
 
+import math
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -24,12 +26,13 @@ def drive_every_route(scenario, robots="socialgym", time_limit=75.0):
     pairs = all_routes(scenario)
     steps = int(params.max_steps)
 
+    chunk = math.gcd(steps, 50)  # steps between checks whether every robot has arrived
+
     @jax.jit
     def run(pairs):
         def reset(pair):
             return env.reset_to(pair[:1], pair[1:], jnp.array([True]), params)[1]
 
-        state = jax.vmap(reset)(pairs)
         vstep = jax.vmap(env.step_env, in_axes=(0, 0, 0, None))
         go = jnp.zeros((pairs.shape[0], 1), jnp.int32)
 
@@ -39,8 +42,18 @@ def drive_every_route(scenario, robots="socialgym", time_limit=75.0):
                                             params)
             return (state, touched | info["collision_wall"][:, 0]), None
 
-        init = (state, jnp.zeros(pairs.shape[0], bool))
-        (state, touched), _ = jax.lax.scan(body, init, jax.random.split(jax.random.key(0), steps))
+        def chunk_of_steps(loop):
+            t, key, carry = loop
+            key, keys = jax.random.split(key), jax.random.split(jax.random.fold_in(key, 1), chunk)
+            return t + chunk, key[0], jax.lax.scan(body, carry, keys)[0]
+
+        def unfinished(loop):  # stop at the time limit, or once every robot has arrived
+            t, _, (state, _) = loop
+            return (t < steps) & ~jnp.all(state.robots.succeeded)
+
+        init = (jnp.int32(0), jax.random.key(0),
+                (jax.vmap(reset)(pairs), jnp.zeros(pairs.shape[0], bool)))
+        _, _, (state, touched) = jax.lax.while_loop(unfinished, chunk_of_steps, init)
         return state.robots.succeeded[:, 0], touched
 
     succeeded, touched = run(jnp.asarray(pairs))

@@ -9,6 +9,7 @@ import pytest
 
 import sgjax
 from sgjax.terms.base import ConfigError
+from sgjax.terms.contract import TermInput
 from sgjax.terms.presets import OBSERVATION_PRESETS, REWARD_PRESETS
 
 RICH = {
@@ -116,17 +117,30 @@ def rich():
 
 @pytest.mark.slow
 def test_rich_terms_jit_equals_eager_and_deterministic(rich):
+    """Every rich term (enders, rewards, observations) on a step's states, op by op and
+    compiled; the compiled step twice gives the same bits. (The step's own physics and
+    bookkeeping, op by op: tests/environment/test_env.py::test_jit_equals_eager; running them
+    eagerly here too, with pedestrians, tripled this test's time.)"""
     env, params = rich
     _, state = env.reset(jax.random.key(3), params)
     actions = jnp.asarray([0, 1, 0, 0], jnp.int32)
-    with jax.disable_jit():  # env.step is compiled unless jit is off
-        eager = env.step(jax.random.key(4), state, actions, params)
-    jitted = jax.jit(env.step)(jax.random.key(4), state, actions, params)
-    again = jax.jit(env.step)(jax.random.key(4), state, actions, params)
-    for a, b, c in zip(jax.tree.leaves(eager), jax.tree.leaves(jitted), jax.tree.leaves(again),
-                       strict=True):
-        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-5, atol=1e-5)
+    step = jax.jit(env.step)
+    jitted = step(jax.random.key(4), state, actions, params)
+    again = step(jax.random.key(4), state, actions, params)
+    for b, c in zip(jax.tree.leaves(jitted), jax.tree.leaves(again), strict=True):
         np.testing.assert_array_equal(np.asarray(b), np.asarray(c))
+
+    def terms(prev, now):
+        inputs = TermInput(prev=prev, state=now, actions=actions, params=params,
+                           key=jax.random.key(5), layout=env.config.layout)
+        return (env.config.enders(inputs), env.config.rewarder(inputs),
+                env.observe(now, params, jax.random.key(6)))
+
+    compiled = jax.jit(terms)(state, jitted[1])
+    with jax.disable_jit():
+        eager = terms(state, jitted[1])
+    for a, b in zip(jax.tree.leaves(eager), jax.tree.leaves(compiled), strict=True):
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-5, atol=1e-5)
 
 
 @pytest.mark.slow
