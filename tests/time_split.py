@@ -1,7 +1,11 @@
 """Sum a ``SGJAX_TEST_TIME_SPLIT`` file (see tests/conftest.py) by test file and by phase.
 
     SGJAX_TEST_TIME_SPLIT=/tmp/split.jsonl python -m pytest -n 2 --dist loadfile
-    python tests/time_split.py /tmp/split.jsonl [--tests 30]
+    python tests/time_split.py /tmp/split.jsonl [--tests 30] [--programs 20]
+
+``--programs``: the compiles of 0.3 s or more summed by program name (``jit(episodes)``, the
+evaluation; ``jit(<lambda>)``, mostly training updates), with how many there were and the files
+that compiled them most: where sharing one compiled program between tests would pay.
 """
 
 from __future__ import annotations
@@ -17,6 +21,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("file")
     parser.add_argument("--tests", type=int, default=30, help="slowest tests to list")
+    parser.add_argument("--programs", type=int, default=0,
+                        help="programs to list by compile seconds (0: none)")
     args = parser.parse_args()
     with open(args.file) as rows:
         tests = [json.loads(line) for line in rows if line.strip()]
@@ -41,6 +47,25 @@ def main() -> None:
         rest = row["wall"] - sum(row.get(p, 0.0) for p in PHASES)
         print(f"{row['wall']:8.1f} {row.get('trace', 0):7.1f} {row.get('lower', 0):7.1f} "
               f"{row.get('compile', 0):8.1f} {rest:7.1f}  {row['test']}")
+    if args.programs:
+        print_programs(tests, args.programs)
+
+
+def print_programs(tests: list[dict], count: int) -> None:
+    """The ``count`` programs that took the most compile seconds, summed over the suite."""
+    seconds: dict[str, float] = defaultdict(float)
+    compiles: dict[str, int] = defaultdict(int)
+    files: dict[str, dict[str, int]] = defaultdict(lambda: defaultdict(int))
+    for row in tests:
+        for name, spent in row.get("programs", []):
+            seconds[name] += spent
+            compiles[name] += 1
+            files[name][row["test"].split("::")[0].rsplit("/", 1)[-1]] += 1
+    print(f"\ncompiles of 0.3 s or more by program ({sum(seconds.values()):.1f} s in all)")
+    for name in sorted(seconds, key=lambda n: -seconds[n])[:count]:
+        most = sorted(files[name].items(), key=lambda item: -item[1])[:3]
+        where = ", ".join(f"{file} {n}" for file, n in most)
+        print(f"{seconds[name]:8.1f} {compiles[name]:5d}  {name}  ({where})")
 
 
 if __name__ == "__main__":
