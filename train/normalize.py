@@ -23,7 +23,10 @@ class RunningStats:
 
     @classmethod
     def start(cls, size: int) -> RunningStats:
-        return cls(mean=jnp.zeros(size), var=jnp.ones(size), count=jnp.asarray(1e-4))
+        """No samples yet (a count of 1e-4 keeps the first update's division finite). The count
+        is a strongly typed float32, as every update returns it: a weakly typed Python-float
+        start made the first training call trace and compile the update a second time."""
+        return cls(mean=jnp.zeros(size), var=jnp.ones(size), count=jnp.asarray(1e-4, jnp.float32))
 
     def update(self, x: Array, mask: Array) -> RunningStats:
         """Fold in the rows of ``x [N, F]`` where ``mask [N]``.

@@ -250,6 +250,24 @@ def test_sequential_and_batched_lanes_train_the_same_seeds(network):
     assert not np.allclose(first[0], first[1])
 
 
+@pytest.mark.parametrize("network", [{"hidden": [16]},
+                                     {"kind": "gru", "recurrent_size": 8, "hidden": [16],
+                                      "others_encoder": "lstm", "encoder_size": 8}])
+def test_a_training_call_returns_the_types_it_takes_so_it_compiles_once(network):
+    """The runner after an update has the shapes, dtypes and weak types of the runner ``init``
+    made: otherwise the first training call of every command traces and compiles the update
+    again for the second (the running statistics' weakly typed start count once did that)."""
+    config = tiny(num_seeds=2, env={"observations": "navigation"}, network=network)
+    trainer = Trainer(config)
+    runner = jax.eval_shape(jax.vmap(trainer.init), seed_keys(config))
+    after, _ = jax.eval_shape(lambda r: trainer.update_chunk_lanes(r, 1), runner)
+    before = jax.tree_util.tree_flatten_with_path(runner)[0]
+    changed = [jax.tree_util.keystr(path) for (path, a), b in zip(
+        before, jax.tree.leaves(after), strict=True)
+        if (a.shape, a.dtype, a.weak_type) != (b.shape, b.dtype, b.weak_type)]
+    assert not changed, changed
+
+
 def _equations(jaxpr):
     """Every equation of a jaxpr and of the jaxprs inside it (scan, cond, custom rules...)."""
     for eqn in jaxpr.eqns:
