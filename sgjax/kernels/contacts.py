@@ -32,8 +32,8 @@ def separate_robots(
     dy = y[:, None] - y[None, :]
     dist = safe_norm(dx, dy)
     pair = in_world[:, None] & in_world[None, :] & ~jnp.eye(num_robots, dtype=bool)
-    overlap = jnp.where(pair, radius[:, None] + radius[None, :] - dist, -jnp.inf)
-    touching = overlap >= -CONTACT_GAP
+    overlap = jnp.where(pair, radius[:, None] + radius[None, :] - dist, 0.0)
+    touching = pair & (overlap >= -CONTACT_GAP)
     # Coincident centres: separate along x, lower index to the left.
     index = jnp.arange(num_robots)
     fallback = jnp.where(index[:, None] < index[None, :], -1.0, 1.0)
