@@ -12,7 +12,7 @@ WALL_SKIN = 1e-3  # m: robots stop this far short of the contact point with a wa
 # m: robots whose gap is at most this are in contact. Two robots pushed apart rest at a gap of
 # about +-1e-6 m (float32 rounding of positions of a few metres), so a test at exactly zero
 # called a resting pair touching or apart by the last bit, which differs between CPUs, and
-# counted a new collision onset at every flip. The same tolerance as the time-to-collision's.
+# counted a new collision onset at every flip. The time-to-collision metrics use it too.
 CONTACT_GAP = 1e-5
 
 

@@ -1,14 +1,13 @@
 """The local planner: every route of every shipped map is driven to its goal by one robot under
 GO within the time limit, without touching a wall; route geometry helpers."""
 
-import math
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 import sgjax
+from sgjax.evaluation.runner import scan_until_done
 from sgjax.kernels.planner import point_along_route, route_progress
 from sgjax.maps.arrays import spawn_groups
 from sgjax.maps.sampling import build_routes
@@ -26,8 +25,6 @@ def drive_every_route(scenario, robots="socialgym", time_limit=75.0):
     pairs = all_routes(scenario)
     steps = int(params.max_steps)
 
-    chunk = math.gcd(steps, 50)  # steps between checks whether every robot has arrived
-
     @jax.jit
     def run(pairs):
         def reset(pair):
@@ -36,24 +33,17 @@ def drive_every_route(scenario, robots="socialgym", time_limit=75.0):
         vstep = jax.vmap(env.step_env, in_axes=(0, 0, 0, None))
         go = jnp.zeros((pairs.shape[0], 1), jnp.int32)
 
-        def body(carry, key):
+        def step(carry, key):
             state, touched = carry
             _, state, _, _, _, info = vstep(jax.random.split(key, pairs.shape[0]), state, go,
                                             params)
-            return (state, touched | info["collision_wall"][:, 0]), None
+            return state, touched | info["collision_wall"][:, 0]
 
-        def chunk_of_steps(loop):
-            t, key, carry = loop
-            key, keys = jax.random.split(key), jax.random.split(jax.random.fold_in(key, 1), chunk)
-            return t + chunk, key[0], jax.lax.scan(body, carry, keys)[0]
-
-        def unfinished(loop):  # stop at the time limit, or once every robot has arrived
-            t, _, (state, _) = loop
-            return (t < steps) & ~jnp.all(state.robots.succeeded)
-
-        init = (jnp.int32(0), jax.random.key(0),
-                (jax.vmap(reset)(pairs), jnp.zeros(pairs.shape[0], bool)))
-        _, _, (state, touched) = jax.lax.while_loop(unfinished, chunk_of_steps, init)
+        # the time limit's steps, in chunks of 50 until every robot has arrived
+        init = (jax.vmap(reset)(pairs), jnp.zeros(pairs.shape[0], bool))
+        (state, touched), _, _ = scan_until_done(
+            step, init, lambda carry: jnp.all(carry[0].robots.succeeded), steps, 50,
+            xs=jax.random.split(jax.random.key(0), steps))
         return state.robots.succeeded[:, 0], touched
 
     succeeded, touched = run(jnp.asarray(pairs))

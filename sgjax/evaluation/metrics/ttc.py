@@ -11,12 +11,14 @@ from sgjax.evaluation.metrics.base import Metric, robot_metric
 from sgjax.evaluation.metrics.constants import MetricConstants
 from sgjax.evaluation.metrics.registration import register_metric
 from sgjax.evaluation.metrics.step_view import EpisodeEnd, StepView
+from sgjax.kernels.contacts import CONTACT_GAP
 
-# m: bodies whose gap is at most this are touching (time-to-collision 0). Robots that the
-# bumpers stopped against each other rest within about 4e-7 m of touching either way in float32
-# (positions of ~10 m carry ~1e-6 m of rounding); without a tolerance half of them read as apart
-# and "never colliding". Far below every physical scale here (radii 0.1-0.5 m, 1 cm steps).
-TOUCHING = 1e-5
+# Bodies whose gap is at most the simulator's contact gap (10 um) are touching:
+# time-to-collision 0. Robots that the bumpers stopped against each other rest within about
+# 4e-7 m of touching either way in float32; without a tolerance half of them read as apart and
+# "never colliding". One constant with the contact step, so that a metric and the bumpers agree
+# on what touching is.
+TOUCHING = CONTACT_GAP
 
 
 def time_to_collision(dpx: Array, dpy: Array, dvx: Array, dvy: Array, reach: Array) -> Array:
