@@ -2,7 +2,8 @@
 (:class:`ActorWeights`) and the one function that turns both into a policy
 (:func:`acting_policy`), used by ``Trainer.policy``, checkpoint loading and the evaluators.
 
-The evaluators (:func:`lane_evaluator`: the seeds or variants of a run; :func:`table_evaluator`:
+The evaluators (:func:`lane_evaluator`: the seeds or variants of a run;
+:func:`play_modes_evaluator`: the same, greedy and sampled, one program; :func:`table_evaluator`:
 the actor and baselines at every robot count, one program) take the weights as an argument, so
 their programs do not change with training: each is built once per process (and compiled once
 per shape: :func:`compiled_once`), and JAX's persistent compilation cache finds it again in
@@ -106,11 +107,12 @@ def actor_features(network: NetworkConfig, layout: ActorLayout, obs_stats: Runni
 
 
 def acting_policy(network: NetworkConfig, layout: ActorLayout, weights: ActorWeights,
-                  deterministic: bool = False) -> RecurrentPolicy:
+                  deterministic: bool | Array = False) -> RecurrentPolicy:
     """The actor as an ``sgjax.evaluation.evaluate`` policy (any robot count; with ``agent_id`` at
-    most
-    ``layout.slots``): actions sampled from it, or its most likely ones with
-    ``deterministic``; continuous actions clipped to [-1, 1]."""
+    most ``layout.slots``): actions sampled from it, or its most likely ones with
+    ``deterministic``; continuous actions clipped to [-1, 1]. ``deterministic`` is a Python
+    bool (one branch compiled) or a traced bool scalar (both computed, one chosen: a ``vmap``
+    over it plays both modes in one program, :func:`play_modes_evaluator`)."""
     model = ActorCritic(network, layout.action_dim, layout.discrete, layout.others)
     spread = head_log_std(weights.params, layout.discrete)
 
@@ -128,10 +130,12 @@ def acting_policy(network: NetworkConfig, layout: ActorLayout, weights: ActorWei
         carry, out = model.apply(weights.params, carry, x[None], starts,
                                  method=ActorCritic.act)
         out = out[0]
-        if deterministic:
-            action = greedy(out, layout.discrete)
+        if isinstance(deterministic, bool):
+            action = (greedy(out, layout.discrete) if deterministic
+                      else sample(key, out, spread, layout.discrete))
         else:
-            action = sample(key, out, spread, layout.discrete)
+            action = jnp.where(deterministic, greedy(out, layout.discrete),
+                               sample(key, out, spread, layout.discrete))
         return carry, (action if layout.discrete else jnp.clip(action, -1.0, 1.0))
 
     return RecurrentPolicy(init=init, step=step)
@@ -148,16 +152,22 @@ def _cached(build: Callable, *key: Any) -> Any:
 
 @functools.lru_cache(maxsize=16)
 def _seed_lanes_program(network: NetworkConfig, layout: ActorLayout, env: Any, episodes: int,
-                        num_steps: int, deterministic: bool) -> Callable:
-    """``jit(vmap(one lane's episodes))`` over lane-batched weights (see :func:`lane_evaluator`);
-    one per static setting in a process."""
+                        num_steps: int, modes: tuple[bool, ...]) -> Callable:
+    """``jit(vmap(one lane's episodes))`` over lane-batched weights (see :func:`lane_evaluator`),
+    for one play mode (static) or, ``vmap``-ed again, for several (a traced flag; outputs
+    ``[modes, lanes, ...]``); one per static setting in a process."""
 
-    def one(weights: ActorWeights, key: Array, params: Any) -> tuple[dict, dict]:
+    def one(weights: ActorWeights, deterministic: bool | Array, key: Array, params: Any
+            ) -> tuple[dict, dict]:
         policy = acting_policy(network, layout, weights, deterministic)
         values, robot, _ = EpisodeRunner(env, policy, episodes, num_steps).episodes(key, params)
         return values, robot
 
-    return jax.jit(jax.vmap(one, in_axes=(0, None, None)))
+    lanes = jax.vmap(one, in_axes=(0, None, None, None))
+    if len(modes) == 1:
+        return jax.jit(lambda weights, key, params: lanes(weights, modes[0], key, params))
+    every = jax.vmap(lanes, in_axes=(None, 0, None, None))
+    return jax.jit(lambda weights, key, params: every(weights, jnp.asarray(modes), key, params))
 
 
 def lane_evaluator(network: NetworkConfig, layout: ActorLayout, env: Any, env_params: Any,
@@ -170,14 +180,33 @@ def lane_evaluator(network: NetworkConfig, layout: ActorLayout, env: Any, env_pa
     evaluators of the same setting in one process share it. Each lane is played by an
     :class:`sgjax.evaluation.runner.EpisodeRunner` (chunks of steps until every episode has
     ended)."""
+    return _evaluator(network, layout, env, env_params, episodes, (bool(deterministic),),
+                      "lane_evaluator")
+
+
+def play_modes_evaluator(network: NetworkConfig, layout: ActorLayout, env: Any, env_params: Any,
+                         episodes: int, modes: Sequence[bool] = (False, True)):
+    """:func:`lane_evaluator` for several play modes (``modes``: False samples, True takes the
+    most likely action) in one compiled program: ``(weights, key, params) -> (values,
+    robot)`` with a leading modes axis, ``{metric: [modes, lanes, episodes]}`` and ``{metric:
+    [modes, lanes, episodes, R]}``. Every mode plays the same episodes (same keys), so the
+    modes pair episode by episode; one compilation where one evaluator per mode took one each
+    (``train.reproduce`` reports both modes of every cell)."""
+    return _evaluator(network, layout, env, env_params, episodes,
+                      tuple(bool(m) for m in modes), "play_modes_evaluator")
+
+
+def _evaluator(network: NetworkConfig, layout: ActorLayout, env: Any, env_params: Any,
+               episodes: int, modes: tuple[bool, ...], name: str):
+    """The evaluator of :func:`lane_evaluator` (one mode: no modes axis) and
+    :func:`play_modes_evaluator`."""
     num_steps = int(env_params.max_steps)
-    compiled = _cached(_seed_lanes_program, network, layout, env, episodes, num_steps,
-                       bool(deterministic))
+    compiled = _cached(_seed_lanes_program, network, layout, env, episodes, num_steps, modes)
 
     def evaluate(weights: ActorWeights, key: Array, params: Any = None) -> tuple[dict, dict]:
         params = env_params if params is None else params
         env.check_params(params)
-        check_steps(params, num_steps, "lane_evaluator")
+        check_steps(params, num_steps, name)
         return compiled(weights, key, params)
 
     return evaluate

@@ -73,7 +73,7 @@ from sgjax.evaluation.statistics import (
 from sgjax.files import write_atomic
 from sgjax.terms.presets import REWARD_PRESETS
 from train import checkpoint
-from train.actor import ActorWeights, lane_evaluator
+from train.actor import ActorWeights, play_modes_evaluator
 from train.config import EVALUATION_SEED_OFFSET, TrainConfig, as_trained, config_from_dict
 from train.marl_eval import to_marl_eval
 from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
@@ -236,20 +236,20 @@ def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: in
         run = EpisodeRunner(env, load_policy(policy, env), episodes, int(first.max_steps)).run
     else:  # the profile's play mode, and the other one for PLAY_MODE_KEYS
         greedy = trainer.config.evaluation.deterministic
-        evaluator, other = (lane_evaluator(trainer.config.network, trainer.actor, env, first,
-                                           episodes, mode) for mode in (greedy, not greedy))
+        evaluator = play_modes_evaluator(trainer.config.network, trainer.actor, env, first,
+                                         episodes, (greedy, not greedy))
     for n in counts:
         params = by_count[n]
         if trainer is None:
             values = {name: v[None] for name, v in jax.device_get(run(key, params)[0]).items()}
-        else:
-            values, _ = jax.device_get(evaluator(ActorWeights.of(runner), key, params))
+        else:  # both play modes in one program: the profile's first
+            both, _ = jax.device_get(evaluator(ActorWeights.of(runner), key, params))
+            values = {name: v[0] for name, v in both.items()}
         out[n] = {name: [float(np.nanmean(row)) if np.isfinite(row).any() else math.nan
                          for row in v] for name, v in values.items()}
         out[n][EPISODES_KEY] = np.asarray(values["team_success"], float).tolist()  # [S, E]
         if trainer is not None:
-            flipped, _ = jax.device_get(other(ActorWeights.of(runner), key, params))
-            modes = {greedy: values["team_success"], not greedy: flipped["team_success"]}
+            modes = {greedy: both["team_success"][0], not greedy: both["team_success"][1]}
             for mode, key_name in ((True, PLAY_MODE_KEYS[0]), (False, PLAY_MODE_KEYS[1])):
                 out[n][key_name] = np.nanmean(np.asarray(modes[mode], float), axis=1).tolist()
     return out

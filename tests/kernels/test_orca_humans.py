@@ -6,6 +6,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from long_runs import jit_for_long_runs
 from test_humans import _wide_corridor  # the 3 m wide, 20 m corridor
 
 import sgjax
@@ -127,7 +128,7 @@ def test_long_orca_rollouts_stay_finite_and_out_of_walls(scenario):
         over = jnp.max(speed - params.humans.max_speed_factor * h.desired_speed)
         return st, (finite, over, jnp.min(jnp.where(h.active, clearance, 1.0)))
 
-    _, (finite, over, clearance) = jax.jit(
+    _, (finite, over, clearance) = jit_for_long_runs(
         lambda s: jax.lax.scan(body, s, jax.random.split(jax.random.key(8), steps)))(state)
     assert bool(jnp.all(finite))
     assert float(jnp.max(over)) <= 1e-5

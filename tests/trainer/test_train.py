@@ -2,6 +2,7 @@
 validated, a vmap over sixteen seeds equals separate seeds and never hangs (the commands end to
 end: tests/trainer/test_train_commands.py)."""
 
+import functools
 import json
 from pathlib import Path
 
@@ -653,3 +654,30 @@ def test_long_runs_checkpoint_about_the_number_of_times_asked():
     assert all(b - a <= 14 for a, b in zip([0, *due], due, strict=False))  # at most 13 + 1 lost
     assert [d for d in range(1, 5) if checkpoint.checkpoint_due(d, 1, 4, 10)] == [1, 2, 3, 4]
     assert [d for d in (61, 122) if checkpoint.checkpoint_due(d, 61, 122, 10)] == [61, 122]
+
+
+
+def test_a_traced_play_mode_acts_as_the_static_one_under_vmap():
+    """train.reproduce's evaluator (train.actor.play_modes_evaluator) plays greedy and sampled
+    as a vmap over a traced flag, one compilation: under that vmap each mode's actions equal
+    the static mode's, bit for bit (MLP and GRU; GO/STOP and continuous)."""
+    from train.actor import acting_policy
+
+    for network, mode in (({"hidden": [32]}, "go_stop"),
+                          ({"kind": "gru", "hidden": [32]}, "continuous")):
+        config = tiny(network=network, env={"action_mode": mode})
+        trainer = Trainer(config)
+        weights = ActorWeights.of(trainer.init(jax.random.key(0)))
+        obs = jax.random.normal(jax.random.key(1), (3, trainer.actor.obs_size))
+        key = jax.random.key(2)
+
+        def act(flag, weights=weights, obs=obs, key=key, net=config.network,
+                layout=trainer.actor):
+            policy = acting_policy(net, layout, weights, flag)
+            return policy.step(policy.init(3), obs, key, None, None)
+
+        both = jax.jit(jax.vmap(act))(jnp.asarray([False, True]))
+        for index, flag in enumerate((False, True)):
+            alone = jax.jit(functools.partial(act, flag))()
+            for ours, theirs in zip(jax.tree.leaves(both), jax.tree.leaves(alone), strict=True):
+                np.testing.assert_array_equal(np.asarray(ours[index]), np.asarray(theirs))
