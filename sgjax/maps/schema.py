@@ -121,6 +121,13 @@ def _expect_number(source: str, path: str, value: Any) -> float:
     """A coordinate (m): a finite number within :data:`MAX_COORDINATE` of the origin."""
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise MapError(source, path, f"expected a number, got {_type_name(value)} {value!r}")
+    return checked_coordinate(source, path, value)
+
+
+def checked_coordinate(source: str, path: str, value: float) -> float:
+    """``value`` (m) as a float if it is finite and within :data:`MAX_COORDINATE` of the
+    origin, else a :class:`MapError` at ``source``, ``path`` (also used by the SocialGym 2.0
+    readers, whose numbers may come as strings)."""
     if not math.isfinite(value):
         raise MapError(source, path, f"expected a finite number, got {value!r}")
     if abs(value) > MAX_COORDINATE:

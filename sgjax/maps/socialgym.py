@@ -47,6 +47,7 @@ from sgjax.maps.schema import (
     DEFAULT_CLEARANCE,
     MapError,
     MapSpec,
+    checked_coordinate,
     parse_map,
     point_segment_distances,
 )
@@ -121,9 +122,10 @@ def read_vectormap_txt(path: Path) -> list[list[float]]:
         if len(parts) != 4:
             raise MapError(str(path), f"line {lineno}", f"expected 'x1, y1, x2, y2', got {line!r}")
         try:
-            walls.append([float(p) for p in parts])
+            numbers = [float(p) for p in parts]
         except ValueError:
             raise MapError(str(path), f"line {lineno}", f"not a number in {line!r}") from None
+        walls.append([checked_coordinate(str(path), f"line {lineno}", x) for x in numbers])
     return walls
 
 
@@ -150,10 +152,11 @@ def read_vectormap_json(path: Path) -> list[list[float]]:
     walls = []
     for i, line in enumerate(data):
         try:
-            walls.append([float(line["p0"]["x"]), float(line["p0"]["y"]),
-                          float(line["p1"]["x"]), float(line["p1"]["y"])])
+            numbers = [float(line["p0"]["x"]), float(line["p0"]["y"]),
+                       float(line["p1"]["x"]), float(line["p1"]["y"])]
         except (KeyError, TypeError, ValueError) as err:
             raise MapError(str(path), f"$[{i}]", f"expected p0/p1 with x and y: {err}") from None
+        walls.append([checked_coordinate(str(path), f"$[{i}]", x) for x in numbers])
     return walls
 
 
@@ -168,11 +171,12 @@ def read_navigation_json(path: Path) -> tuple[list[dict[str, Any]], list[list[in
     nodes, edges = [], []
     for i, node in enumerate(_items(path, "$.nodes", data.get("nodes", []))):
         try:
-            nodes.append({"id": int(node["id"]),
-                          "position": [float(node["loc"]["x"]), float(node["loc"]["y"])]})
+            node_id, xy = int(node["id"]), [float(node["loc"]["x"]), float(node["loc"]["y"])]
         except (KeyError, TypeError, ValueError) as err:
             raise MapError(str(path), f"$.nodes[{i}]",
                            f"expected id and loc.x/loc.y: {err}") from None
+        nodes.append({"id": node_id, "position": [
+            checked_coordinate(str(path), f"$.nodes[{i}].loc", x) for x in xy]})
     values: dict[str, list] = {name: [] for name in EDGE_ATTRIBUTES}
     for i, edge in enumerate(_items(path, "$.edges", data.get("edges", []))):
         try:

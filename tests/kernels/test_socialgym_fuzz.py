@@ -98,3 +98,31 @@ def test_a_corrupted_protocol_file_is_an_error_naming_it(tmp_path, data, new):
         load_protocol(file)
     except ValueError as err:
         assert str(file) in str(err), str(err)
+
+
+@pytest.mark.parametrize("value", ["1e300", "nan", "-inf", "200000"])
+def test_a_coordinate_beyond_the_float32_range_is_a_map_error_without_a_warning(tmp_path,
+                                                                                 value):
+    """A wall or node coordinate that is not finite or beyond +-1e5 m stops the import at the
+    file and line or node that holds it, before any geometry (no numpy overflow warning)."""
+    import warnings
+
+    for target in ("vectormap", "navigation"):
+        folder = _folder(tmp_path)
+        if target == "vectormap":
+            path = folder / "door.vectormap.txt"
+            lines = path.read_text().splitlines()
+            lines[1] = f"{value}, 0.0, 1.0, 1.0"
+            path.write_text("\n".join(lines) + "\n")
+            where = "line 2"
+        else:
+            path = folder / "door.navigation.json"
+            graph = json.loads(path.read_text())
+            graph["nodes"][0]["loc"]["x"] = value  # SocialGym writes numbers as strings too
+            path.write_text(json.dumps(graph))
+            where = "$.nodes[0].loc"
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with pytest.raises(MapError, match=rf"{path.name}.*{where}".replace("$", r"\$")
+                               .replace("[", r"\[").replace("]", r"\]")):
+                import_socialgym(folder)
