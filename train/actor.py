@@ -152,10 +152,10 @@ def _cached(build: Callable, *key: Any) -> Any:
 
 @functools.lru_cache(maxsize=16)
 def _seed_lanes_program(network: NetworkConfig, layout: ActorLayout, env: Any, episodes: int,
-                        num_steps: int, modes: tuple[bool, ...]) -> Callable:
+                        num_steps: int, modes: bool | tuple[bool, ...]) -> Callable:
     """``jit(vmap(one lane's episodes))`` over lane-batched weights (see :func:`lane_evaluator`),
-    for one play mode (static) or, ``vmap``-ed again, for several (a traced flag; outputs
-    ``[modes, lanes, ...]``); one per static setting in a process."""
+    for one play mode (``modes`` a bool: static) or, ``vmap``-ed again, for a tuple of them (a
+    traced flag; outputs ``[modes, lanes, ...]``); one per static setting in a process."""
 
     def one(weights: ActorWeights, deterministic: bool | Array, key: Array, params: Any
             ) -> tuple[dict, dict]:
@@ -164,8 +164,8 @@ def _seed_lanes_program(network: NetworkConfig, layout: ActorLayout, env: Any, e
         return values, robot
 
     lanes = jax.vmap(one, in_axes=(0, None, None, None))
-    if len(modes) == 1:
-        return jax.jit(lambda weights, key, params: lanes(weights, modes[0], key, params))
+    if isinstance(modes, bool):
+        return jax.jit(lambda weights, key, params: lanes(weights, modes, key, params))
     every = jax.vmap(lanes, in_axes=(None, 0, None, None))
     return jax.jit(lambda weights, key, params: every(weights, jnp.asarray(modes), key, params))
 
@@ -180,7 +180,7 @@ def lane_evaluator(network: NetworkConfig, layout: ActorLayout, env: Any, env_pa
     evaluators of the same setting in one process share it. Each lane is played by an
     :class:`sgjax.evaluation.runner.EpisodeRunner` (chunks of steps until every episode has
     ended)."""
-    return _evaluator(network, layout, env, env_params, episodes, (bool(deterministic),),
+    return _evaluator(network, layout, env, env_params, episodes, bool(deterministic),
                       "lane_evaluator")
 
 
@@ -192,14 +192,16 @@ def play_modes_evaluator(network: NetworkConfig, layout: ActorLayout, env: Any, 
     [modes, lanes, episodes, R]}``. Every mode plays the same episodes (same keys), so the
     modes pair episode by episode; one compilation where one evaluator per mode took one each
     (``train.reproduce`` reports both modes of every cell)."""
-    return _evaluator(network, layout, env, env_params, episodes,
-                      tuple(bool(m) for m in modes), "play_modes_evaluator")
+    modes = tuple(bool(m) for m in modes)
+    if not modes:
+        raise ValueError("play_modes_evaluator needs at least one play mode")
+    return _evaluator(network, layout, env, env_params, episodes, modes, "play_modes_evaluator")
 
 
 def _evaluator(network: NetworkConfig, layout: ActorLayout, env: Any, env_params: Any,
-               episodes: int, modes: tuple[bool, ...], name: str):
-    """The evaluator of :func:`lane_evaluator` (one mode: no modes axis) and
-    :func:`play_modes_evaluator`."""
+               episodes: int, modes: bool | tuple[bool, ...], name: str):
+    """The evaluator of :func:`lane_evaluator` (``modes`` a bool: no modes axis) and
+    :func:`play_modes_evaluator` (a tuple: a leading modes axis)."""
     num_steps = int(env_params.max_steps)
     compiled = _cached(_seed_lanes_program, network, layout, env, episodes, num_steps, modes)
 

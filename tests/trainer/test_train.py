@@ -657,6 +657,7 @@ def test_long_runs_checkpoint_about_the_number_of_times_asked():
 
 
 
+@pytest.mark.slow
 def test_a_traced_play_mode_acts_as_the_static_one_under_vmap():
     """train.reproduce's evaluator (train.actor.play_modes_evaluator) plays greedy and sampled
     as a vmap over a traced flag, one compilation: under that vmap each mode's actions equal
