@@ -233,10 +233,9 @@ def test_a_killed_sweep_resumes_and_loses_no_finished_trial(tmp_path):
     slower = {**TINY, "algorithm": {**TINY["algorithm"], "num_envs": 64, "num_steps": 32,
                                     "total_steps": 64 * 32 * 12}}
     config = write(tmp_path / "config.yaml", slower)
-    # Four trials in two lanes: the first pair finishes, the second is caught between two
-    # evaluations; the resumed run finishes the second pair. One network size: one group of
-    # lanes, so each run compiles one training and one evaluation program.
-    data = {**SPACE, "sweep": {**SPACE["sweep"], "trials": 4},
+    # One network size: one group of lanes, so each run compiles one training and one
+    # evaluation program (two sizes made two of each).
+    data = {**SPACE, "sweep": {**SPACE["sweep"], "trials": 6},
             "trial": {"seeds": 1, "evaluations": 4}}
     data["params"] = {k: v for k, v in SPACE["params"].items() if k != "network.hidden"}
     space = write(tmp_path / "space.yaml", data)
@@ -271,7 +270,7 @@ def test_a_killed_sweep_resumes_and_loses_no_finished_trial(tmp_path):
     study = optuna.load_study(study_name="space", storage=storage)
     after = finished(study)
     assert {n: after[n] for n in before} == before
-    assert len(after) == 4 and all(t.state.name == "COMPLETE" for t in study.get_trials())
+    assert len(after) == 6 and all(t.state.name == "COMPLETE" for t in study.get_trials())
     trials = {t.number: t for t in study.get_trials()}
     assert reported  # trials that were between evaluations when killed ...
     for number, values in reported.items():  # ... went on from there: their reports stand
