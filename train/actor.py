@@ -130,7 +130,7 @@ def acting_policy(network: NetworkConfig, layout: ActorLayout, weights: ActorWei
         carry, out = model.apply(weights.params, carry, x[None], starts,
                                  method=ActorCritic.act)
         out = out[0]
-        if isinstance(deterministic, bool):
+        if isinstance(deterministic, bool | np.bool_):  # static: one branch compiled
             action = (greedy(out, layout.discrete) if deterministic
                       else sample(key, out, spread, layout.discrete))
         else:

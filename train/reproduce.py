@@ -249,7 +249,7 @@ def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: in
                          for row in v] for name, v in values.items()}
         out[n][EPISODES_KEY] = np.asarray(values["team_success"], float).tolist()  # [S, E]
         if trainer is not None:
-            modes = {greedy: both["team_success"][0], not greedy: both["team_success"][1]}
+            modes = dict(zip((greedy, not greedy), both["team_success"], strict=True))
             for mode, key_name in ((True, PLAY_MODE_KEYS[0]), (False, PLAY_MODE_KEYS[1])):
                 out[n][key_name] = np.nanmean(np.asarray(modes[mode], float), axis=1).tolist()
     return out

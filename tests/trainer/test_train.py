@@ -656,7 +656,6 @@ def test_long_runs_checkpoint_about_the_number_of_times_asked():
     assert [d for d in (61, 122) if checkpoint.checkpoint_due(d, 61, 122, 10)] == [61, 122]
 
 
-
 @pytest.mark.slow
 def test_a_traced_play_mode_acts_as_the_static_one_under_vmap():
     """train.reproduce's evaluator (train.actor.play_modes_evaluator) plays greedy and sampled
