@@ -132,6 +132,17 @@ class EnvConfig:
         return zone_rect if self.uses_zones else zone_rect[:0]
 
 
+def _set_rows(old: Array, index: Array, new: Array) -> Array:
+    """``old.at[index].set(new, mode="drop")`` for row numbers ``index [K]`` in ``[0, N]``
+    (``N = old.shape[0]``: past the end, dropped; ``new [K, ...]``) as one scatter, without
+    the negative-index handling that ``.at`` traces for every leaf of a state."""
+    numbers = jax.lax.ScatterDimensionNumbers(
+        update_window_dims=tuple(range(1, old.ndim)), inserted_window_dims=(0,),
+        scatter_dims_to_operand_dims=(0,))
+    return jax.lax.scatter(old, index[:, None], new.astype(old.dtype), numbers,
+                           mode=jax.lax.GatherScatterMode.FILL_OR_DROP)
+
+
 class SocialNavEnv:
     """A scenario's environment. Holds only static configuration; all arrays live in params."""
 
@@ -404,9 +415,8 @@ class SocialNavEnv:
                                    fill_value=num_envs)
             fresh_obs, fresh = jax.vmap(self._reset, in_axes=(0, None))(
                 key_reset[jnp.minimum(index, num_envs - 1)], params)
-            obs = obs.at[index].set(fresh_obs, mode="drop")
-            state = jax.tree.map(lambda old, new: old.at[index].set(new, mode="drop"),
-                                 state, fresh)
+            obs = _set_rows(obs, index, fresh_obs)
+            state = jax.tree.map(lambda old, new: _set_rows(old, index, new), state, fresh)
             return i + 1, obs, state
 
         _, obs, next_state = jax.lax.while_loop(

@@ -10,6 +10,7 @@ node it came from: SocialGym's back-and-forth walk), so crowds persist for the w
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -150,6 +151,19 @@ def _random_other_node(key: Array, current: Array, num_nodes: int) -> Array:
     return (current + offset) % num_nodes
 
 
+def no_humans() -> HumanState:
+    """The pedestrians of a world without any (``max_humans == 0``): every field ``[0]``, of
+    the dtype :func:`spawn_humans` gives it."""
+    def empty(dtype: Any) -> Array:
+        return jnp.zeros((0,), dtype)
+
+    f32, i32 = jnp.float32, jnp.int32
+    return HumanState(x=empty(f32), y=empty(f32), vx=empty(f32), vy=empty(f32),
+                      target=empty(i32), goal=empty(i32), origin=empty(i32),
+                      desired_speed=empty(f32), active=empty(bool), heading=empty(f32),
+                      omega=empty(f32))
+
+
 def spawn_humans(
     key: Array, config: HumanConfig, hp: HumanParams, m: MapArrays,
     robot_x: Array, robot_y: Array, robot_radius: Array, robot_present: Array,
@@ -158,8 +172,11 @@ def spawn_humans(
     start bodies, with random goals and desired speeds. Robots are ``[R]`` arrays.
 
     A pedestrian is ``active`` only if a free slot was left for it; ``sgjax.make`` checks that
-    ``max_humans`` always fit.
+    ``max_humans`` always fit. Without pedestrians (``config.max_humans == 0``) nothing is
+    computed: :func:`no_humans` (the paper's worlds compile and trace none of this).
     """
+    if not config.max_humans:
+        return no_humans()
     num = config.max_humans
     num_nodes = m.node_x.shape[0]
     k_slot, k_jitter, k_goal, k_speed = jax.random.split(key, 4)
@@ -232,7 +249,10 @@ def advance_waypoints(
     waypoint is in plain view (its body can walk straight there without touching a wall), or
     once it stands on the target (within its radius); at the goal, pick the next goal
     (``goal_mode``). Without the view rule a pedestrian that turned early for a waypoint round a
-    corner walked into the corner's wall."""
+    corner walked into the corner's wall. Without pedestrians (``config.max_humans == 0``)
+    ``humans`` is returned as it is."""
+    if not config.max_humans:
+        return humans
     tx, ty = m.node_x[humans.target], m.node_y[humans.target]
     distance = safe_norm(tx - humans.x, ty - humans.y)
     near = humans.active & (distance < hp.waypoint_radius)

@@ -11,6 +11,7 @@ from scenes import make_room, place
 
 from sgjax.kernels import zone_books as zn
 from sgjax.rewards import REWARDS, Rewarder, constant, linear, parse_schedule
+from sgjax.rewards.schedules import Schedule
 from sgjax.terms.base import ConfigError
 from sgjax.terms.contract import TermInput
 
@@ -238,6 +239,14 @@ def test_env_step_reports_reward_terms_and_scheduled_weights():
 
 def test_schedules():
     assert float(constant(3.0)(12345)) == 3.0
+    # A one-point schedule skips the search: bit for bit what either rule gives, at any step,
+    # in the shape of the steps asked for.
+    steps = jnp.asarray([-1e9, 0.0, 4.999, 5.0, 5.001, 2.0**31], jnp.float32)
+    for rule in ("linear", "step"):
+        for value in (-1.5, 0.0, 1e-8):
+            one = Schedule(jnp.asarray([5.0]), jnp.asarray([value], jnp.float32), rule)
+            assert one(steps).shape == steps.shape and one(7).shape == ()
+            np.testing.assert_array_equal(one(steps), jnp.interp(steps, one.steps, one.values))
     ramp = linear(0.0, 10.0, steps=100, begin=50)
     np.testing.assert_allclose([float(ramp(t)) for t in (0, 50, 100, 150, 1000)],
                                [0, 0, 5, 10, 10])

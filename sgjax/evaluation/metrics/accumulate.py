@@ -19,6 +19,7 @@ from __future__ import annotations
 from typing import Any
 
 import jax.numpy as jnp
+import numpy as np
 from flax import struct
 from jax import Array
 
@@ -87,28 +88,29 @@ def finalize(m: MetricState, state: EnvState, params: EnvParams
         if missing:
             raise ValueError(f"{family.key}.finalize gave no value for {missing}")
         for info in family.infos:
-            value = values[info.name]
+            value = jnp.asarray(values[info.name], jnp.float32)
             if info.level == "robot":
-                value = jnp.broadcast_to(value, present.shape)
-                robot[info.name] = jnp.where(present, value.astype(jnp.float32), NAN)
+                robot[info.name] = jnp.broadcast_to(value, present.shape)
             else:
-                episode[info.name] = jnp.asarray(value, jnp.float32)
-    return robot, episode
+                episode[info.name] = value
+    # Robots not in the episode read NaN: one select for every robot-level metric at once.
+    names = list(robot)
+    masked = jnp.where(present, jnp.stack([robot[name] for name in names]), NAN)  # [M, R]
+    return dict(zip(names, masked, strict=True)), episode
 
 
 def per_episode(robot: dict[str, Array], episode: dict[str, Array]) -> dict[str, Array]:
     """One value per metric for an episode, in catalogue order: robot-level metrics reduced
     over the robots that have a value (mean or sum; NaN when none has). Batched inputs
     (``[..., R]`` and ``[...]``) give ``[...]``."""
-    values = {}
-    for info in METRICS:
-        if info.level == "episode":
-            values[info.name] = episode[info.name]
-            continue
-        x = robot[info.name]
-        has = jnp.isfinite(x)
-        total = jnp.sum(jnp.where(has, x, 0.0), axis=-1)
-        count = jnp.sum(has, axis=-1)
-        value = total if info.reduce == "sum" else total / jnp.maximum(count, 1)
-        values[info.name] = jnp.where(count > 0, value, jnp.nan)
-    return values
+    infos = [info for info in METRICS if info.level == "robot"]
+    x = jnp.stack([robot[info.name] for info in infos], axis=-2)  # [..., M, R]: all at once
+    has = jnp.isfinite(x)
+    total = jnp.sum(jnp.where(has, x, 0.0), axis=-1)
+    count = jnp.sum(has, axis=-1)
+    summed = np.array([info.reduce == "sum" for info in infos])
+    value = jnp.where(summed, total, total / jnp.maximum(count, 1))
+    value = jnp.where(count > 0, value, jnp.nan)  # [..., M]
+    reduced = {info.name: value[..., i] for i, info in enumerate(infos)}
+    return {info.name: episode[info.name] if info.level == "episode" else reduced[info.name]
+            for info in METRICS}
