@@ -132,14 +132,14 @@ class EnvConfig:
         return zone_rect if self.uses_zones else zone_rect[:0]
 
 
-def _set_rows(old: Array, index: Array, new: Array) -> Array:
-    """``old.at[index].set(new, mode="drop")`` for row numbers ``index [K]`` in ``[0, N]``
-    (``N = old.shape[0]``: past the end, dropped; ``new [K, ...]``) as one scatter, without
-    the negative-index handling that ``.at`` traces for every leaf of a state."""
+def _set_rows(old: Array, rows: Array, new: Array) -> Array:
+    """``old.at[rows[:, 0]].set(new, mode="drop")`` for row numbers ``rows [K, 1]`` in ``[0,
+    N]`` (``N = old.shape[0]``: past the end, dropped; ``new [K, ...]``) as one scatter,
+    without the index handling that ``.at`` traces again for every leaf of a state."""
     numbers = jax.lax.ScatterDimensionNumbers(
         update_window_dims=tuple(range(1, old.ndim)), inserted_window_dims=(0,),
         scatter_dims_to_operand_dims=(0,))
-    return jax.lax.scatter(old, index[:, None], new.astype(old.dtype), numbers,
+    return jax.lax.scatter(old, rows, new.astype(old.dtype), numbers,
                            mode=jax.lax.GatherScatterMode.FILL_OR_DROP)
 
 
@@ -415,8 +415,9 @@ class SocialNavEnv:
                                    fill_value=num_envs)
             fresh_obs, fresh = jax.vmap(self._reset, in_axes=(0, None))(
                 key_reset[jnp.minimum(index, num_envs - 1)], params)
-            obs = _set_rows(obs, index, fresh_obs)
-            state = jax.tree.map(lambda old, new: _set_rows(old, index, new), state, fresh)
+            rows = index[:, None]
+            obs = _set_rows(obs, rows, fresh_obs)
+            state = jax.tree.map(lambda old, new: _set_rows(old, rows, new), state, fresh)
             return i + 1, obs, state
 
         _, obs, next_state = jax.lax.while_loop(

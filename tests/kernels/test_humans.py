@@ -265,6 +265,50 @@ def test_changing_num_humans_does_not_retrace():
     assert len(traces) == 1
 
 
+def _pedestrian_equations(jaxpr) -> list[str]:
+    """The functions of sgjax/humans/ that equations of ``jaxpr`` (and of the jaxprs inside
+    it) were traced in."""
+    from jax._src import source_info_util
+
+    found = []
+    for eqn in jaxpr.eqns:
+        frame = source_info_util.user_frame(eqn.source_info.traceback)
+        if frame is not None and "/sgjax/humans/" in frame.file_name:
+            found.append(frame.function_name)
+        for param in eqn.params.values():
+            for sub in param if isinstance(param, (list, tuple)) else [param]:
+                inner = getattr(sub, "jaxpr", sub)
+                if hasattr(inner, "eqns"):
+                    found += _pedestrian_equations(inner)
+    return found
+
+
+def test_a_world_without_pedestrians_traces_none_of_their_code():
+    """With ``max_humans == 0`` the reset and the step trace no pedestrian kernel (the paper's
+    worlds compile none of it) and hold pedestrians of the shapes and dtypes a world with
+    pedestrians has, with no rows; with pedestrians the kernels are traced."""
+    key = jax.random.key(0)
+    shapes = {}
+    for most in (0, 3):
+        env, params = sgjax.make("doorway", num_agents=2, num_humans=most, max_humans=most)
+        actions = jnp.zeros(env.max_agents, jnp.int32)
+
+        def reset_and_step(k, p, env=env, actions=actions):
+            _, state = env.reset(k, p)
+            return env.step(k, state, actions, p)[1].humans
+
+        jaxpr = jax.make_jaxpr(reset_and_step)(key, params).jaxpr
+        used = set(_pedestrian_equations(jaxpr))
+        if most:
+            assert {"spawn_humans", "advance_waypoints"} <= used, used
+        else:
+            assert all(name.startswith("no_humans") for name in used), used
+        shapes[most] = jax.eval_shape(reset_and_step, key, params)
+    for none, some in zip(jax.tree.leaves(shapes[0]), jax.tree.leaves(shapes[3]), strict=True):
+        assert none.shape == (0,) + some.shape[1:]
+        assert (none.dtype, none.weak_type) == (some.dtype, some.weak_type)
+
+
 @pytest.mark.slow
 def test_force_constants_are_differentiable():
     """``jax.grad`` through a rollout with respect to a force constant is finite and non-zero
