@@ -10,7 +10,6 @@ node it came from: SocialGym's back-and-forth walk), so crowds persist for the w
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -154,14 +153,10 @@ def _random_other_node(key: Array, current: Array, num_nodes: int) -> Array:
 def no_humans() -> HumanState:
     """The pedestrians of a world without any (``max_humans == 0``): every field ``[0]``, of
     the dtype :func:`spawn_humans` gives it."""
-    def empty(dtype: Any) -> Array:
-        return jnp.zeros((0,), dtype)
-
-    f32, i32 = jnp.float32, jnp.int32
-    return HumanState(x=empty(f32), y=empty(f32), vx=empty(f32), vy=empty(f32),
-                      target=empty(i32), goal=empty(i32), origin=empty(i32),
-                      desired_speed=empty(f32), active=empty(bool), heading=empty(f32),
-                      omega=empty(f32))
+    real, row = jnp.zeros((0,), jnp.float32), jnp.zeros((0,), jnp.int32)
+    return HumanState(x=real, y=real, vx=real, vy=real, target=row, goal=row, origin=row,
+                      desired_speed=real, active=jnp.zeros((0,), bool), heading=real,
+                      omega=real)
 
 
 def spawn_humans(

@@ -34,8 +34,8 @@ class Schedule:
 
     def __call__(self, t: Array) -> Array:
         t = jnp.asarray(t, jnp.float32)
-        if self.values.shape[-1] == 1:  # a constant: what either rule gives, without the search
-            return jnp.broadcast_to(self.values[..., 0], t.shape)
+        if self.values.shape[0] == 1:  # a constant: what either rule gives, without the search
+            return jnp.broadcast_to(self.values[0], t.shape)
         if self.interpolation == "linear":
             return jnp.interp(t, self.steps, self.values)
         passed = jnp.sum(self.steps <= t) - 1

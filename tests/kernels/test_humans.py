@@ -6,6 +6,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from jaxprs import equations, traced_in
 
 import sgjax
 from sgjax.humans import HumanState, SocialForceParams
@@ -265,22 +266,10 @@ def test_changing_num_humans_does_not_retrace():
     assert len(traces) == 1
 
 
-def _pedestrian_equations(jaxpr) -> list[str]:
-    """The functions of sgjax/humans/ that equations of ``jaxpr`` (and of the jaxprs inside
-    it) were traced in."""
-    from jax._src import source_info_util
-
-    found = []
-    for eqn in jaxpr.eqns:
-        frame = source_info_util.user_frame(eqn.source_info.traceback)
-        if frame is not None and "/sgjax/humans/" in frame.file_name:
-            found.append(frame.function_name)
-        for param in eqn.params.values():
-            for sub in param if isinstance(param, (list, tuple)) else [param]:
-                inner = getattr(sub, "jaxpr", sub)
-                if hasattr(inner, "eqns"):
-                    found += _pedestrian_equations(inner)
-    return found
+def _pedestrian_functions(jaxpr) -> set[str]:
+    """The functions of sgjax/humans/ that equations of ``jaxpr`` were traced in."""
+    where = (traced_in(eqn) for eqn in equations(jaxpr))
+    return {function for file, function in filter(None, where) if "/sgjax/humans/" in file}
 
 
 def test_a_world_without_pedestrians_traces_none_of_their_code():
@@ -298,7 +287,7 @@ def test_a_world_without_pedestrians_traces_none_of_their_code():
             return env.step(k, state, actions, p)[1].humans
 
         jaxpr = jax.make_jaxpr(reset_and_step)(key, params).jaxpr
-        used = set(_pedestrian_equations(jaxpr))
+        used = _pedestrian_functions(jaxpr)
         if most:
             assert {"spawn_humans", "advance_waypoints"} <= used, used
         else:

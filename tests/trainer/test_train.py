@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import yaml
 from flax import serialization
+from jaxprs import equations
 
 from sgjax.environment.options import MakeOptions
 from sgjax.evaluation.policies import load_policy, policy_options
@@ -269,23 +270,12 @@ def test_a_training_call_returns_the_types_it_takes_so_it_compiles_once(network)
     assert not changed, changed
 
 
-def _equations(jaxpr):
-    """Every equation of a jaxpr and of the jaxprs inside it (scan, cond, custom rules...)."""
-    for eqn in jaxpr.eqns:
-        yield eqn
-        for param in eqn.params.values():
-            for sub in param if isinstance(param, (list, tuple)) else [param]:
-                inner = getattr(sub, "jaxpr", sub)
-                if hasattr(inner, "eqns"):
-                    yield from _equations(inner)
-
-
 def test_vmapped_network_init_runs_no_batched_qr(two_seeds):
     """Batched QRs side by side deadlock XLA:CPU (docs/xla-cpu-deadlock.md): a vmapped init
     factorises one matrix at a time."""
     config, trainer, _, _ = two_seeds
     jaxpr = jax.make_jaxpr(jax.vmap(trainer.init))(seed_keys(config)).jaxpr
-    qrs = [eqn for eqn in _equations(jaxpr) if eqn.primitive.name in ("qr", "geqrf", "geqp3")]
+    qrs = [eqn for eqn in equations(jaxpr) if eqn.primitive.name in ("qr", "geqrf", "geqp3")]
     assert qrs, "expected orthogonal initialisers"
     assert all(v.aval.ndim == 2 for eqn in qrs for v in eqn.invars), [
         [v.aval.shape for v in eqn.invars] for eqn in qrs]
