@@ -14,9 +14,12 @@ run's final evaluation, a training run's ``provenance.json``, ``train.reproduce`
      "episodes_per_cell": 192, "seconds": {"training": 123.4, ...}}
 
 ``git.commit`` is None (with ``git.error`` saying why) outside a git checkout; ``dirty`` says
-whether tracked files differed from that commit when the result was written. The JSON schema
-of the block is ``PROVENANCE_SCHEMA`` (``docs/results/schema.json`` holds it with the
-result files' own schema).
+whether tracked files differed from that commit when the result was written. sgjax installed
+from a package (a machine without git or without the checkout, such as an offline GPU) takes
+the commit from the environment variable ``SGJAX_GIT_COMMIT`` (40 hex digits) when it is set;
+the block then says so (``"source": "SGJAX_GIT_COMMIT"``) and ``dirty`` is None (unknown).
+The JSON schema of the block is ``PROVENANCE_SCHEMA`` (``docs/results/schema.json`` holds it
+with the result files' own schema).
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ import importlib.metadata
 import json
 import os
 import platform
+import re
 import shlex
 import subprocess
 import sys
@@ -61,6 +65,10 @@ PROVENANCE_SCHEMA: dict[str, Any] = {
 }
 
 
+# Where an installed sgjax (no checkout beside it) learns the commit it was installed from.
+COMMIT_VARIABLE = "SGJAX_GIT_COMMIT"
+
+
 def _git(*args: str) -> str:
     """``git args`` in :data:`REPOSITORY`; its stdout, stripped (raises on failure)."""
     done = subprocess.run(["git", "-C", str(REPOSITORY), *args], capture_output=True,
@@ -72,8 +80,15 @@ def git_state() -> dict[str, Any]:
     """``{"commit": 40-hex or None, "dirty": bool or None}`` of the checkout sgjax runs from,
     with ``"error"`` saying why where there is none (an installed wheel, git missing)."""
     if not (REPOSITORY / ".git").exists():
-        return {"commit": None, "dirty": None,
-                "error": f"{REPOSITORY} is not a git checkout (sgjax installed from a package)"}
+        given = os.environ.get(COMMIT_VARIABLE)
+        if given is None:
+            return {"commit": None, "dirty": None,
+                    "error": f"{REPOSITORY} is not a git checkout (sgjax installed from a "
+                             f"package) and {COMMIT_VARIABLE} is not set"}
+        if not re.fullmatch(r"[0-9a-f]{40}", given):
+            raise ValueError(f"{COMMIT_VARIABLE}={given!r}: not a commit (40 lowercase hex "
+                             "digits, as `git rev-parse HEAD` prints)")
+        return {"commit": given, "dirty": None, "source": COMMIT_VARIABLE}
     try:
         commit = _git("rev-parse", "HEAD")
         dirty = bool(_git("status", "--porcelain", "--untracked-files=no"))

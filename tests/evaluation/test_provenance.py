@@ -28,10 +28,30 @@ def test_block_names_this_checkout_versions_machine_and_seeds():
 
 def test_outside_a_checkout_the_commit_is_none_and_says_why(tmp_path, monkeypatch):
     monkeypatch.setattr(prov, "REPOSITORY", tmp_path)
+    monkeypatch.delenv(prov.COMMIT_VARIABLE, raising=False)
     state = prov.git_state()
     assert state["commit"] is None and state["dirty"] is None
-    assert "not a git checkout" in state["error"]
+    assert "not a git checkout" in state["error"] and prov.COMMIT_VARIABLE in state["error"]
     jsonschema.validate(prov.provenance(), prov.PROVENANCE_SCHEMA)
+
+
+def test_an_installed_sgjax_takes_the_commit_from_the_environment(tmp_path, monkeypatch):
+    checkout = prov.REPOSITORY
+    monkeypatch.setattr(prov, "REPOSITORY", tmp_path)
+    commit = "0123456789abcdef0123456789abcdef01234567"
+    monkeypatch.setenv(prov.COMMIT_VARIABLE, commit)
+    assert prov.git_state() == {"commit": commit, "dirty": None,
+                                "source": prov.COMMIT_VARIABLE}
+    jsonschema.validate(prov.provenance(), prov.PROVENANCE_SCHEMA)
+    for bad in ("55d7da2", commit.upper(), commit + "0", ""):
+        monkeypatch.setenv(prov.COMMIT_VARIABLE, bad)
+        with pytest.raises(ValueError, match=prov.COMMIT_VARIABLE):
+            prov.git_state()
+    # A checkout's own commit wins over the variable.
+    monkeypatch.setenv(prov.COMMIT_VARIABLE, commit)
+    monkeypatch.setattr(prov, "REPOSITORY", checkout)
+    state = prov.git_state()
+    assert state["commit"] == prov._git("rev-parse", "HEAD") and "source" not in state
 
 
 def test_a_block_that_breaks_the_schema_is_caught():
