@@ -38,6 +38,17 @@ class ZoneState:
     entered_at: Array  # int32: step of entry (0 before)
 
 
+def no_zones(num_robots: int) -> ZoneState:
+    """Books of ``num_robots`` robots and no zone (``[R, 0]``), with the leaf dtypes that
+    :func:`start_zones` gives: what a world without tracked zones carries."""
+    empty = (num_robots, 0)
+    return ZoneState(participant=jnp.zeros(empty, bool),
+                     priority_key=jnp.zeros(empty, jnp.float32),
+                     phase=jnp.zeros(empty, jnp.int32),
+                     was_contained=jnp.zeros(empty, bool),
+                     entered_at=jnp.zeros(empty, jnp.int32))
+
+
 def route_crosses_rects(route_x: Array, route_y: Array, rect: Array, margin: Array) -> Array:
     """Whether each polyline ``[R, L]`` passes within ``margin [R]`` (m) of each rectangle
     ``[Z, 4]`` (slab test on every segment, rectangles grown by the margin). Returns ``[R, Z]``."""
@@ -88,8 +99,12 @@ def start_zones(
     key: Array, route_x: Array, route_y: Array, x: Array, y: Array, radius: Array,
     present: Array, rect: Array,
 ) -> ZoneState:
-    """Zone state at reset: participants, a random priority, and who already starts inside."""
+    """Zone state at reset: participants, a random priority, and who already starts inside.
+    Without zones (``rect`` ``[0, 4]``: none on the map, or no term reads them) the books are
+    :func:`no_zones` and nothing is computed."""
     num_robots, num_zones = x.shape[0], rect.shape[0]
+    if num_zones == 0:
+        return no_zones(num_robots)
     participant = route_crosses_rects(route_x, route_y, rect, radius) & present[:, None]
     inside = overlaps(x, y, radius, rect) & participant
     return ZoneState(
@@ -104,7 +119,10 @@ def start_zones(
 def update_zones(
     zones: ZoneState, x: Array, y: Array, radius: Array, rect: Array, time: Array
 ) -> ZoneState:
-    """Advance phases after a step; ``time`` is the step just completed."""
+    """Advance phases after a step; ``time`` is the step just completed. Books without zones
+    (``[R, 0]``) are returned as they are."""
+    if rect.shape[0] == 0:
+        return zones
     now_in = overlaps(x, y, radius, rect) & zones.participant
     entered = (zones.phase == BEFORE) & now_in
     exited = (zones.phase == INSIDE) & ~now_in

@@ -1,6 +1,7 @@
 """The environment's API contract: shapes, spaces, determinism, jit/vmap equivalence, retracing,
 auto-reset and episode ends, and clear errors for bad input."""
 
+import dataclasses
 import os
 
 import chex
@@ -9,6 +10,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from jaxprs import equations, traced_in
 
 import sgjax
 from sgjax.environment.env import OBS_SIZE, SETTLE_TOLERANCE
@@ -438,3 +440,37 @@ def test_invalid_actions_are_an_error_outside_jit_and_neutral_flagged_inside(act
         assert bool(jnp.all(jnp.isfinite(obs))) and bool(jnp.all(jnp.isfinite(reward)))
         np.testing.assert_array_equal(np.asarray(obs), np.asarray(ref_obs))
         np.testing.assert_array_equal(np.asarray(reward), np.asarray(ref_reward))
+
+
+def test_zone_books_are_traced_only_where_something_reads_them():
+    """The doorway has a conflict zone; with terms that read no zone (the default) the reset
+    and the step trace none of the zone bookkeeping (training programs compile none of it) and
+    carry ``[R, 0]`` books of the dtypes the tracked ones have; with the zone terms, or
+    ``track_zones`` (the evaluation runner's), it is traced and the books are ``[R, 1]``."""
+    key = jax.random.key(0)
+    books = {}
+    for name, options in (("none", {}), ("terms", {"observations": "enforced_order",
+                                                    "rewards": "enforced_order"}),
+                          ("tracked", {})):
+        env, params = sgjax.make("doorway", num_agents=2, **options)
+        if name == "tracked":
+            env = sgjax.SocialNavEnv(dataclasses.replace(env.config, track_zones=True), params)
+        actions = jnp.zeros(env.max_agents, jnp.int32)
+
+        def reset_and_step(k, p, env=env, actions=actions):
+            _, state = env.reset(k, p)
+            return env.step(k, state, actions, p)[1].zones
+
+        jaxpr = jax.make_jaxpr(reset_and_step)(key, params).jaxpr
+        where = filter(None, (traced_in(eqn) for eqn in equations(jaxpr)))
+        used = {function for file, function in where if file.endswith("zone_books.py")}
+        if name == "none":
+            assert used <= {"no_zones"}, used
+        else:
+            assert {"start_zones", "update_zones"} <= used, (name, used)
+        books[name] = jax.eval_shape(reset_and_step, key, params)
+    for name in ("terms", "tracked"):
+        for none, kept in zip(jax.tree.leaves(books["none"]), jax.tree.leaves(books[name]),
+                              strict=True):
+            assert none.shape == (2, 0) and kept.shape == (2, 1), (name, kept.shape)
+            assert (none.dtype, none.weak_type) == (kept.dtype, kept.weak_type), name
