@@ -12,16 +12,17 @@ import json
 import math
 from collections.abc import Sequence
 from pathlib import Path
-
-from matplotlib.axes import Axes
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
+from typing import TYPE_CHECKING
 
 from sgjax.evaluation.metrics import METRICS, MetricConstants
 from sgjax.evaluation.result_schema import EVALUATE
 from sgjax.evaluation.statistics import CONFIDENCE, ConfigResult, Summary
 from sgjax.files import write_atomic
 from sgjax.version import __version__
+
+if TYPE_CHECKING:  # matplotlib is imported where a figure is drawn (half a second at start-up)
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 # The paper's Table 3 columns, then success.
 HEADLINE = (("episode_length", "Avg. length (steps)"), ("collisions", "Coll. rate"),
@@ -212,6 +213,9 @@ def new_figure(width: float, height: float) -> Figure:
     """A figure of ``width`` x ``height`` inches at 100 dpi, drawn by its own Agg canvas:
     matplotlib's global backend and pyplot's figure list are left alone (importing sgjax never
     changes a notebook's plotting)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(width, height), dpi=100)
     FigureCanvasAgg(fig)
     return fig

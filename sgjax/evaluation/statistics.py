@@ -15,7 +15,6 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-from scipy import stats as scipy_stats
 
 from sgjax.evaluation.metrics import METRICS
 
@@ -39,12 +38,20 @@ class Summary:
                 "ci_high": clean(self.ci_high), "std": clean(self.std), "n": self.n}
 
 
+
+def _scipy_stats() -> Any:
+    """``scipy.stats``, imported at first use: it costs a third of a second, which every
+    command would otherwise pay at start-up whether it reports intervals or not."""
+    from scipy import stats
+
+    return stats
+
 def wilson_interval(successes: float, n: int, confidence: float = CONFIDENCE
                     ) -> tuple[float, float]:
     """Wilson score interval of a proportion ``successes / n``."""
     if n == 0:
         return math.nan, math.nan
-    z = float(scipy_stats.norm.ppf(0.5 + confidence / 2))
+    z = float(_scipy_stats().norm.ppf(0.5 + confidence / 2))
     p = successes / n
     centre = (p + z * z / (2 * n)) / (1 + z * z / n)
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
@@ -57,7 +64,7 @@ def t_interval(values: np.ndarray, confidence: float = CONFIDENCE) -> tuple[floa
     if n < 2:
         return math.nan, math.nan
     mean = float(np.mean(values))
-    half = float(scipy_stats.t.ppf(0.5 + confidence / 2, n - 1)) * float(
+    half = float(_scipy_stats().t.ppf(0.5 + confidence / 2, n - 1)) * float(
         np.std(values, ddof=1)) / math.sqrt(n)
     return mean - half, mean + half
 
@@ -93,7 +100,7 @@ def interquartile_mean(values: np.ndarray) -> float:
     """Mean of the middle half of ``values`` (25% trimmed from each end: rliable's IQM, robust
     to one outlying seed and less noisy than the median); NaN for no values."""
     values = np.asarray(values, float)
-    return float(scipy_stats.trim_mean(values, 0.25)) if values.size else math.nan
+    return float(_scipy_stats().trim_mean(values, 0.25)) if values.size else math.nan
 
 
 def seed_aggregate(per_seed: np.ndarray, confidence: float = CONFIDENCE, resamples: int = 2000,
@@ -111,7 +118,7 @@ def seed_aggregate(per_seed: np.ndarray, confidence: float = CONFIDENCE, resampl
     for name, statistic in (("mean", np.mean), ("iqm", interquartile_mean)):
         low = high = math.nan
         if values.size > 1 and np.ptp(values) > 0:
-            result = scipy_stats.bootstrap(
+            result = _scipy_stats().bootstrap(
                 (values,), lambda v, axis=-1, f=statistic: np.apply_along_axis(f, axis, v),
                 confidence_level=confidence, n_resamples=resamples, method="percentile",
                 random_state=np.random.default_rng(seed))
