@@ -96,6 +96,7 @@ class EnvBatch:
                                   f"{first.observation_size}; use the same terms and zones")
         self.slots = e.slots
         self.obs_size = first.observation_size
+        self._reward_terms: tuple[str, ...] | None = None
         self.discrete = first.config.action_mode == "go_stop"
         self.action_dim = 2 if self.discrete else first.config.action_dim
 
@@ -145,7 +146,13 @@ class EnvBatch:
         return jnp.concatenate([s.robots.active for s in states])
 
     def reward_term_names(self) -> tuple[str, ...]:
-        """Names in ``info["reward_terms"]`` (reward terms, and enders that pay, e.g. stuck)."""
+        """Names in ``info["reward_terms"]`` (reward terms, and enders that pay, e.g. stuck),
+        read from the step's traced output once per batch (a trace of a reset and a step)."""
+        if self._reward_terms is None:
+            self._reward_terms = self._traced_reward_term_names()
+        return self._reward_terms
+
+    def _traced_reward_term_names(self) -> tuple[str, ...]:
         env, params = self.env, self.params[0]
         key = jax.random.PRNGKey(0)
         _, state = jax.eval_shape(env.reset, key, params)
