@@ -647,6 +647,30 @@ def test_long_runs_checkpoint_about_the_number_of_times_asked():
 
 
 @pytest.mark.slow
+def test_the_play_modes_program_plays_each_mode_as_its_own_evaluator():
+    """train.reproduce's one program for both play modes (the modes as lanes beside the seeds)
+    gives ``[modes, seeds, episodes]`` values, each mode's those of the evaluator compiled for
+    that mode alone."""
+    from train.actor import lane_evaluator, play_modes_evaluator
+
+    config = tiny(num_seeds=2, env={"time_limit": 6.0})
+    trainer = Trainer(config)
+    weights = ActorWeights.of(jax.vmap(trainer.init)(seed_keys(config)))
+    env, params = trainer.batch.envs[0], trainer.batch.params[0]
+    key, modes = jax.random.key(4), (True, False)
+    both, both_robot = play_modes_evaluator(config.network, trainer.actor, env, params, 3,
+                                            modes)(weights, key)
+    assert both["success"].shape == (2, 2, 3)
+    for index, mode in enumerate(modes):
+        alone, alone_robot = lane_evaluator(config.network, trainer.actor, env, params, 3,
+                                            mode)(weights, key)
+        for ours, theirs in ((both, alone), (both_robot, alone_robot)):
+            assert ours.keys() == theirs.keys()
+            for name in theirs:
+                np.testing.assert_allclose(np.asarray(ours[name][index]), np.asarray(theirs[name]),
+                                           rtol=1e-6, atol=0, err_msg=f"{mode}: {name}")
+
+
 def test_a_traced_play_mode_acts_as_the_static_one_under_vmap():
     """train.reproduce's evaluator (train.actor.play_modes_evaluator) plays greedy and sampled
     as a vmap over a traced flag, one compilation: under that vmap each mode's actions equal
