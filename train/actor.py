@@ -157,7 +157,7 @@ def _seed_lanes_program(network: NetworkConfig, layout: ActorLayout, env: Any, e
     for one play mode (``modes`` a bool: static) or for a tuple of them (a traced flag; outputs
     ``[modes, lanes, ...]``); one per static setting in a process. The modes are lanes of the
     same ``vmap`` (the weights repeated, mode-major), not a second ``vmap`` around it: batching
-    the episode loop under two nested ``vmap`` s traced it about twice as long (2.2 s against
+    the episode loop under two nested vmaps traced it about twice as long (2.2 s against
     1.0 s for a tiny MLP's two modes)."""
 
     def one(weights: ActorWeights, deterministic: bool | Array, key: Array, params: Any

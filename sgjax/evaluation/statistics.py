@@ -38,13 +38,13 @@ class Summary:
                 "ci_high": clean(self.ci_high), "std": clean(self.std), "n": self.n}
 
 
-
 def _scipy_stats() -> Any:
     """``scipy.stats``, imported at first use: it costs a third of a second, which every
     command would otherwise pay at start-up whether it reports intervals or not."""
     from scipy import stats
 
     return stats
+
 
 def wilson_interval(successes: float, n: int, confidence: float = CONFIDENCE
                     ) -> tuple[float, float]:
