@@ -26,49 +26,52 @@ def leaves_equal(a, b) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("at_once", [False, True])
-def test_lanes_play_the_episodes_of_separate_runs(at_once):
+def test_lanes_play_the_episodes_of_separate_runs():
     """Per-episode values of every (policy, count) lane equal ``run_episodes`` of that policy at
     that count with the same key, whether the counts are calls of the program or lanes too;
     the summaries equal ``evaluate``'s; the recorded lane is that episode, state for state, as
-    a separate recording run plays it."""
+    a separate recording run plays it. (The separate runs are played once for both layouts.)"""
     record = (2, COUNTS[0], 1)  # stop_when_blocked at 2 robots, episode 1
-    results, values, states = evaluate_lanes(SCENARIO, POLICIES, COUNTS, EPISODES, seed=SEED,
-                                             options=OPTIONS, record=record,
-                                             counts_at_once=at_once)
-    assert values["success"].shape == (len(POLICIES), len(COUNTS), EPISODES)
     env, by_count = params_by_count(SCENARIO, COUNTS, options=OPTIONS)
-    for p, policy in enumerate(POLICIES):
-        for k, n in enumerate(COUNTS):
-            alone = run_episodes(env, by_count[n], policy, jax.random.key(SEED), EPISODES,
-                                 record=(p, n) == record[:2])
-            for name, per_episode in alone.values.items():
-                # The same episodes (states equal below, to the bit); a metric that sums
-                # floats over steps may round differently in the two programs (XLA fuses
-                # them differently: jerk_mean once differed by 1 ulp), so those agree to
-                # float32 rounding.
-                np.testing.assert_allclose(values[name][p, k], per_episode, rtol=1e-6,
-                                           atol=0, err_msg=f"{policy} at {n} robots: {name}")
-            if alone.states is not None:
-                leaves_equal(states, jax.tree.map(lambda leaf: leaf[:, record[2]],
-                                                  alone.states))
+    alone = {(policy, n): run_episodes(env, by_count[n], policy, jax.random.key(SEED), EPISODES,
+                                       record=(p, n) == record[:2])
+             for p, policy in enumerate(POLICIES) for n in COUNTS}
     separate = evaluate([SCENARIO], POLICIES, COUNTS, EPISODES, seed=SEED, options=OPTIONS,
                         log=None)
-    assert [(r.policy, r.num_agents) for r in results] == [
-        (r.policy, r.num_agents) for r in separate]
-    for mine, theirs in zip(results, separate, strict=True):
-        ours, others = mine.as_dict()["metrics"], theirs.as_dict()["metrics"]
-        assert ours.keys() == others.keys()
-        for name in ours:
-            for field, value in ours[name].items():
-                if isinstance(value, float):
-                    assert value == pytest.approx(others[name][field], rel=1e-6, abs=1e-9,
-                                                  nan_ok=True), (name, field)
-                else:
-                    assert value == others[name][field], (name, field)
-        assert mine.steps_played >= theirs.steps_played
-    assert results[0].compile_seconds > 0
-    assert all(r.compile_seconds == 0.0 for r in results[1:])  # one program for them all
+    for at_once in (False, True):
+        results, values, states = evaluate_lanes(SCENARIO, POLICIES, COUNTS, EPISODES,
+                                                 seed=SEED, options=OPTIONS, record=record,
+                                                 counts_at_once=at_once)
+        assert values["success"].shape == (len(POLICIES), len(COUNTS), EPISODES)
+        for p, policy in enumerate(POLICIES):
+            for k, n in enumerate(COUNTS):
+                run = alone[policy, n]
+                for name, per_episode in run.values.items():
+                    # The same episodes (states equal below, to the bit); a metric that sums
+                    # floats over steps may round differently in the two programs (XLA fuses
+                    # them differently: jerk_mean once differed by 1 ulp), so those agree to
+                    # float32 rounding.
+                    np.testing.assert_allclose(
+                        values[name][p, k], per_episode, rtol=1e-6, atol=0,
+                        err_msg=f"counts at once {at_once}, {policy} at {n} robots: {name}")
+                if run.states is not None:
+                    leaves_equal(states, jax.tree.map(lambda leaf: leaf[:, record[2]],
+                                                      run.states))
+        assert [(r.policy, r.num_agents) for r in results] == [
+            (r.policy, r.num_agents) for r in separate]
+        for mine, theirs in zip(results, separate, strict=True):
+            ours, others = mine.as_dict()["metrics"], theirs.as_dict()["metrics"]
+            assert ours.keys() == others.keys()
+            for name in ours:
+                for field, value in ours[name].items():
+                    if isinstance(value, float):
+                        assert value == pytest.approx(others[name][field], rel=1e-6, abs=1e-9,
+                                                      nan_ok=True), (at_once, name, field)
+                    else:
+                        assert value == others[name][field], (at_once, name, field)
+            assert mine.steps_played >= theirs.steps_played
+        assert results[0].compile_seconds > 0
+        assert all(r.compile_seconds == 0.0 for r in results[1:])  # one program for them all
 
 
 def test_record_lanes_keeps_only_those_episodes():
