@@ -73,9 +73,14 @@ class ActorWeights:
         """The acting part of a ``RunnerState`` (any batch shape)."""
         return cls(runner.params, runner.obs_stats, runner.obs_mask)
 
+    @property
+    def lanes(self) -> int:
+        """How many seeds (or lanes) seed-batched weights hold."""
+        return int(jnp.shape(self.obs_stats.mean)[0])
+
     def seed(self, index: int) -> ActorWeights:
         """Seed (or lane) ``index`` of seed-batched weights."""
-        count = int(jnp.shape(self.obs_stats.mean)[0])
+        count = self.lanes
         if not 0 <= index < count:
             raise ValueError(f"seed index {index} out of range (the run has {count} seeds)")
         return jax.tree.map(lambda x: x[index], self)
@@ -172,7 +177,7 @@ def _seed_lanes_program(network: NetworkConfig, layout: ActorLayout, env: Any, e
     every = jax.vmap(one, in_axes=(0, 0, None, None))
 
     def by_mode(weights: ActorWeights, key: Array, params: Any) -> tuple[dict, dict]:
-        count = int(jnp.shape(weights.obs_stats.mean)[0])
+        count = weights.lanes
         repeated = jax.tree.map(lambda x: jnp.concatenate([x] * len(modes)), weights)
         flags = jnp.repeat(jnp.asarray(modes), count)
         out = every(repeated, flags, key, params)

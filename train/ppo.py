@@ -23,6 +23,7 @@ progress bar, evaluation and checkpoints.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -96,7 +97,6 @@ class EnvBatch:
                                   f"{first.observation_size}; use the same terms and zones")
         self.slots = e.slots
         self.obs_size = first.observation_size
-        self._reward_terms: tuple[str, ...] | None = None
         self.discrete = first.config.action_mode == "go_stop"
         self.action_dim = 2 if self.discrete else first.config.action_dim
 
@@ -146,13 +146,12 @@ class EnvBatch:
         return jnp.concatenate([s.robots.active for s in states])
 
     def reward_term_names(self) -> tuple[str, ...]:
-        """Names in ``info["reward_terms"]`` (reward terms, and enders that pay, e.g. stuck),
-        read from the step's traced output once per batch (a trace of a reset and a step)."""
-        if self._reward_terms is None:
-            self._reward_terms = self._traced_reward_term_names()
+        """Names in ``info["reward_terms"]`` (reward terms, and enders that pay, e.g. stuck)."""
         return self._reward_terms
 
-    def _traced_reward_term_names(self) -> tuple[str, ...]:
+    @functools.cached_property
+    def _reward_terms(self) -> tuple[str, ...]:
+        """:meth:`reward_term_names`, read from the step's traced output once per batch."""
         env, params = self.env, self.params[0]
         key = jax.random.PRNGKey(0)
         _, state = jax.eval_shape(env.reset, key, params)

@@ -1,7 +1,6 @@
 """The environment's API contract: shapes, spaces, determinism, jit/vmap equivalence, retracing,
 auto-reset and episode ends, and clear errors for bad input."""
 
-import dataclasses
 import os
 
 import chex
@@ -14,6 +13,7 @@ from jaxprs import equations, traced_in
 
 import sgjax
 from sgjax.environment.env import OBS_SIZE, SETTLE_TOLERANCE
+from sgjax.evaluation.runner import with_zone_books
 
 
 def go_actions(env, batch=None):
@@ -454,7 +454,7 @@ def test_zone_books_are_traced_only_where_something_reads_them():
                           ("tracked", {})):
         env, params = sgjax.make("doorway", num_agents=2, **options)
         if name == "tracked":
-            env = sgjax.SocialNavEnv(dataclasses.replace(env.config, track_zones=True), params)
+            env = with_zone_books(env)
         actions = jnp.zeros(env.max_agents, jnp.int32)
 
         def reset_and_step(k, p, env=env, actions=actions):
