@@ -1,15 +1,17 @@
 """The one-program evaluation (``LaneRunner``, ``evaluate_lanes``): every policy at every robot
 count as lanes of one loop plays the episodes of the separate runs, and ``record_lanes`` keeps
-the states of chosen episodes only."""
+the states of chosen episodes only; ``ParamLaneRunner``'s lanes (one policy, a parameter set
+each) play the episodes of separate runs too."""
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from sgjax.environment.options import MakeOptions
 from sgjax.evaluation.evaluate import evaluate, evaluate_lanes, params_by_count, run_episodes
-from sgjax.evaluation.policies import only_local
-from sgjax.evaluation.runner import EpisodeRunner, LaneRunner
+from sgjax.evaluation.policies import RecurrentPolicy, only_local
+from sgjax.evaluation.runner import EpisodeRunner, LaneRunner, ParamLaneRunner
 
 SCENARIO = "doorway"
 # random reads the per-step keys, stop_when_blocked the state: both must match lane by lane
@@ -91,3 +93,51 @@ def test_record_lanes_keeps_only_those_episodes():
         EpisodeRunner(env, only_local(env), 3, 10, record_lanes=[3])
     with pytest.raises(ValueError, match="pairs"):
         LaneRunner(env, [only_local(env)], 1, 3, 10, record_lanes=[(1, 0)])
+
+
+def _go_with_chance(lane):
+    """GO with chance ``lane["go"]`` each step (reads the per-step keys)."""
+    return lambda obs, key, state, params: jax.random.bernoulli(
+        key, lane["go"], obs.shape[:1]).astype(jnp.int32)
+
+
+def _stop_every(lane):
+    """A policy with memory: counts its steps and STOPs every ``lane["period"]``-th one
+    (reads its memory, which each lane must keep apart)."""
+    def step(count, obs, key, state, params):
+        count = count + 1
+        return count, (count % lane["period"] != 0).astype(jnp.int32)
+
+    return RecurrentPolicy(init=lambda num_robots: jnp.zeros(num_robots, jnp.int32), step=step)
+
+
+@pytest.mark.parametrize("make_policy, lanes", [
+    (_go_with_chance, {"go": jnp.array([0.2, 0.9, 0.6])}),
+    (_stop_every, {"period": jnp.array([2, 5, 3])})], ids=["stateless", "memory"])
+def test_param_lanes_play_the_episodes_of_separate_runs(make_policy, lanes):
+    """Lane ``l`` of a ``ParamLaneRunner`` (inside the ``jit`` that takes the lanes' parameters)
+    plays the episodes an ``EpisodeRunner`` of lane ``l``'s policy plays with the same key;
+    the lanes differ from one another, so a mix-up of lanes would show."""
+    env, by_count = params_by_count(SCENARIO, [3], options=OPTIONS.replace(time_limit=8.0))
+    params, key, steps = by_count[3], jax.random.key(SEED), int(by_count[3].max_steps)
+
+    @jax.jit
+    def together(lanes, key, params):
+        return ParamLaneRunner(env, make_policy, lanes, EPISODES, steps).episodes(key, params)
+
+    values, robot, states = together(lanes, key, params)
+    assert states is None and values["success"].shape == (3, EPISODES)
+    assert robot["success"].shape == (3, EPISODES, env.max_agents)
+    for lane in range(3):
+        alone = EpisodeRunner(env, make_policy(jax.tree.map(lambda v, i=lane: v[i], lanes)),
+                              EPISODES, steps)(key, params)
+        for name, per_episode in alone.values.items():
+            np.testing.assert_allclose(values[name][lane], per_episode, rtol=1e-6, atol=0,
+                                       err_msg=f"lane {lane}: {name}")
+        for name, per_robot in alone.robot.items():
+            np.testing.assert_allclose(robot[name][lane], per_robot, rtol=1e-6, atol=0,
+                                       err_msg=f"lane {lane}: {name}")
+    progress = np.asarray(values["path_length"])
+    assert not np.allclose(progress[0], progress[1]), "the lanes played alike"
+    with pytest.raises(ValueError, match="same leading lanes axis"):
+        ParamLaneRunner(env, make_policy, {"go": jnp.zeros(3), "x": jnp.zeros(2)}, 1, steps)
