@@ -128,15 +128,19 @@ def test_param_lanes_play_the_episodes_of_separate_runs(make_policy, lanes):
     values, robot, states = together(lanes, key, params)
     assert states is None and values["success"].shape == (3, EPISODES)
     assert robot["success"].shape == (3, EPISODES, env.max_agents)
+
+    @jax.jit
+    def alone(lane, key, params):  # one lane's parameters traced: one program for the three
+        return EpisodeRunner(env, make_policy(lane), EPISODES, steps).episodes(key, params)
+
     for lane in range(3):
-        alone = EpisodeRunner(env, make_policy(jax.tree.map(lambda v, i=lane: v[i], lanes)),
-                              EPISODES, steps)(key, params)
-        for name, per_episode in alone.values.items():
-            np.testing.assert_allclose(values[name][lane], per_episode, rtol=1e-6, atol=0,
-                                       err_msg=f"lane {lane}: {name}")
-        for name, per_robot in alone.robot.items():
-            np.testing.assert_allclose(robot[name][lane], per_robot, rtol=1e-6, atol=0,
-                                       err_msg=f"lane {lane}: {name}")
+        separate, separate_robot, _ = alone(jax.tree.map(lambda v, i=lane: v[i], lanes), key,
+                                            params)
+        for ours, theirs in ((values, separate), (robot, separate_robot)):
+            assert ours.keys() == theirs.keys()
+            for name in theirs:
+                np.testing.assert_allclose(ours[name][lane], theirs[name], rtol=1e-6, atol=0,
+                                           err_msg=f"lane {lane}: {name}")
     progress = np.asarray(values["path_length"])
     assert not np.allclose(progress[0], progress[1]), "the lanes played alike"
     with pytest.raises(ValueError, match="same leading lanes axis"):

@@ -1,6 +1,8 @@
 """The local planner: every route of every shipped map is driven to its goal by one robot under
 GO within the time limit, without touching a wall; route geometry helpers."""
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -20,13 +22,15 @@ def all_routes(scenario):
     return np.array(sorted(pairs), dtype=np.int32)
 
 
-def drive_every_route(scenario, robots="socialgym", time_limit=75.0):
-    env, params = sgjax.make(scenario, num_agents=1, robots=robots, time_limit=time_limit)
-    pairs = all_routes(scenario)
-    steps = int(params.max_steps)
+@functools.cache
+def _route_runner(env, steps: int):
+    """``jit(run)(pairs [P, 2], params) -> (succeeded [P], touched [P])``: one robot per
+    (start, goal) pair under GO for ``steps`` steps (in chunks of 50 until every robot has
+    arrived). The params are an argument, so the robot kinds of one map (params values of one
+    environment) share one compiled program."""
 
     @jax.jit
-    def run(pairs):
+    def run(pairs, params):
         def reset(pair):
             return env.reset_to(pair[:1], pair[1:], jnp.array([True]), params)[1]
 
@@ -39,20 +43,25 @@ def drive_every_route(scenario, robots="socialgym", time_limit=75.0):
                                             params)
             return state, touched | info["collision_wall"][:, 0]
 
-        # the time limit's steps, in chunks of 50 until every robot has arrived
         init = (jax.vmap(reset)(pairs), jnp.zeros(pairs.shape[0], bool))
         (state, touched), _, _ = scan_until_done(
             step, init, lambda carry: jnp.all(carry[0].robots.succeeded), steps, 50,
             xs=jax.random.split(jax.random.key(0), steps))
         return state.robots.succeeded[:, 0], touched
 
-    succeeded, touched = run(jnp.asarray(pairs))
+    return run
+
+
+def drive_every_route(scenario, robots="socialgym", time_limit=75.0):
+    env, params = sgjax.make(scenario, num_agents=1, robots=robots, time_limit=time_limit)
+    pairs = all_routes(scenario)
+    succeeded, touched = _route_runner(env, int(params.max_steps))(jnp.asarray(pairs), params)
     return pairs, np.asarray(succeeded), np.asarray(touched)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("scenario", sgjax.registered())
 @pytest.mark.parametrize("robots", ["socialgym", "jackal", "cobot"])
+@pytest.mark.parametrize("scenario", sgjax.registered())
 def test_every_route_solved_by_the_planner(scenario, robots):
     pairs, succeeded, touched = drive_every_route(scenario, robots)
     failed = pairs[~succeeded].tolist()
