@@ -95,7 +95,9 @@ def pytest_collection_modifyitems(session, config, items):
 # SGJAX_TEST_TIME_SPLIT=FILE appends one line per test to FILE (every xdist worker appends):
 # nodeid, wall seconds, and the seconds JAX reported spending in tracing, lowering to MLIR and
 # XLA compiling inside it (jax.monitoring duration events; compiling includes loading from the
-# compilation cache) and the cache's hits and misses; the rest is running and Python.
+# compilation cache) and the cache's hits and misses; the rest is running and Python. ``cpu``:
+# the worker's CPU seconds in the test (all its threads); ``cpu_children``: those of the
+# subprocesses it started and waited for (commands, a browser once its driver quits).
 # ``python tests/time_split.py FILE`` sums it by file and by phase.
 _SPLIT_ENV = "SGJAX_TEST_TIME_SPLIT"
 _PHASES = {"/jax/core/compile/jaxpr_trace_duration": "trace",
@@ -132,11 +134,21 @@ if os.environ.get(_SPLIT_ENV):
     jax.monitoring.register_event_duration_secs_listener(_listen)
     jax.monitoring.register_event_listener(_count)
 
+    def _cpu_seconds() -> tuple[float, float]:
+        """(this process's, its finished children's) user + system CPU seconds."""
+        import resource
+
+        own, children = (resource.getrusage(who) for who in (resource.RUSAGE_SELF,
+                                                              resource.RUSAGE_CHILDREN))
+        return own.ru_utime + own.ru_stime, children.ru_utime + children.ru_stime
+
     @pytest.hookimpl(hookwrapper=True)
     def pytest_runtest_protocol(item, nextitem):
         _spent.clear()
-        start = time.perf_counter()
+        start, (own, children) = time.perf_counter(), _cpu_seconds()
         yield
-        row = {"test": item.nodeid, "wall": time.perf_counter() - start, **_spent}
+        own_after, children_after = _cpu_seconds()
+        row = {"test": item.nodeid, "wall": time.perf_counter() - start,
+               "cpu": own_after - own, "cpu_children": children_after - children, **_spent}
         with open(os.environ[_SPLIT_ENV], "a") as out:
             out.write(json.dumps(row) + "\n")

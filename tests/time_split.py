@@ -3,6 +3,9 @@
     SGJAX_TEST_TIME_SPLIT=/tmp/split.jsonl python -m pytest -n 2 --dist loadfile
     python tests/time_split.py /tmp/split.jsonl [--tests 30] [--programs 20]
 
+``cpu s``: the workers' CPU seconds (every thread), ``child``: their subprocesses' (rows written
+before these were kept show 0).
+
 ``--programs``: the compiles of 0.3 s or more summed by program name (``jit(episodes)``, the
 evaluation; ``jit(<lambda>)``, mostly training updates), with how many there were and the files
 that compiled them most: where sharing one compiled program between tests would pay.
@@ -29,19 +32,22 @@ def main() -> None:
     by_file: dict[str, dict[str, float]] = defaultdict(lambda: defaultdict(float))
     for row in tests:
         total = by_file[row["test"].split("::")[0]]
-        for key in ("wall", *PHASES):
+        for key in ("wall", *PHASES, "cpu", "cpu_children"):
             total[key] += row.get(key, 0.0)
         total["tests"] += 1
-    header = f"{'wall s':>8} {'trace':>7} {'lower':>7} {'compile':>8} {'rest':>7}"
+    header = (f"{'wall s':>8} {'trace':>7} {'lower':>7} {'compile':>8} {'rest':>7} {'cpu s':>7} "
+              f"{'child':>6}")
     print(f"{header}  tests  file")
     for name, t in sorted(by_file.items(), key=lambda item: -item[1]["wall"]):
         rest = t["wall"] - sum(t[p] for p in PHASES)
         print(f"{t['wall']:8.1f} {t['trace']:7.1f} {t['lower']:7.1f} {t['compile']:8.1f} "
-              f"{rest:7.1f}  {int(t['tests']):5d}  {name}")
-    grand = {key: sum(t[key] for t in by_file.values()) for key in ("wall", *PHASES)}
+              f"{rest:7.1f} {t['cpu']:7.1f} {t['cpu_children']:6.1f}  {int(t['tests']):5d}  "
+              f"{name}")
+    grand = {key: sum(t[key] for t in by_file.values())
+             for key in ("wall", *PHASES, "cpu", "cpu_children")}
     print(f"{grand['wall']:8.1f} {grand['trace']:7.1f} {grand['lower']:7.1f} "
-          f"{grand['compile']:8.1f} {grand['wall'] - sum(grand[p] for p in PHASES):7.1f}  "
-          f"{len(tests):5d}  all")
+          f"{grand['compile']:8.1f} {grand['wall'] - sum(grand[p] for p in PHASES):7.1f} "
+          f"{grand['cpu']:7.1f} {grand['cpu_children']:6.1f}  {len(tests):5d}  all")
     print(f"\nslowest {args.tests} tests")
     for row in sorted(tests, key=lambda r: -r["wall"])[:args.tests]:
         rest = row["wall"] - sum(row.get(p, 0.0) for p in PHASES)

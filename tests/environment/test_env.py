@@ -51,7 +51,7 @@ def test_api_shapes_and_spaces(scenario):
     assert state.robots.velocity.shape == (3, 2)
     assert state.robots.active.dtype == jnp.bool_ and bool(state.robots.active.all())
     assert params.robots.radius.shape == (3,)
-    obs, state, reward, term, trunc, info = jax.jit(env.step)(
+    obs, state, reward, term, trunc, info = env.step(  # its compiled entry point
         jax.random.key(1), state, go_actions(env), params)
     assert obs.shape == (3, OBS_SIZE)
     for arr in (reward, term, trunc):
@@ -88,18 +88,13 @@ def test_determinism_same_key_same_result():
 
 @pytest.mark.slow
 def test_jit_equals_eager():
+    """``env.reset`` and ``env.step`` op by op (``disable_jit``) and as the compiled programs
+    they call outside it (the ones test_api_shapes_and_spaces[hallway] compiled already)."""
     env, params = sgjax.make("hallway", num_agents=3)
     actions = random_go_stop(env)
     with jax.disable_jit():
         eager_state, eager = rollout(env, params, jax.random.key(3), 8, actions)
-    jit_env_step = jax.jit(env.step)
-
-    class Jitted:
-        max_agents = env.max_agents
-        reset = staticmethod(jax.jit(env.reset))
-        step = staticmethod(jit_env_step)
-
-    jit_state, jitted = rollout(Jitted, params, jax.random.key(3), 8, actions)
+    jit_state, jitted = rollout(env, params, jax.random.key(3), 8, actions)
     chex.assert_trees_all_close(eager, jitted, rtol=1e-5, atol=1e-5)
     chex.assert_trees_all_close(eager_state, jit_state, rtol=1e-5, atol=1e-5)
 
