@@ -22,6 +22,7 @@ number of episodes with a value) and written by :mod:`sgjax.evaluation.report`. 
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -35,7 +36,13 @@ from sgjax.environment.env import SocialNavEnv
 from sgjax.environment.options import MakeOptions
 from sgjax.environment.registry import make
 from sgjax.evaluation import metrics
-from sgjax.evaluation.policies import Policy, RecurrentPolicy, load_policy, policy_options
+from sgjax.evaluation.policies import (
+    BASELINES,
+    Policy,
+    RecurrentPolicy,
+    load_policy,
+    policy_options,
+)
 from sgjax.evaluation.protocols import PAPER
 from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import write_all
@@ -86,13 +93,34 @@ def run_episodes(
 ) -> Episodes:
     """Play ``num_episodes`` episodes at once and return their metrics on the host
     (``counterfactual``: with the counterfactual lanes and metrics; ``record``: every state,
-    :class:`sgjax.evaluation.runner.EpisodeRunner`)."""
+    :class:`sgjax.evaluation.runner.EpisodeRunner`). A baseline given by name keeps its
+    compiled run for the process: a later call in an equal environment with the same settings
+    (another robot count or pedestrian setting of its params, say) plays the same program
+    (``compile_seconds`` 0)."""
     if num_episodes < 1:
         raise ValueError(f"num_episodes must be at least 1, got {num_episodes}")
     env.check_params(params)
-    runner = EpisodeRunner(env, load_policy(policy, env), num_episodes, int(params.max_steps),
-                           constants, record=record, counterfactual=counterfactual)
+    settings = (num_episodes, int(params.max_steps), constants, record, counterfactual)
+    if isinstance(policy, str) and policy in BASELINES:
+        runner = _baseline_runner(env, policy, *settings)
+    else:
+        runner = _runner(env, load_policy(policy, env), *settings)
     return runner(key, params)
+
+
+def _runner(env: SocialNavEnv, policy: Policy | RecurrentPolicy, num_episodes: int,
+            max_steps: int, constants: metrics.MetricConstants, record: bool,
+            counterfactual: bool) -> EpisodeRunner:
+    return EpisodeRunner(env, policy, num_episodes, max_steps, constants, record=record,
+                         counterfactual=counterfactual)
+
+
+@functools.lru_cache(maxsize=16)
+def _baseline_runner(env: SocialNavEnv, name: str, *settings: Any) -> EpisodeRunner:
+    """The runner of a baseline (by name) in ``env``, kept for the process: calls at other
+    robot counts or pedestrian settings (params values) play its compiled program again
+    (environments are equal when their static configurations are)."""
+    return _runner(env, load_policy(name, env), *settings)
 
 
 def steps_played(episodes: Episodes, params: EnvParams) -> int:

@@ -118,6 +118,14 @@ def scan_until_done(step: Callable[[C, Any], C], carry: C, done: Callable[[C], A
     return carry, ys, steps_run
 
 
+def _signature(args: Any) -> tuple:
+    """What a compiled program's arguments must match: the tree, and every leaf's shape,
+    dtype and weak type."""
+    leaves, tree = jax.tree.flatten(args)
+    return tree, tuple((np.shape(x), str(x.dtype if hasattr(x, "dtype") else np.asarray(x).dtype),
+                        bool(getattr(x, "weak_type", False))) for x in leaves)
+
+
 def with_zone_books(env: SocialNavEnv) -> SocialNavEnv:
     """The same environment, keeping conflict-zone books for the order-violation metrics."""
     if env.config.track_zones:
@@ -216,6 +224,7 @@ class EpisodeRunner:
         self.record_lanes = _checked_lanes(record_lanes, num_episodes, "record_lanes")
         self.every_step = record or not stop_early
         self.run = jax.jit(self.episodes)
+        self._executables: dict[Any, Callable] = {}  # compiled run by argument signature
 
     def reset_lanes(self, keys: Array, params: EnvParams, keep: Array
                     ) -> tuple[Array, EnvState]:
@@ -332,8 +341,15 @@ class EpisodeRunner:
                         compile_seconds=compile_seconds, run_seconds=time.perf_counter() - t0)
 
     def __call__(self, key: Array, params: EnvParams, *args: Any) -> Episodes:
-        """Compile for these shapes, play, and return the host results."""
-        compiled, seconds = self.compile(key, params, *args)
+        """Compile for these shapes (once per runner: a later call with arguments of the same
+        shapes and dtypes, other params values say, plays the same program and reports
+        ``compile_seconds`` 0), play, and return the host results."""
+        signature = _signature((key, params, *args))
+        compiled = self._executables.get(signature)
+        seconds = 0.0
+        if compiled is None:
+            compiled, seconds = self.compile(key, params, *args)
+            self._executables[signature] = compiled
         return self.play_compiled(compiled, key, params, seconds, args)
 
 

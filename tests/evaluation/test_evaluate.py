@@ -118,6 +118,24 @@ def test_every_robot_count_is_evaluated_by_one_compilation():
         sgjax.evaluation.runner.check_steps(sgjax.make("open", time_limit=6.0)[1], 30, "here")
 
 
+def test_a_named_baseline_compiles_its_run_once_per_process():
+    """``run_episodes`` of a baseline by name at a second robot count plays the program the
+    first call compiled, with the results of a runner built afresh for that count."""
+    env, by_count = sgjax.evaluation.evaluate.params_by_count(
+        "open", [2, 3], options=MakeOptions.from_keywords(time_limit=4.0))
+    key = jax.random.key(11)
+    first = run_episodes(env, by_count[2], "stop_when_blocked", key, 3)
+    second = run_episodes(env, by_count[3], "stop_when_blocked", key, 3)
+    assert first.compile_seconds > 0 and second.compile_seconds == 0.0
+    fresh = sgjax.evaluation.runner.EpisodeRunner(
+        env, load_policy("stop_when_blocked", env), 3, int(by_count[3].max_steps))(
+        key, by_count[3])
+    assert fresh.compile_seconds > 0
+    for name, value in fresh.values.items():
+        np.testing.assert_array_equal(second.values[name], value, err_msg=name)
+    assert not np.array_equal(first.values["path_length"], second.values["path_length"])
+
+
 def test_policy_specs_and_errors():
     env, params = sgjax.make("open", num_agents=2)
     obs, state = env.reset(jax.random.key(0), params)
