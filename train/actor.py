@@ -29,7 +29,12 @@ from flax import struct
 from jax import Array
 
 from sgjax.evaluation.policies import RecurrentPolicy, load_policy
-from sgjax.evaluation.runner import LaneRunner, ParamLaneRunner, check_steps
+from sgjax.evaluation.runner import (
+    LaneRunner,
+    ParamLaneRunner,
+    argument_signature,
+    check_steps,
+)
 from train.config import NetworkConfig
 from train.networks import ActorCritic, OthersLayout, greedy, initial_carry, sample
 from train.normalize import RunningStats
@@ -166,11 +171,14 @@ def _seed_lanes_program(network: NetworkConfig, layout: ActorLayout, env: Any, e
     ``EpisodeRunner`` batched the loop itself and took longer to trace and compile (a tiny
     MLP's 4 seeds: trace 1.3 -> 0.5 s)."""
 
-    def play(lanes: Any, key: Array, params: Any) -> tuple[dict, dict]:
-        def make_policy(lane: Any) -> RecurrentPolicy:  # weights, or (weights, traced mode)
-            return (acting_policy(network, layout, lane, modes) if isinstance(modes, bool)
-                    else acting_policy(network, layout, *lane))
+    if isinstance(modes, bool):  # a lane is its weights
+        def make_policy(lane: Any) -> RecurrentPolicy:
+            return acting_policy(network, layout, lane, modes)
+    else:  # a lane is (weights, its traced mode)
+        def make_policy(lane: Any) -> RecurrentPolicy:
+            return acting_policy(network, layout, *lane)
 
+    def play(lanes: Any, key: Array, params: Any) -> tuple[dict, dict]:
         runner = ParamLaneRunner(env, make_policy, lanes, episodes, num_steps)
         values, robot, _ = runner.episodes(key, params)
         return values, robot
@@ -258,9 +266,7 @@ def compiled_once(program: Callable, *args: Any) -> tuple[Callable, float]:
     once per process: ``(executable, seconds this call spent compiling)`` (0 when it was
     compiled before; a program found in the persistent compilation cache counts its
     loading)."""
-    leaves, tree = jax.tree.flatten(args)
-    key = (program, tree, tuple((np.shape(x), str(getattr(x, "dtype", type(x))))
-                                for x in leaves))
+    key = (program, argument_signature(args))
     if key in _COMPILED:
         return _COMPILED[key], 0.0
     t0 = time.perf_counter()

@@ -49,7 +49,7 @@ from sgjax.evaluation.policies import Policy, RecurrentPolicy
 from sgjax.types import EnvParams, EnvState
 
 __all__ = ["STEP_CHUNK", "EpisodeRunner", "Episodes", "LaneRunner", "ParamLaneRunner",
-           "check_steps", "scan_until_done", "with_zone_books"]
+           "argument_signature", "check_steps", "scan_until_done", "with_zone_books"]
 
 STEP_CHUNK = 32  # steps per chunk of the runner's early-stopping loop
 C = TypeVar("C")
@@ -118,12 +118,19 @@ def scan_until_done(step: Callable[[C, Any], C], carry: C, done: Callable[[C], A
     return carry, ys, steps_run
 
 
-def _signature(args: Any) -> tuple:
-    """What a compiled program's arguments must match: the tree, and every leaf's shape,
-    dtype and weak type."""
+def argument_signature(args: Any) -> tuple:
+    """What arguments must share to be run by one ahead-of-time compiled program: the tree,
+    and every leaf's shape, dtype and weak type (a key for caches of compiled programs)."""
     leaves, tree = jax.tree.flatten(args)
     return tree, tuple((np.shape(x), str(x.dtype if hasattr(x, "dtype") else np.asarray(x).dtype),
                         bool(getattr(x, "weak_type", False))) for x in leaves)
+
+
+def lanes_first(tree: Any, episodes: int, lanes: int) -> Any:
+    """Rows ``[E * L, ...]`` (episode-major, as the runner's loop holds them) -> ``[L, E,
+    ...]``, every leaf of ``tree``."""
+    return jax.tree.map(lambda v: jnp.swapaxes(v.reshape((episodes, lanes) + v.shape[1:]), 0, 1),
+                        tree)
 
 
 def with_zone_books(env: SocialNavEnv) -> SocialNavEnv:
@@ -296,15 +303,20 @@ class EpisodeRunner:
             stop_early=not self.every_step)
         return final.state, final.tally, final.extra, out
 
+    def episode_keys(self, key: Array) -> tuple[Array, Array]:
+        """``(reset_keys [E], step_keys [T])`` of ``key``: episode ``e`` resets with
+        ``reset_keys[e]``, and every episode's step ``t`` draws from ``step_keys[t]``."""
+        k_reset, k_steps = jax.random.split(key)
+        return (jax.random.split(k_reset, self.num_episodes),
+                jax.random.split(k_steps, self.num_steps))
+
     def episodes(self, key: Array, params: EnvParams) -> tuple:
         """``(values, robot, states)``: every metric per episode ``{name: [E]}`` and per robot
         ``{name: [E, R]}``; with ``record`` the states ``[T + 1, E, ...]`` (the reset first),
         with ``record_lanes`` those episodes' ``[T + 1, len(record_lanes), ...]``, else None.
         Traceable: :attr:`run` is its ``jit``; ``params.max_steps`` must be at most
         ``max_steps`` (:func:`check_steps`), as an episode is cut off there."""
-        k_reset, k_steps = jax.random.split(key)
-        reset_keys = jax.random.split(k_reset, self.num_episodes)
-        step_keys = jax.random.split(k_steps, self.num_steps)
+        reset_keys, step_keys = self.episode_keys(key)
         recorder = self._recorder()
         if self.counterfactual:
             robot, episode, states, first = cf.play_counterfactual(
@@ -344,7 +356,7 @@ class EpisodeRunner:
         """Compile for these shapes (once per runner: a later call with arguments of the same
         shapes and dtypes, other params values say, plays the same program and reports
         ``compile_seconds`` 0), play, and return the host results."""
-        signature = _signature((key, params, *args))
+        signature = argument_signature((key, params, *args))
         compiled = self._executables.get(signature)
         seconds = 0.0
         if compiled is None:
@@ -429,9 +441,7 @@ class LaneRunner(EpisodeRunner):
 
     def episodes(self, key: Array, params: EnvParams, counts: Array) -> tuple:
         """See the class: ``counts [K]`` robot counts, each at most ``env.max_agents``."""
-        k_reset, k_steps = jax.random.split(key)
-        reset_keys = jax.random.split(k_reset, self.num_episodes)
-        step_keys = jax.random.split(k_steps, self.num_steps)
+        reset_keys, step_keys = self.episode_keys(key)
         per_config = jnp.tile(jnp.asarray(counts, jnp.int32), len(self.policies))
         exact = jnp.zeros((), jnp.int32)
 
@@ -450,12 +460,7 @@ class LaneRunner(EpisodeRunner):
         if recorder is not None:
             states = jax.tree.map(lambda a, rest: jnp.concatenate([a[None], rest]),
                                   recorder(first), states)
-
-        def by_config(v: Array) -> Array:  # [E * C, ...] -> [C, E, ...]
-            return jnp.swapaxes(v.reshape((self.num_episodes, self.num_configs) + v.shape[1:]),
-                                0, 1)
-
-        return jax.tree.map(by_config, values), jax.tree.map(by_config, robot), states
+        return (*lanes_first((values, robot), self.num_episodes, self.num_configs), states)
 
 
 class ParamLaneRunner(EpisodeRunner):
@@ -487,8 +492,8 @@ class ParamLaneRunner(EpisodeRunner):
                              f"lanes axis, got leading sizes {sorted(sizes)}")
         self.make_policy, self.lane_params = make_policy, lane_params
         self.num_lanes = sizes.pop()
-        super().__init__(env, make_policy(jax.tree.map(lambda leaf: leaf[0], lane_params)),
-                         num_episodes, max_steps, constants)
+        # no single policy: _act and _first_memory build each lane's from its parameters
+        super().__init__(env, None, num_episodes, max_steps, constants)
 
     def _by_lane(self, tree: Any) -> Any:
         """Rows ``[E * L, ...]`` (episode-major) -> ``[E, L, ...]``."""
@@ -518,17 +523,10 @@ class ParamLaneRunner(EpisodeRunner):
 
     def episodes(self, key: Array, params: EnvParams) -> tuple:
         """See the class."""
-        k_reset, k_steps = jax.random.split(key)
-        reset_keys = jax.random.split(k_reset, self.num_episodes)
-        step_keys = jax.random.split(k_steps, self.num_steps)
+        reset_keys, step_keys = self.episode_keys(key)
         obs, first = jax.vmap(self.env.reset, in_axes=(0, None))(reset_keys, params)
         obs, first = jax.tree.map(lambda v: jnp.repeat(v, self.num_lanes, axis=0), (obs, first))
         final, tally, _, _ = self.play(params, obs, first, self.num_lanes, step_keys)
         robot, episode = self.finalize(tally, final, params)
         values = jax.vmap(metrics.per_episode)(robot, episode)
-
-        def by_lane(v: Array) -> Array:  # [E * L, ...] -> [L, E, ...]
-            return jnp.swapaxes(v.reshape((self.num_episodes, self.num_lanes) + v.shape[1:]),
-                                0, 1)
-
-        return jax.tree.map(by_lane, values), jax.tree.map(by_lane, robot), None
+        return (*lanes_first((values, robot), self.num_episodes, self.num_lanes), None)
