@@ -11,7 +11,8 @@ Prints, in one run:
   ``network.others_encoder: lstm``, CADRL(L)'s encoder) the trainer's phases, each compiled
   alone at the trainer's shapes and in its layout (a lane of one, as a one-seed run compiles
   its update): the environment step, the policy forward pass of the rollout (acting, and the
-  critic's bootstrap value of the final observation), the observation and return
+  critic's bootstrap value of the final observations of the truncating environments), the
+  observation and return
   normalisation, GAE, the minibatch gradients (masked, and ``algorithm.compact``), the
   optimiser, the learning phase's shuffle and gather, and the rest of the measured update
   (scan bookkeeping, rewards, logs, what compiling the phases together adds or saves), in
@@ -156,9 +157,10 @@ class Phases:
     def add(self, name: str, seconds: float, flops: float) -> None:
         self.rows[name] = (seconds, flops)
 
-    def environment(self) -> tuple[jax.Array, jax.Array]:
+    def environment(self) -> tuple[jax.Array, jax.Array, jax.Array]:
         """``num_steps`` environment steps (a scan, the rollout's actions); returns the raw
-        observations and final observations ``[T, E, R, D]`` for the normalisation phase."""
+        observations and final observations ``[T, E, R, D]`` and the truncation flags ``[T, E,
+        R]`` for the policy and normalisation phases."""
         t, batch = self.trainer, self.trainer.batch
         traj = self.rollout.traj
         shape = (self.steps, t.num_envs, t.slots)
@@ -169,42 +171,45 @@ class Phases:
 
         def run(states: tuple, actions: jax.Array, keys: jax.Array) -> tuple:
             def body(states: tuple, x: tuple) -> tuple:
-                obs, states, _, _, _, info = batch.step(x[1], states, x[0], count)
-                return states, (obs, info["final_observation"], batch.active_slots(states))
+                obs, states, _, _, trunc, info = batch.step(x[1], states, x[0], count)
+                return states, (obs, info["final_observation"], trunc)
             return jax.lax.scan(body, states, (actions, keys))
 
         fn = lane(run)
         seconds, flops = timed(fn, self.runner.env_states, actions, keys)
         self.add(f"environment step (x{self.steps})", seconds, flops * self.steps)
-        _, (obs, final, _) = jax.jit(fn)(self.runner.env_states, actions, keys)
-        return obs, final
+        _, (obs, final, truncated) = jax.jit(fn)(self.runner.env_states, actions, keys)
+        return obs, final, truncated
 
-    def policy(self) -> None:
+    def policy(self, final: jax.Array, truncated: jax.Array) -> None:
         """The rollout's network work: per step the actor and critic on the batch, sampling,
-        log-probabilities, and the critic on the final observations."""
+        log-probabilities, and the critic on the final observations ``final [T, E, R, D]`` of
+        the environments with a truncated robot (``truncated [T, E, R]``)."""
         t, traj = self.trainer, self.rollout.traj
         discrete = t.batch.discrete
         keys = jax.random.split(jax.random.PRNGKey(3), self.steps)
 
-        def run(params: Any, carry: tuple, xs: tuple) -> tuple:
+        def run(params: Any, carry: tuple, obs_stats: Any, xs: tuple) -> tuple:
             def body(carry: tuple, x: tuple) -> tuple:
-                actor_in, critic_in, starts, key = x
+                actor_in, critic_in, starts, key, final, truncated = x
                 carry, out, value = t.network.apply(params, carry, actor_in[None],
                                                     critic_in[None], starts[None])
                 log_std = t._log_std(params)
                 action = sample(key, out[0], log_std, discrete)
                 logp = log_prob(out[0], log_std, action, discrete)
-                final = t._value(params, carry, actor_in, critic_in, jnp.zeros_like(starts))
+                final = t._final_values(params, carry, obs_stats, final, truncated)
                 return carry, (action, logp, value[0], final)
             return jax.lax.scan(body, carry, xs)
 
-        xs = (traj.actor_in, _critic_in(traj), traj.starts, keys)
-        seconds, flops = timed(lane(run), self.runner.params, self.rollout.memory, xs)
+        xs = (traj.actor_in, _critic_in(traj), traj.starts, keys, final, truncated)
+        seconds, flops = timed(lane(run), self.runner.params, self.rollout.memory,
+                               self.runner.obs_stats, xs)
         self.add(f"policy forward (x{self.steps})", seconds, flops * self.steps)
 
-    def normalisation(self, obs: jax.Array, final: jax.Array) -> None:
+    def normalisation(self, obs: jax.Array) -> None:
         """Per step: the observation statistics' update, the actor's and critic's inputs of
-        the observations and of the final observations, the return statistics and scaling."""
+        the observations, the return statistics and scaling (the final observations' inputs
+        are the policy phase's, for the truncating environments alone)."""
         t, a = self.trainer, self.trainer.config.algorithm
         traj = self.rollout.traj
         shape = (self.steps, t.num_envs, t.slots)
@@ -213,9 +218,9 @@ class Phases:
         def run(runner: RunnerState, xs: tuple) -> tuple:
             def body(carry: tuple, x: tuple) -> tuple:
                 obs_stats, return_stats, returns = carry
-                obs, final, active, reward = x
+                obs, active, reward = x
                 obs_stats = obs_stats.update(obs.reshape(-1, size), active.reshape(-1))
-                inputs = t.inputs(obs_stats, obs), t.inputs(obs_stats, final)
+                inputs = t.inputs(obs_stats, obs)
                 returns = returns * a.gamma + reward
                 return_stats = return_stats.update(returns.reshape(-1, 1), active.reshape(-1))
                 scaled = return_stats.scale(reward, a.reward_clip)
@@ -224,7 +229,7 @@ class Phases:
             return jax.lax.scan(body, (runner.obs_stats, runner.return_stats, runner.returns),
                                 xs)
 
-        xs = (obs, final, traj.active.reshape(shape), traj.reward.reshape(shape))
+        xs = (obs, traj.active.reshape(shape), traj.reward.reshape(shape))
         seconds, flops = timed(lane(run), self.runner, xs)
         self.add(f"obs/return normalisation (x{self.steps})", seconds, flops * self.steps)
 
@@ -336,9 +341,9 @@ def report(name: str, config: TrainConfig, updates: int, peaks: tuple[float, flo
     runner = jax.tree.map(lambda x: x[0], runners)
     _, rollout, _ = jax.jit(lane(masked.collect))(runner)
     phases = Phases(masked, runner, rollout)
-    obs, final = phases.environment()
-    phases.policy()
-    phases.normalisation(obs, final)
+    obs, final, truncated = phases.environment()
+    phases.policy(final, truncated)
+    phases.normalisation(obs)
     phases.gae()
     learn = phases.learning(masked, compact)
     rows = masked.num_agents * a.num_steps // a.num_minibatches
