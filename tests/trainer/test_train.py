@@ -598,6 +598,36 @@ def test_critic_alone_gives_the_values_of_the_whole_network(network):
     np.testing.assert_array_equal(carry_alone, critic_carry)
 
 
+@pytest.mark.parametrize("network, algorithm", [(COMPACT_NETWORKS["mlp"], "ippo"),
+                                                (COMPACT_NETWORKS["gru"], "mappo")])
+def test_final_values_come_from_the_truncating_environments_alone(network, algorithm):
+    """The rollout's bootstrap values (``Trainer._final_values``): on every robot of an
+    environment with a truncated robot, the critic's value of its final observation from the
+    step's memory, as one pass over the whole batch gives it (up to float rounding: the
+    products are smaller); 0 elsewhere. 40 environments, about half truncating: three passes
+    of the chunk loop, a partly filled last one. (Under MAPPO the critic reads every robot of an
+    environment; a GRU's memory comes along row by row.)"""
+    trainer = Trainer(tiny(network=network, algorithm={"name": algorithm, "num_envs": 40}))
+    runner = trainer.init(jax.random.PRNGKey(1))
+    envs, slots = trainer.num_envs, trainer.slots
+    keys = jax.random.split(jax.random.PRNGKey(2), 4)
+    final = jax.random.normal(keys[0], (envs, slots, trainer.batch.obs_size))
+    truncated = jax.random.uniform(keys[1], (envs, slots)) < 0.3
+    carry = tuple(jax.random.normal(k, c.shape) for k, c in zip(keys[2:], runner.carry,
+                                                                 strict=True))
+    values = jax.jit(trainer._final_values)(runner.params, carry, runner.obs_stats, final,
+                                            truncated)
+    actor, critic = trainer.inputs(runner.obs_stats, final)
+    every = jax.jit(trainer._value)(runner.params, carry, actor, critic,
+                                    jnp.zeros(envs * slots, bool))
+    ending_envs = np.asarray(jnp.any(truncated, axis=1))
+    assert 16 < ending_envs.sum() < 24, ending_envs.sum()  # 3 chunks of 8, the last partly
+    ending = np.repeat(ending_envs, slots)
+    np.testing.assert_allclose(values[ending], every[ending], rtol=1e-5, atol=1e-6)
+    np.testing.assert_array_equal(values[~ending], 0.0)
+    assert not np.allclose(every[~ending], 0.0)  # the test can tell a value from a zero
+
+
 @pytest.mark.slow
 def test_a_tiny_compacted_run_learns_with_absent_slots():
     """``algorithm.compact`` trains, as the masked path does: one robot in two slots (half the
