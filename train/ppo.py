@@ -225,7 +225,7 @@ class Transition:
     reward: Array  # scaled
     terminated: Array
     truncated: Array
-    final_value: Array  # critic's value of the final observation (for truncation)
+    final_value: Array  # critic's value of the final observation where truncated, else 0
     active: Array
     decides: Array  # the environment read this action (make's decision_period; else held)
 
