@@ -607,19 +607,24 @@ def test_final_values_come_from_the_truncating_environments_alone(network, algor
     products are smaller); 0 elsewhere. 40 environments, about half truncating: three passes
     of the chunk loop, a partly filled last one. (Under MAPPO the critic reads every robot of an
     environment; a GRU's memory comes along row by row.)"""
+    from train.networks import initial_carry
+    from train.normalize import RunningStats
+
     trainer = Trainer(tiny(network=network, algorithm={"name": algorithm, "num_envs": 40}))
-    runner = trainer.init(jax.random.PRNGKey(1))
-    envs, slots = trainer.num_envs, trainer.slots
-    keys = jax.random.split(jax.random.PRNGKey(2), 4)
-    final = jax.random.normal(keys[0], (envs, slots, trainer.batch.obs_size))
+    envs, slots, size = trainer.num_envs, trainer.slots, trainer.batch.obs_size
+    keys = jax.random.split(jax.random.PRNGKey(2), 7)
+    final = jax.random.normal(keys[0], (envs, slots, size))
     truncated = jax.random.uniform(keys[1], (envs, slots)) < 0.3
-    carry = tuple(jax.random.normal(k, c.shape) for k, c in zip(keys[2:], runner.carry,
-                                                                 strict=True))
-    values = jax.jit(trainer._final_values)(runner.params, carry, runner.obs_stats, final,
-                                            truncated)
-    actor, critic = trainer.inputs(runner.obs_stats, final)
-    every = jax.jit(trainer._value)(runner.params, carry, actor, critic,
-                                    jnp.zeros(envs * slots, bool))
+    stats = RunningStats(mean=jax.random.normal(keys[2], (size,)),  # not the identity
+                         var=jax.random.uniform(keys[3], (size,), minval=0.5, maxval=2.0),
+                         count=jnp.asarray(10.0))
+    carry = tuple(jax.random.normal(k, c.shape) for k, c in zip(
+        keys[4:6], initial_carry(trainer.config.network, envs * slots), strict=True))
+    actor, critic = trainer.inputs(stats, final)
+    params = trainer.network.init(keys[6], carry, actor[None], critic[None],
+                                  jnp.zeros((1, envs * slots), bool))
+    values = jax.jit(trainer._final_values)(params, carry, stats, final, truncated)
+    every = jax.jit(trainer._value)(params, carry, actor, critic, jnp.zeros(envs * slots, bool))
     ending_envs = np.asarray(jnp.any(truncated, axis=1))
     assert 16 < ending_envs.sum() < 24, ending_envs.sum()  # 3 chunks of 8, the last partly
     ending = np.repeat(ending_envs, slots)
