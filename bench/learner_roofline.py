@@ -189,7 +189,8 @@ class Phases:
         discrete = t.batch.discrete
         keys = jax.random.split(jax.random.PRNGKey(3), self.steps)
 
-        def run(params: Any, carry: tuple, obs_stats: Any, xs: tuple) -> tuple:
+        def run(params: Any, carry: tuple, obs_stats: Any, mask: jax.Array, xs: tuple
+                ) -> tuple:
             def body(carry: tuple, x: tuple) -> tuple:
                 actor_in, critic_in, starts, key, final, truncated = x
                 carry, out, value = t.network.apply(params, carry, actor_in[None],
@@ -197,13 +198,13 @@ class Phases:
                 log_std = t._log_std(params)
                 action = sample(key, out[0], log_std, discrete)
                 logp = log_prob(out[0], log_std, action, discrete)
-                final = t._final_values(params, carry, obs_stats, final, truncated)
+                final = t._final_values(params, carry, obs_stats, final, mask, truncated)
                 return carry, (action, logp, value[0], final)
             return jax.lax.scan(body, carry, xs)
 
         xs = (traj.actor_in, _critic_in(traj), traj.starts, keys, final, truncated)
         seconds, flops = timed(lane(run), self.runner.params, self.rollout.memory,
-                               self.runner.obs_stats, xs)
+                               self.runner.obs_stats, self.runner.obs_mask, xs)
         self.add(f"policy forward (x{self.steps})", seconds, flops * self.steps)
 
     def normalisation(self, obs: jax.Array) -> None:

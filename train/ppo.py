@@ -39,6 +39,7 @@ from sgjax.environment.env import SocialNavEnv
 from sgjax.environment.registry import make
 from sgjax.evaluation.metrics import team_success
 from sgjax.evaluation.policies import RecurrentPolicy
+from sgjax.kernels.row_chunks import chunk_size, update_flagged_rows
 from sgjax.terms.base import ConfigError
 from train.actor import (
     ActorLayout,
@@ -64,9 +65,6 @@ LOSS_TERMS = ("policy_loss", "value_loss", "entropy", "approx_kl")  # learn's au
 # partly padded with units that cannot learn; more chunks pad less but run more, smaller
 # products).
 COMPACT_CHUNKS = 8
-# The rollout bootstraps truncated robots from the critic's value of their final observation,
-# computed for at least this many environments at a time (Trainer._final_values).
-FINAL_VALUE_CHUNK = 8
 # Algorithm settings held as numbers in the runner state (``RunnerState.hyper``), which the
 # compiled program reads there when its Trainer is told that lanes vary them (``varied``), so
 # that the lanes of one call may differ in them: ``train.sweep`` trains trials that differ only
@@ -464,7 +462,7 @@ class Trainer:
         returns = jnp.where(done | ~active, 0.0, returns)
 
         final_value = self._final_values(runner.params, carry, obs_stats,
-                                         info["final_observation"] * runner.obs_mask, trunc)
+                                         info["final_observation"], runner.obs_mask, trunc)
         episode_done = info["episode_done"]
         transition = Transition(
             actor_in=actor_in, critic_in=critic_in if self.mappo else None, starts=starts,
@@ -494,43 +492,32 @@ class Trainer:
         return runner, (transition, log)
 
     def _final_values(self, params: Any, carry: tuple, obs_stats: RunningStats,
-                      final_obs: Array, truncated: Array) -> Array:
-        """The critic's values ``[B]`` of the final observations ``final_obs [E, R, D]`` of the
-        environments with a truncated robot (``truncated [E, R]``), 0 elsewhere (GAE reads a
-        final value only where its robot was truncated).
+                      final_obs: Array, obs_mask: Array, truncated: Array) -> Array:
+        """The critic's values ``[B]`` of the final observations ``final_obs [E, R, D]``
+        (times ``obs_mask [D]``) of the environments with a truncated robot (``truncated [E,
+        R]``), 0 elsewhere (GAE reads a final value only where its robot was truncated).
 
         Few environments truncate in a step (a time limit, a stuck robot), so the critic runs
-        on them alone, :data:`FINAL_VALUE_CHUNK` environments at a time in a ``while_loop``
-        that runs ``ceil(truncating / chunk)`` times (none in most steps), instead of on every
-        row of the batch every step (about a twelfth of a doorway update's time on a CPU).
-        Whole environments, because MAPPO's critic reads every robot of one."""
+        on them alone, a chunk at a time (:func:`sgjax.kernels.row_chunks.update_flagged_rows`,
+        none in most steps), instead of on every row of the batch every step. Whole
+        environments, because MAPPO's critic reads every robot of one."""
         num_envs, slots = truncated.shape
-        chunk = min(num_envs, max(FINAL_VALUE_CHUNK, -(-num_envs // 16)))
-        ending = jnp.any(truncated, axis=1)  # [E]
-        rank = jnp.cumsum(ending.astype(jnp.int32)) - 1
-        count = jnp.sum(ending.astype(jnp.int32))
+        chunk = chunk_size(num_envs)
         critic_carry = jax.tree.map(
             lambda x: x.reshape((num_envs, slots) + x.shape[1:]), carry[1])
 
-        def more(loop: tuple) -> Array:
-            return loop[0] * chunk < count
-
-        def some(loop: tuple) -> tuple:
-            i, values = loop
-            (index,) = jnp.nonzero(ending & (rank // chunk == i), size=chunk,
-                                   fill_value=num_envs)
+        def some(index: Array, values: Array) -> Array:
             rows = jnp.minimum(index, num_envs - 1)
-            actor_in, critic_in = self.inputs(obs_stats, final_obs[rows])
+            actor_in, critic_in = self.inputs(obs_stats, final_obs[rows] * obs_mask)
             memory = jax.tree.map(
                 lambda x: x[rows].reshape((chunk * slots,) + x.shape[2:]), critic_carry)
             _, value = self.network.apply(
                 params, memory, actor_in[None], critic_in[None],
                 jnp.zeros((1, chunk * slots), bool), method=ActorCritic.value)
-            values = values.at[index].set(value[0].reshape(chunk, slots), mode="drop")
-            return i + 1, values
+            return values.at[index].set(value[0].reshape(chunk, slots), mode="drop")
 
-        _, values = jax.lax.while_loop(
-            more, some, (jnp.int32(0), jnp.zeros((num_envs, slots), jnp.float32)))
+        values = update_flagged_rows(jnp.any(truncated, axis=1), chunk, some,
+                                     jnp.zeros((num_envs, slots), jnp.float32))
         return values.reshape(-1)
 
     def _value(self, params: Any, carry: tuple, actor_in: Array, critic_in: Array,

@@ -55,6 +55,7 @@ from sgjax.environment.physics import Commands
 from sgjax.humans.pedestrians import HumanConfig, HumanState, advance_waypoints, spawn_humans
 from sgjax.kernels.geometry import safe_norm
 from sgjax.kernels.planner import PlannerConfig, approach, carrot_point, plan, route_progress
+from sgjax.kernels.row_chunks import chunk_size, update_flagged_rows
 from sgjax.kernels.zone_books import start_zones, update_zones
 from sgjax.maps.sampling import build_routes, sample_starts_goals
 from sgjax.observations import Observer
@@ -372,9 +373,10 @@ class SocialNavEnv:
         ``vmap(step)`` samples a new episode for every environment at every step and keeps it
         only where the episode ended (a ``where`` cannot skip work); here the new episodes are
         sampled for the environments whose episode ended alone, ``reset_chunk`` of them at a
-        time in a ``while_loop`` that runs ``ceil(ended / reset_chunk)`` times (default
-        ``reset_chunk``: ``max(8, ceil(N / 16))``). Each environment's new episode comes from
-        its own key, as in :meth:`step`, so which ones share a chunk changes nothing.
+        time in a ``while_loop`` that runs ``ceil(ended / reset_chunk)`` times
+        (:func:`sgjax.kernels.row_chunks.update_flagged_rows`; default ``reset_chunk``:
+        ``max(8, ceil(N / 16))``). Each environment's new episode comes from its own key, as in
+        :meth:`step`, so which ones share a chunk changes nothing.
 
         ``keys [N]`` (or ``[N, 2]`` raw keys), ``states`` with a leading ``[N]`` axis,
         ``actions [N, R]`` (GO/STOP) or ``[N, R, A]`` (continuous); ``params`` shared.
@@ -389,8 +391,7 @@ class SocialNavEnv:
         reset_chunk: int | None,
     ) -> tuple[Array, EnvState, Array, Array, Array, dict]:
         num_envs = keys.shape[0]
-        chunk = reset_chunk or max(8, -(-num_envs // 16))
-        chunk = min(chunk, num_envs)
+        chunk = min(reset_chunk, num_envs) if reset_chunk else chunk_size(num_envs)
         both = jax.vmap(jax.random.split)(keys)  # as _step splits each environment's key
         key_step, key_reset = both[:, 0], both[:, 1]
         obs, next_state, reward, terminated, truncated, info = jax.vmap(
@@ -401,27 +402,19 @@ class SocialNavEnv:
         info["final_robots"] = next_state.robots
         info["final_collisions"] = next_state.collisions
         info["final_time"] = next_state.time
-        rank = jnp.cumsum(episode_done.astype(jnp.int32)) - 1  # [N]: order among the ended
-        ended = jnp.sum(episode_done.astype(jnp.int32))
 
-        def more(carry: tuple) -> Array:
-            return carry[0] * chunk < ended
-
-        def reset_some(carry: tuple) -> tuple:
-            """Reset the ``chunk`` ended environments of rank ``[i chunk, (i + 1) chunk)``;
-            unused places of the chunk point past the batch and are dropped."""
-            i, obs, state = carry
-            (index,) = jnp.nonzero(episode_done & (rank // chunk == i), size=chunk,
-                                   fill_value=num_envs)
+        def reset_some(index: Array, carry: tuple) -> tuple:
+            """Reset the ended environments ``index [chunk]`` (unused places point past the
+            batch and are dropped)."""
+            obs, state = carry
             fresh_obs, fresh = jax.vmap(self._reset, in_axes=(0, None))(
                 key_reset[jnp.minimum(index, num_envs - 1)], params)
             rows = index[:, None]
             obs = _set_rows(obs, rows, fresh_obs)
             state = jax.tree.map(lambda old, new: _set_rows(old, rows, new), state, fresh)
-            return i + 1, obs, state
+            return obs, state
 
-        _, obs, next_state = jax.lax.while_loop(
-            more, reset_some, (jnp.int32(0), obs, next_state))
+        obs, next_state = update_flagged_rows(episode_done, chunk, reset_some, (obs, next_state))
         next_state = next_state.replace(total_steps=states.total_steps + 1)  # not reset
         return obs, next_state, reward, terminated, truncated, info
 

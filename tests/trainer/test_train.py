@@ -604,9 +604,9 @@ def test_final_values_come_from_the_truncating_environments_alone(network, algor
     """The rollout's bootstrap values (``Trainer._final_values``): on every robot of an
     environment with a truncated robot, the critic's value of its final observation from the
     step's memory, as one pass over the whole batch gives it (up to float rounding: the
-    products are smaller); 0 elsewhere. 40 environments, about half truncating: three passes
-    of the chunk loop, a partly filled last one. (Under MAPPO the critic reads every robot of an
-    environment; a GRU's memory comes along row by row.)"""
+    products are smaller); 0 elsewhere. 40 environments, about half truncating: three chunks
+    of 8 (``sgjax.kernels.row_chunks.chunk_size``), the last partly filled. (Under MAPPO the
+    critic reads every robot of an environment; a GRU's memory comes along row by row.)"""
     from train.networks import initial_carry
     from train.normalize import RunningStats
 
@@ -623,7 +623,8 @@ def test_final_values_come_from_the_truncating_environments_alone(network, algor
     actor, critic = trainer.inputs(stats, final)
     params = trainer.network.init(keys[6], carry, actor[None], critic[None],
                                   jnp.zeros((1, envs * slots), bool))
-    values = jax.jit(trainer._final_values)(params, carry, stats, final, truncated)
+    mask = jnp.ones(size)
+    values = jax.jit(trainer._final_values)(params, carry, stats, final, mask, truncated)
     every = jax.jit(trainer._value)(params, carry, actor, critic, jnp.zeros(envs * slots, bool))
     ending_envs = np.asarray(jnp.any(truncated, axis=1))
     assert 16 < ending_envs.sum() < 24, ending_envs.sum()  # 3 chunks of 8, the last partly
