@@ -93,9 +93,10 @@ def pytest_collection_modifyitems(session, config, items):
 
 # --- Where each test's time goes (opt-in) ---------------------------------------------------
 # SGJAX_TEST_TIME_SPLIT=FILE appends one line per test to FILE (every xdist worker appends):
-# nodeid, wall seconds, and the seconds JAX reported spending in tracing, lowering to MLIR and
-# XLA compiling inside it (jax.monitoring duration events; compiling includes loading from the
-# compilation cache) and the cache's hits and misses; the rest is running and Python. ``cpu``:
+# nodeid, the xdist worker, the start (Unix seconds), wall seconds, and the seconds JAX
+# reported spending in tracing, lowering to MLIR and XLA compiling inside it (jax.monitoring
+# duration events; compiling includes loading from the compilation cache) and the cache's
+# hits and misses; the rest is running and Python. ``cpu``:
 # the worker's CPU seconds in the test (all its threads); ``cpu_children``: those of the
 # subprocesses it started and waited for (commands, a browser once its driver quits).
 # ``python tests/time_split.py FILE`` sums it by file and by phase.
@@ -148,7 +149,9 @@ if os.environ.get(_SPLIT_ENV):
         start, (own, children) = time.perf_counter(), _cpu_seconds()
         yield
         own_after, children_after = _cpu_seconds()
-        row = {"test": item.nodeid, "wall": time.perf_counter() - start,
+        row = {"test": item.nodeid, "worker": os.environ.get("PYTEST_XDIST_WORKER", "main"),
+               "start": time.time() - (time.perf_counter() - start),
+               "wall": time.perf_counter() - start,
                "cpu": own_after - own, "cpu_children": children_after - children, **_spent}
         with open(os.environ[_SPLIT_ENV], "a") as out:
             out.write(json.dumps(row) + "\n")
