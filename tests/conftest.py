@@ -8,7 +8,14 @@ writing and looking them up cost more than compiling them again (three eager-hea
 140 s -> 131 s alone). The cache lives in a fresh temporary folder per session (a run from a
 fresh clone pays every compile once), unless
 ``SGJAX_TEST_COMPILATION_CACHE`` names a folder to keep between runs. ``SGJAX_TEST_NO_CACHE=1``
-turns it off.
+turns it off. What the cache is worth (measured on the 2-core AMD EPYC, 2026-11-27, every write
+and read of a suite run logged): 529 programs written, for 34 s of CPU (serialising the
+executable, compressing it, writing it); 85 of them read back in the suite's own processes (141
+reads, 40 of them in another file than the writer's), saving about 79 s of compiling, besides
+what the commands' subprocesses read. A threshold of 0.3, 0.5 or 1 s instead of 0.1 s saves
+fewer writes than it loses reads (net 37, 30, 22 s instead of 45 s). The dev extra installs
+``zstandard``, which JAX uses instead of zlib to compress the entries: the suite's 925 MB of
+executables compress in 1.6 s instead of 13.7 s.
 
 Tests compile far more than they run, and most of an XLA:CPU compile is LLVM optimising the
 generated code: the tests compile with ``--xla_backend_optimization_level=0`` (about a third off)
@@ -115,6 +122,8 @@ def _listen(event: str, seconds: float, fun_name: str = "", **_kwargs) -> None:
     phase = _PHASES.get(event)
     if phase is not None:
         _spent[phase] = _spent.get(phase, 0.0) + seconds
+        if phase == "compile":
+            _spent["compiles"] = _spent.get("compiles", 0) + 1
         if phase == "compile" and seconds >= 0.3:  # the programs that cost (name, seconds)
             _spent.setdefault("programs", []).append([fun_name, round(seconds, 2)])
 

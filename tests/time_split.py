@@ -4,7 +4,10 @@
     python tests/time_split.py /tmp/split.jsonl [--tests 30] [--programs 20]
 
 ``cpu s``: the workers' CPU seconds (every thread), ``child``: their subprocesses' (rows written
-before these were kept show 0).
+before these were kept show 0); ``compiles``: XLA compiles of any size (mostly the single
+primitives of eager-mode tests). ``workers``: each xdist worker's tests, the seconds they ran
+and when its first started and its last ended, from the earliest start: how evenly
+``--dist loadfile`` shared the files out.
 
 ``--programs``: the compiles of 0.3 s or more summed by program name (``jit(episodes)``, the
 evaluation; ``jit(<lambda>)``, mostly training updates), with how many there were and the files
@@ -32,22 +35,25 @@ def main() -> None:
     by_file: dict[str, dict[str, float]] = defaultdict(lambda: defaultdict(float))
     for row in tests:
         total = by_file[row["test"].split("::")[0]]
-        for key in ("wall", *PHASES, "cpu", "cpu_children"):
+        for key in ("wall", *PHASES, "cpu", "cpu_children", "compiles"):
             total[key] += row.get(key, 0.0)
         total["tests"] += 1
     header = (f"{'wall s':>8} {'trace':>7} {'lower':>7} {'compile':>8} {'rest':>7} {'cpu s':>7} "
-              f"{'child':>6}")
+              f"{'child':>6} {'compiles':>8}")
     print(f"{header}  tests  file")
     for name, t in sorted(by_file.items(), key=lambda item: -item[1]["wall"]):
         rest = t["wall"] - sum(t[p] for p in PHASES)
         print(f"{t['wall']:8.1f} {t['trace']:7.1f} {t['lower']:7.1f} {t['compile']:8.1f} "
-              f"{rest:7.1f} {t['cpu']:7.1f} {t['cpu_children']:6.1f}  {int(t['tests']):5d}  "
+              f"{rest:7.1f} {t['cpu']:7.1f} {t['cpu_children']:6.1f} {int(t['compiles']):8d}  "
+              f"{int(t['tests']):5d}  "
               f"{name}")
     grand = {key: sum(t[key] for t in by_file.values())
-             for key in ("wall", *PHASES, "cpu", "cpu_children")}
+             for key in ("wall", *PHASES, "cpu", "cpu_children", "compiles")}
     print(f"{grand['wall']:8.1f} {grand['trace']:7.1f} {grand['lower']:7.1f} "
           f"{grand['compile']:8.1f} {grand['wall'] - sum(grand[p] for p in PHASES):7.1f} "
-          f"{grand['cpu']:7.1f} {grand['cpu_children']:6.1f}  {len(tests):5d}  all")
+          f"{grand['cpu']:7.1f} {grand['cpu_children']:6.1f} {int(grand['compiles']):8d}  "
+          f"{len(tests):5d}  all")
+    print_workers(tests)
     print(f"\nslowest {args.tests} tests")
     for row in sorted(tests, key=lambda r: -r["wall"])[:args.tests]:
         rest = row["wall"] - sum(row.get(p, 0.0) for p in PHASES)
@@ -55,6 +61,21 @@ def main() -> None:
               f"{row.get('compile', 0):8.1f} {rest:7.1f}  {row['test']}")
     if args.programs:
         print_programs(tests, args.programs)
+
+
+def print_workers(tests: list[dict]) -> None:
+    """Each worker's tests, busy seconds, first start and last end (rows that record them)."""
+    timed = [row for row in tests if "start" in row and "worker" in row]
+    if not timed:
+        return
+    origin = min(row["start"] for row in timed)
+    print("\nworkers: tests, seconds in tests, first start and last end (s from the first start)")
+    for worker in sorted({row["worker"] for row in timed}):
+        mine = [row for row in timed if row["worker"] == worker]
+        first = min(row["start"] for row in mine) - origin
+        last = max(row["start"] + row["wall"] for row in mine) - origin
+        print(f"  {worker}: {len(mine)} tests, {sum(r['wall'] for r in mine):.0f} s, "
+              f"{first:.0f} -> {last:.0f}")
 
 
 def print_programs(tests: list[dict], count: int) -> None:
