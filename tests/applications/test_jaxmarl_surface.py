@@ -9,11 +9,11 @@ import numpy as np
 import optax
 import pytest
 from flax import linen as nn
-from jaxmarl.environments import MultiAgentEnv
-from jaxmarl.environments.spaces import Box, Discrete, Space
-from jaxmarl.wrappers.baselines import LogWrapper
 
 from sgjax.adapters.jaxmarl import SocialNavJaxMARL, make_jaxmarl, registered_envs
+
+# jaxmarl itself is imported inside the tests that name its classes: importing it takes about
+# 2.6 s, and every xdist worker collects (imports) every test file.
 
 MINI_GAMES = ["doorway", "hallway", "intersection", "roundabout", "open"]
 
@@ -21,6 +21,9 @@ MINI_GAMES = ["doorway", "hallway", "intersection", "roundabout", "open"]
 @pytest.mark.parametrize("action_mode", ["go_stop", "continuous"])
 @pytest.mark.parametrize("scenario", MINI_GAMES)
 def test_base_api(scenario, action_mode):
+    from jaxmarl.environments import MultiAgentEnv
+    from jaxmarl.environments.spaces import Box, Discrete, Space
+
     env = make_jaxmarl(f"sgjax_{scenario}", num_agents=3, action_mode=action_mode)
     assert isinstance(env, MultiAgentEnv) and env.name == f"sgjax_{scenario}"
     for agent in env.agents:
@@ -79,6 +82,8 @@ class ActorCritic(nn.Module):
 
 @pytest.mark.slow
 def test_an_ippo_loop_shaped_like_jaxmarls_runs_and_learns_under_log_wrapper():
+    from jaxmarl.wrappers.baselines import LogWrapper
+
     num_envs, num_steps, updates = 16, 32, 12
     env = LogWrapper(SocialNavJaxMARL("open", num_agents=2, time_limit=12.0))
     num_actors = env.num_agents * num_envs

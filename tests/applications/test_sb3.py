@@ -5,15 +5,25 @@ open space with continuous actions)."""
 import numpy as np
 import pytest
 
-sb3 = pytest.importorskip("stable_baselines3", reason="pip install torch==2.13.0, then .[sb3]")
-pytest.importorskip("supersuit")
-torch = pytest.importorskip("torch")
+# Set by `libraries` when the file's first test runs.
+sb3 = torch = set_random_seed = SgjaxVecEnv = supersuit_vec_env = None
 
-from stable_baselines3.common.utils import set_random_seed  # noqa: E402
 
-from sgjax.adapters.sb3 import SgjaxVecEnv, supersuit_vec_env  # noqa: E402
+@pytest.fixture(scope="module", autouse=True)
+def libraries():
+    """Stable-Baselines3, SuperSuit, torch and sgjax's SB3 adapter, imported when this file's
+    first test runs instead of when it is collected (every xdist worker collects every file,
+    and importing torch takes about 1.1 s), or a skip that names what to install."""
+    global sb3, torch, set_random_seed, SgjaxVecEnv, supersuit_vec_env
+    sb3 = pytest.importorskip("stable_baselines3",
+                              reason="pip install torch==2.13.0, then .[sb3]")
+    pytest.importorskip("supersuit")
+    torch = pytest.importorskip("torch")
+    from stable_baselines3.common.utils import set_random_seed
 
-torch.set_num_threads(1)
+    from sgjax.adapters.sb3 import SgjaxVecEnv, supersuit_vec_env
+
+    torch.set_num_threads(1)
 
 
 def evaluate(model, venv, steps):
