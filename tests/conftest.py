@@ -124,8 +124,8 @@ def _listen(event: str, seconds: float, fun_name: str = "", **_kwargs) -> None:
         _spent[phase] = _spent.get(phase, 0.0) + seconds
         if phase == "compile":
             _spent["compiles"] = _spent.get("compiles", 0) + 1
-        if phase == "compile" and seconds >= 0.3:  # the programs that cost (name, seconds)
-            _spent.setdefault("programs", []).append([fun_name, round(seconds, 2)])
+            if seconds >= 0.3:  # the programs that cost (name, seconds)
+                _spent.setdefault("programs", []).append([fun_name, round(seconds, 2)])
 
 
 def _count(event: str, **_kwargs) -> None:
@@ -155,11 +155,11 @@ if os.environ.get(_SPLIT_ENV):
     @pytest.hookimpl(hookwrapper=True)
     def pytest_runtest_protocol(item, nextitem):
         _spent.clear()
-        start, (own, children) = time.perf_counter(), _cpu_seconds()
+        started, start, (own, children) = time.time(), time.perf_counter(), _cpu_seconds()
         yield
         own_after, children_after = _cpu_seconds()
         row = {"test": item.nodeid, "worker": os.environ.get("PYTEST_XDIST_WORKER", "main"),
-               "start": time.time() - (time.perf_counter() - start),
+               "start": started,
                "wall": time.perf_counter() - start,
                "cpu": own_after - own, "cpu_children": children_after - children, **_spent}
         with open(os.environ[_SPLIT_ENV], "a") as out:

@@ -21,6 +21,7 @@ import json
 from collections import defaultdict
 
 PHASES = ("trace", "lower", "compile")
+SUMMED = ("wall", *PHASES, "cpu", "cpu_children", "compiles")  # summed by file and in all
 
 
 def main() -> None:
@@ -35,7 +36,7 @@ def main() -> None:
     by_file: dict[str, dict[str, float]] = defaultdict(lambda: defaultdict(float))
     for row in tests:
         total = by_file[row["test"].split("::")[0]]
-        for key in ("wall", *PHASES, "cpu", "cpu_children", "compiles"):
+        for key in SUMMED:
             total[key] += row.get(key, 0.0)
         total["tests"] += 1
     header = (f"{'wall s':>8} {'trace':>7} {'lower':>7} {'compile':>8} {'rest':>7} {'cpu s':>7} "
@@ -48,7 +49,7 @@ def main() -> None:
               f"{int(t['tests']):5d}  "
               f"{name}")
     grand = {key: sum(t[key] for t in by_file.values())
-             for key in ("wall", *PHASES, "cpu", "cpu_children", "compiles")}
+             for key in SUMMED}
     print(f"{grand['wall']:8.1f} {grand['trace']:7.1f} {grand['lower']:7.1f} "
           f"{grand['compile']:8.1f} {grand['wall'] - sum(grand[p] for p in PHASES):7.1f} "
           f"{grand['cpu']:7.1f} {grand['cpu_children']:6.1f} {int(grand['compiles']):8d}  "
