@@ -39,8 +39,9 @@ def test_zone_widths_are_the_free_gaps_of_the_shipped_mini_games():
 
 
 def _play_lane(env, params, policy, reset_key, step_keys, episode, keep):
-    """One lane played as ``EpisodeRunner`` plays it: its episode's keys, frozen once done.
-    Returns per-step records (the start first) of robots, pedestrians and zones."""
+    """One lane played as ``EpisodeRunner`` plays it: its episode's keys (``episode`` may be
+    traced), frozen once done. Returns per-step records (the start first) of robots,
+    pedestrians and zones, and whether the episode ran at each step ``[T]``."""
     obs, state = env.reset_subset(reset_key, params, keep)
 
     def body(carry, key):
@@ -56,7 +57,7 @@ def _play_lane(env, params, policy, reset_key, step_keys, episode, keep):
 
     (_, _, _), (states, running) = jax.lax.scan(body, (obs, state, jnp.asarray(True)), step_keys)
     states = jax.tree.map(lambda a, rest: jnp.concatenate([a[None], rest]), state, states)
-    return jax.device_get(states), np.asarray(running)
+    return states, running
 
 
 def _polyline_distance(points, line):
@@ -95,10 +96,13 @@ def test_counterfactual_metrics_equal_brute_force_from_separate_episodes():
     num = env.max_agents
     dt = float(params.dt)
     checked = flows = 0
+    # one program for every lane played below (the episode and the robots kept are arguments)
+    play = jax.jit(lambda reset_key, episode, keep: _play_lane(
+        env, params, policy, reset_key, step_keys, episode, keep))
     for e in range(EPISODES):
         def lane(keep, e=e):
-            return _play_lane(env, params, policy, reset_keys[e], step_keys, e,
-                              jnp.asarray(keep))
+            states, running = play(reset_keys[e], jnp.int32(e), jnp.asarray(keep))
+            return jax.device_get(states), np.asarray(running)
 
         full, running = lane(np.ones(num, bool))
         xy = np.stack([full.robots.x, full.robots.y], -1)  # [T + 1, R, 2]

@@ -59,7 +59,8 @@ def test_sharded_and_unsharded_runs_agree_on_one_step():
 def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
     config = tmp_path / "tiny.yaml"
     config.write_text(yaml.safe_dump({
-        **TINY, "evaluation": {"every": 64, "episodes": 2, "num_agents": [2]},
+        # the final evaluation's settings of the next test: one compiled program for both
+        **TINY, "evaluation": {"every": 64, "episodes": 3, "num_agents": [2, 3]},
         "logging": {"out": str(tmp_path / "run"), "checkpoint_every": 64,
                     "tensorboard": False, "progress": False},
         "env": {**TINY["env"], "time_limit": 10.0}}))
@@ -80,7 +81,7 @@ def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
     assert made["seeds"] == {"training": [0], "validation": [1234], "evaluation": [1000]}
     assert {"train", "final evaluation", "total"} <= set(made["seconds"])
     check_document(json.loads((run / "eval" / "metrics.json").read_text()))
-    assert "paired over the same 2 episodes" in out
+    assert "paired over the same 3 episodes" in out
     from sgjax.command import main as sgjax_main
 
     sgjax_main(["evaluate", "--scenario", "open", "--policy", str(run), "--num-agents", "2",
@@ -221,7 +222,9 @@ def test_a_reproduce_cell_killed_midway_resumes_from_its_last_call(tmp_path, mon
     for a, b in zip(jax.tree.leaves(whole.params), jax.tree.leaves(resumed.params), strict=True):
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
     assert checkpoint.read(partial)[1]["updates"] == 4
-    other = tiny(num_seeds=2, algorithm={"total_steps": 4 * 8 * 8, "learning_rate": 1e-3})
+    # another cell's config; its seed is an argument of the compiled programs (a learning
+    # rate is baked into them: two more compiles)
+    other = tiny(num_seeds=2, seed=1, algorithm={"total_steps": 4 * 8 * 8})
     with pytest.raises(ValueError, match="open-cadrl.msgpack: a partly trained cell of another"):
         reproduce.train_baseline(other, partial, resume=True)
     reproduce.train_baseline(other, partial)  # no resume: the stale file is not read
@@ -231,13 +234,12 @@ def test_a_reproduce_cell_killed_midway_resumes_from_its_last_call(tmp_path, mon
 def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
     from train.reproduce import reproduce
 
-    reproduce(["open"], ["cadrl", "only_local", "dwa"], seeds=2, total_steps=8 * 8 * 2,
+    reproduce(["open"], ["cadrl", "only_local"], seeds=2, total_steps=8 * 8 * 2,
               num_envs=8, counts=[2, 3], episodes=2, table_robots=2, out=tmp_path,
               time_limit=10.0, baseline_episodes=3)
     metrics_table = (tmp_path / "metrics_table.md").read_text()
     success_table = (tmp_path / "success_table.md").read_text()
     assert "| open | cadrl |" in metrics_table and "| open | only_local |" in metrics_table
-    assert "| open | dwa |" in metrics_table  # a classical controller as an extra row
     assert "| 2A | 3A | Avg. |" in success_table
     document = json.loads((tmp_path / "results.json").read_text())
     check_document(document)
@@ -269,20 +271,23 @@ def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
     assert again["success_table.md"] == success_table  # the tables come from results.json
     assert (tmp_path / "again" / "paper_comparison.md").is_file()
     marl = json.loads((tmp_path / "marl_eval.json").read_text())["sgjax"]
-    assert set(marl["open_2robots"]) == {"cadrl", "only_local", "dwa"}
-    # --resume keeps the finished cells and runs only the missing one; other settings refuse.
+    assert set(marl["open_2robots"]) == {"cadrl", "only_local"}
+    # --resume keeps the finished cells and runs only the missing one (a classical controller,
+    # an extra row); other settings refuse.
     kept = dict(results["open"])
     run = dict(seeds=2, total_steps=8 * 8 * 2, num_envs=8, counts=[2, 3], episodes=2,
                table_robots=2, out=tmp_path, time_limit=10.0, resume=True,
                baseline_episodes=3)
-    reproduce(["open"], ["cadrl", "only_local", "social_force"], **run)
+    reproduce(["open"], ["cadrl", "only_local", "dwa"], **run)
     assert "kept from" in capsys.readouterr().out
     document = json.loads((tmp_path / "results.json").read_text())
-    assert list(document["results"]["open"]) == ["cadrl", "only_local", "dwa", "social_force"]
+    assert list(document["results"]["open"]) == ["cadrl", "only_local", "dwa"]
     assert {b: document["results"]["open"][b] for b in kept} == kept
-    assert document["runs"] == 2 and "open/social_force" in document["cell_seconds"]
+    assert document["runs"] == 2 and "open/dwa" in document["cell_seconds"]
     assert len(document["earlier_provenance"]) == 1  # the first run's block is kept
-    assert "| open | social_force |" in (tmp_path / "metrics_table.md").read_text()
+    assert "| open | dwa |" in (tmp_path / "metrics_table.md").read_text()
+    marl = json.loads((tmp_path / "marl_eval.json").read_text())["sgjax"]
+    assert set(marl["open_2robots"]) == {"cadrl", "only_local", "dwa"}
     with pytest.raises(ValueError, match="results.json: ran with episodes = 2"):
         reproduce(["open"], ["cadrl"], **{**run, "episodes": 3})
     with pytest.raises(ValueError, match="baseline-episodes .1. must be at least"):
