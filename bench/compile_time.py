@@ -13,15 +13,28 @@ The persistent compilation cache is off (every compile is measured afresh); each
 a new program. Run it on a GPU when one is available (the issue's target: every row under 60 s
 on a GPU, under 30 s on the CPU).
 
+``--passes N`` also prints, under each row, where XLA spent that compile: the ``N`` longest
+of XLA's own trace events (HLO pass pipelines and passes, summed over their runs; the backend;
+LLVM code generation), read from a ``jax.profiler`` trace of the compile with XLA:CPU's trace
+events on (``--xla_cpu_enable_xprof_traceme=true``, added to ``XLA_FLAGS`` before JAX starts
+its backends). Nested events overlap (a pipeline holds its passes), so they do not add up to
+the compile. The trace is read with ``jax._src.lib._profile_data``, a private module of
+jaxlib: the option says so and stops where a jaxlib lacks it.
+
     python bench/compile_time.py
     python bench/compile_time.py --maps doorway office --modes go_stop --orders "scan(vmap)"
+    python bench/compile_time.py --maps open --modes go_stop --orders "scan(vmap)" --passes 12
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import tempfile
 import time
+from collections import Counter
 from collections.abc import Callable
+from pathlib import Path
 
 import jax
 
@@ -58,9 +71,35 @@ def rollout(env, params, order: str, num_envs: int, steps: int) -> Callable:
     return jax.jit(run)
 
 
+TRACE_EVENTS_FLAG = "--xla_cpu_enable_xprof_traceme=true"
+
+
+def compile_events(lowered: jax.stages.Lowered) -> tuple[float, Counter[str]]:
+    """Compile ``lowered`` under ``jax.profiler``: ``(seconds, {XLA event: seconds summed over
+    its runs})``; JAX's own Python events (named ``$file:line function``) are left out."""
+    from jax._src.lib import _profile_data  # private: see the module docstring
+
+    with tempfile.TemporaryDirectory(prefix="sgjax-compile-trace-") as folder:
+        jax.profiler.start_trace(folder)
+        t0 = time.perf_counter()
+        lowered.compile()
+        seconds = time.perf_counter() - t0
+        jax.profiler.stop_trace()
+        (trace,) = Path(folder).rglob("*.xplane.pb")
+        data = _profile_data.ProfileData.from_file(str(trace))
+    events: Counter[str] = Counter()
+    for plane in data.planes:
+        for line in plane.lines:
+            for event in line.events:
+                if not event.name.startswith("$"):
+                    events[event.name] += event.duration_ns / 1e9
+    return seconds, events
+
+
 def measure(scenario: str, mode: str, order: str, robots: int | None, num_envs: int,
-            steps: int) -> tuple[float, float, int]:
-    """(trace and lower seconds, compile seconds, robot slots) of one configuration."""
+            steps: int, passes: int = 0) -> tuple[float, float, int, Counter[str]]:
+    """(trace and lower seconds, compile seconds, robot slots, XLA's events when ``passes``)
+    of one configuration."""
     counts = {} if robots is None else {"num_agents": robots}
     env, params = sgjax.make(scenario, action_mode=mode, **counts)
     keys = jax.random.split(jax.random.key(0), num_envs)
@@ -69,8 +108,11 @@ def measure(scenario: str, mode: str, order: str, robots: int | None, num_envs: 
     t0 = time.perf_counter()
     lowered = run.lower(states, jax.random.key(1))
     t1 = time.perf_counter()
+    if passes:
+        compile_s, events = compile_events(lowered)
+        return t1 - t0, compile_s, env.max_agents, events
     lowered.compile()
-    return t1 - t0, time.perf_counter() - t1, env.max_agents
+    return t1 - t0, time.perf_counter() - t1, env.max_agents, Counter()
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -83,7 +125,22 @@ def main(argv: list[str] | None = None) -> None:
                         help="robots per environment (default: each map's default)")
     parser.add_argument("--num-envs", type=int, default=64)
     parser.add_argument("--steps", type=int, default=16)
+    parser.add_argument("--passes", type=int, default=0, metavar="N",
+                        help="print XLA's N longest compile events under each row (0: none)")
     args = parser.parse_args(argv)
+    if args.passes < 0:
+        parser.error(f"--passes must be 0 or more, got {args.passes}")
+    if args.passes:
+        from jax._src import xla_bridge
+
+        try:
+            from jax._src.lib import _profile_data  # noqa: F401
+        except ImportError:
+            parser.error("--passes reads the trace with jax._src.lib._profile_data, which "
+                         "this jaxlib lacks")
+        if xla_bridge.backends_are_initialized():
+            parser.error("--passes: JAX's backends started before XLA_FLAGS could be set")
+        os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} {TRACE_EVENTS_FLAG}".strip()
     disable_compilation_cache()
     device = jax.devices()[0]
     print(f"jax {jax.__version__} on {device.platform} ({device.device_kind}); "
@@ -93,11 +150,13 @@ def main(argv: list[str] | None = None) -> None:
     for scenario in args.maps:
         for mode in args.modes:
             for order in args.orders:
-                lower_s, compile_s, robots = measure(scenario, mode, order, args.robots,
-                                                     args.num_envs, args.steps)
+                lower_s, compile_s, robots, events = measure(
+                    scenario, mode, order, args.robots, args.num_envs, args.steps, args.passes)
                 worst = max(worst, lower_s + compile_s)
                 print(f"{scenario:>14}{mode:>12}{order:>12}{robots:>8}{lower_s:>9.1f}"
                       f"{compile_s:>11.1f}", flush=True)
+                for name, seconds in events.most_common(args.passes):
+                    print(f"{'':>14}{seconds:>10.3f} s  {name}")
     print(f"slowest row: {worst:.1f} s (lower + compile)")
 
 
