@@ -43,17 +43,9 @@ def main() -> None:
               f"{'child':>6} {'compiles':>8}")
     print(f"{header}  tests  file")
     for name, t in sorted(by_file.items(), key=lambda item: -item[1]["wall"]):
-        rest = t["wall"] - sum(t[p] for p in PHASES)
-        print(f"{t['wall']:8.1f} {t['trace']:7.1f} {t['lower']:7.1f} {t['compile']:8.1f} "
-              f"{rest:7.1f} {t['cpu']:7.1f} {t['cpu_children']:6.1f} {int(t['compiles']):8d}  "
-              f"{int(t['tests']):5d}  "
-              f"{name}")
-    grand = {key: sum(t[key] for t in by_file.values())
-             for key in SUMMED}
-    print(f"{grand['wall']:8.1f} {grand['trace']:7.1f} {grand['lower']:7.1f} "
-          f"{grand['compile']:8.1f} {grand['wall'] - sum(grand[p] for p in PHASES):7.1f} "
-          f"{grand['cpu']:7.1f} {grand['cpu_children']:6.1f} {int(grand['compiles']):8d}  "
-          f"{len(tests):5d}  all")
+        print(summed_row(t, int(t["tests"]), name))
+    grand = {key: sum(t[key] for t in by_file.values()) for key in SUMMED}
+    print(summed_row(grand, len(tests), "all"))
     print_workers(tests)
     print(f"\nslowest {args.tests} tests")
     for row in sorted(tests, key=lambda r: -r["wall"])[:args.tests]:
@@ -62,6 +54,14 @@ def main() -> None:
               f"{row.get('compile', 0):8.1f} {rest:7.1f}  {row['test']}")
     if args.programs:
         print_programs(tests, args.programs)
+
+
+def summed_row(t: dict[str, float], tests: int, name: str) -> str:
+    """One line of the table: ``t``'s summed columns, its test count and its name."""
+    rest = t["wall"] - sum(t[p] for p in PHASES)
+    return (f"{t['wall']:8.1f} {t['trace']:7.1f} {t['lower']:7.1f} {t['compile']:8.1f} "
+            f"{rest:7.1f} {t['cpu']:7.1f} {t['cpu_children']:6.1f} {int(t['compiles']):8d}  "
+            f"{tests:5d}  {name}")
 
 
 def print_workers(tests: list[dict]) -> None:
