@@ -49,7 +49,7 @@ from compiled import compile_measured
 
 from train.config import TrainConfig, load_config
 from train.networks import log_prob, sample
-from train.ppo import COMPACT_CHUNKS, Rollout, RunnerState, Trainer, _critic_in, divisor_up_to
+from train.ppo import Rollout, RunnerState, Trainer, _critic_in, compact_chunks
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "train/configs/doorway.yaml"
@@ -256,7 +256,8 @@ class Phases:
     def learning(self, masked: Trainer, compact: Trainer) -> dict[str, float]:
         """The minibatch gradients (one epoch's, as a scan; x epochs), the shuffle and gather,
         masked and compact, and the optimiser steps. Returns the shares of the compact
-        minibatches' units that can learn and that were computed (whole chunks)."""
+        minibatches' units that can learn and that were computed (whole and half chunks; the
+        compact path gathers each chunk's data inside its gradient loop)."""
         params, opt_state = self.runner.params, self.runner.opt_state
         per_minibatch = self._row_flops(masked)
         order = jax.random.permutation(jax.random.PRNGKey(4), masked.num_agents)
@@ -269,18 +270,20 @@ class Phases:
                 each = lambda p, b, g=grad: g(p, *b)  # noqa: E731
                 share = 1.0
             else:
-                cut, each = trainer._compact_batches, trainer._compact_grads
+                cut = trainer._compact_batches
+                each = lambda p, b, t=trainer: t._compact_grads(p, b, self.rollout)  # noqa: E731
             seconds, flops = timed(lane(cut), order, self.rollout, repeats=2)
-            self.add(f"shuffle + gather, {name} (x{self.epochs})", seconds * self.epochs,
+            what = "shuffle + gather" if name == "masked" else "shuffle"
+            self.add(f"{what}, {name} (x{self.epochs})", seconds * self.epochs,
                      flops * self.epochs)
             batches = jax.jit(lane(cut))(order, self.rollout)
             if name == "compact":
-                units = batches[2].shape[-1]
-                chunk = units // divisor_up_to(units, COMPACT_CHUNKS)
-                run = -(-np.asarray(batches[-1]) // chunk) * chunk
+                units, counts = batches[0].shape[-1], np.asarray(batches[1])
+                chunk, half = compact_chunks(units)
+                run = counts // chunk * chunk + -(-(counts % chunk) // half) * half
                 share = float(np.sum(run) / (units * len(run)))
                 out["computed"] = share
-                out["active"] = float(np.sum(batches[-1]) / (units * len(run)))
+                out["active"] = float(np.sum(counts) / (units * len(run)))
 
             def epoch(params: Any, batches: tuple, each: Callable = each) -> Any:
                 return jax.lax.scan(lambda c, b: (c, each(params, b)), 0, batches)[1]

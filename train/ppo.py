@@ -61,9 +61,11 @@ from train.networks import (
 from train.normalize import RunningStats
 
 LOSS_TERMS = ("policy_loss", "value_loss", "entropy", "approx_kl")  # learn's aux, per minibatch
-# algorithm.compact: a minibatch's units are computed in up to this many chunks (the last one
-# partly padded with units that cannot learn; more chunks pad less but run more, smaller
-# products).
+# algorithm.compact: a minibatch's units are computed in whole chunks of 1/COMPACT_CHUNKS of it,
+# the rest in half chunks (the last one partly padded with units that cannot learn). The 3-seed
+# MLP reproduce cell's learning phase on the 2-core AMD EPYC: 8 chunks with half-chunk tails
+# 0.963 s, with quarter-chunk tails 0.968 s, 4 chunks 0.987-1.057 s; 8 whole chunks alone
+# 1.045 s; 16 and 32 whole chunks ran slower than 8 (smaller products).
 COMPACT_CHUNKS = 8
 # Algorithm settings held as numbers in the runner state (``RunnerState.hyper``), which the
 # compiled program reads there when its Trainer is told that lanes vary them (``varied``), so
@@ -615,8 +617,11 @@ class Trainer:
         minibatches and the optimiser steps are the same either way."""
         a = self.config.algorithm
         hyper = self.default_hyper() if hyper is None else hyper
-        method = self._compact_step if self.compact else self._masked_step
-        step = lambda carry, batch: method(carry, batch, hyper)  # noqa: E731
+        if self.compact:
+            step = lambda carry, batch: self._compact_step(  # noqa: E731
+                carry, batch, rollout, hyper)
+        else:
+            step = lambda carry, batch: self._masked_step(carry, batch, hyper)  # noqa: E731
         cut = self._compact_batches if self.compact else self._masked_batches
 
         def epoch(carry, key):
@@ -672,74 +677,90 @@ class Trainer:
         """The network carries memory along time (GRU): its unit of work is a sequence."""
         return self.config.network.kind == "gru"
 
-    def _compact_batches(self, order: Array, rollout: Rollout) -> tuple:
-        """Every minibatch of one epoch, each with the units that can learn first: the same
-        minibatches as :meth:`_masked_batches` (the agents in ``order [B]``, ``M`` contiguous
-        shares), reordered inside (one gather in all).
+    def _compact_batches(self, order: Array, rollout: Rollout) -> tuple[Array, Array]:
+        """Every minibatch of one epoch as the indices of its units, those that can learn
+        first: the same minibatches as :meth:`_masked_batches` (the agents in ``order [B]``,
+        ``M`` contiguous shares), reordered inside. The data are gathered a chunk at a time
+        (:meth:`_unit_data`), only for the chunks that run.
 
-        A unit is one transition for a memoryless network (``T' = 1``, ``U = T x B / M``
-        units per minibatch), one agent's whole sequence for a GRU (``T' = T``, ``U = B /
-        M``); it can learn when active (some step active, for a sequence). Returns ``(memory
-        [M, U, H], traj [M, T', U, ...], advantages [M, T', U], targets [M, T', U], counts
-        [M])``, ``counts`` the units that can learn in each minibatch, first in it."""
+        A unit is one transition for a memoryless network (its row ``t x B + b`` of the
+        flattened ``[T x B]`` batch; ``U = T x B / M`` units per minibatch), one agent's whole
+        sequence for a GRU (its agent ``b``; ``U = B / M``); it can learn when active (some
+        step active, for a sequence). Returns ``(units [M, U], counts [M])``, ``counts`` the
+        units that can learn in each minibatch, first in it."""
         minibatches = self.config.algorithm.num_minibatches
-        data = (rollout.traj, rollout.advantages, rollout.targets)
         active = rollout.traj.active  # [T, B]
-        steps = active.shape[0]
         agents = order.reshape(minibatches, -1)  # [M, B / M]
         if self._recurrent:
             alive = jnp.any(active, axis=0)[agents]  # [M, U]
-            agents = jnp.take_along_axis(agents, _active_first(alive), axis=1)
-            memory = jax.tree.map(lambda c: c[agents], rollout.memory)
-            data = jax.tree.map(lambda x: jnp.swapaxes(jnp.take(x, agents, axis=1), 0, 1),
-                                data)
-            return (memory,) + data + (jnp.sum(alive, axis=1),)
-        # transition t of agent b is row t x B + b of the flattened [T x B] batch
-        rows = (jnp.arange(steps)[None, :, None] * self.num_agents
+            return (jnp.take_along_axis(agents, _active_first(alive), axis=1),
+                    jnp.sum(alive, axis=1))
+        rows = (jnp.arange(active.shape[0])[None, :, None] * self.num_agents
                 + agents[:, None, :]).reshape(minibatches, -1)  # [M, U], time-major
         live = active.reshape(-1)[rows]
-        rows = jnp.take_along_axis(rows, _active_first(live), axis=1)
-        data = jax.tree.map(
-            lambda x: x.reshape((-1,) + x.shape[2:])[rows][:, None], data)  # [M, 1, U, ...]
-        memory = jax.tree.map(lambda c: jnp.zeros(rows.shape + c.shape[1:], c.dtype),
-                              rollout.memory)  # memoryless: the network ignores it
-        return (memory,) + data + (jnp.sum(live, axis=1),)
+        return jnp.take_along_axis(rows, _active_first(live), axis=1), jnp.sum(live, axis=1)
 
-    def _compact_step(self, carry: tuple, batch: tuple, hyper: dict) -> tuple[tuple, dict]:
+    def _take_units(self, x: Array, units: Array) -> Array:
+        """The entries of a rollout array ``x [T, B, ...]`` for ``units [C]`` (indices of
+        :meth:`_compact_batches`): ``[T, C, ...]`` (agents' sequences) or ``[1, C, ...]``
+        (transitions)."""
+        if self._recurrent:
+            return jnp.take(x, units, axis=1)
+        return x.reshape((-1,) + x.shape[2:])[units][None]
+
+    def _unit_data(self, rollout: Rollout, units: Array) -> tuple:
+        """The learning data of ``units [C]``: ``(memory [C, H], traj [T', C, ...], advantages
+        [T', C], targets [T', C])``, ``T' = T`` for a GRU, 1 otherwise (the memoryless network
+        ignores the memory: zeros)."""
+        if self._recurrent:
+            memory = jax.tree.map(lambda c: c[units], rollout.memory)
+        else:
+            memory = jax.tree.map(lambda c: jnp.zeros(units.shape + c.shape[1:], c.dtype),
+                                  rollout.memory)
+        return (memory,) + jax.tree.map(lambda x: self._take_units(x, units),
+                                        (rollout.traj, rollout.advantages, rollout.targets))
+
+    def _compact_step(self, carry: tuple, batch: tuple, rollout: Rollout, hyper: dict
+                      ) -> tuple[tuple, dict]:
         """One optimiser step on one minibatch of :meth:`_compact_batches`
         (:meth:`_compact_grads`)."""
         params, opt_state = carry
-        grads, aux = self._compact_grads(params, batch, hyper)
+        grads, aux = self._compact_grads(params, batch, rollout, hyper)
         return self._apply(params, opt_state, grads, hyper), aux
 
-    def _compact_grads(self, params: Any, batch: tuple, hyper: dict | None = None
-                       ) -> tuple[Any, dict]:
-        """The loss gradient and terms of one minibatch of :meth:`_compact_batches`, computing
-        only its first units, those that can learn: ``ceil(count / chunk)`` chunks of ``chunk =
-        U / COMPACT_CHUNKS`` units (a loop whose trip count is the data's), each chunk's
-        gradient of its share of the masked losses (:meth:`_chunk_loss`), summed. The sum is
-        :meth:`_loss`'s gradient on the same minibatch up to float rounding: the losses are
-        sums over transitions divided by whole-minibatch counts, and the advantages are
-        normalised over the whole minibatch first (they are data, not parameters)."""
-        memory, sub, adv, target, count = batch
-        units = adv.shape[1]
-        chunk = units // divisor_up_to(units, COMPACT_CHUNKS)
-        adv, counts = _normalised_advantages(sub, adv)
-
-        def piece(i: Array, tree: Any, axis: int) -> Any:
-            return jax.tree.map(
-                lambda x: jax.lax.dynamic_slice_in_dim(x, i * chunk, chunk, axis), tree)
-
+    def _compact_grads(self, params: Any, batch: tuple[Array, Array], rollout: Rollout,
+                       hyper: dict | None = None) -> tuple[Any, dict]:
+        """The loss gradient and terms of one minibatch ``batch = (units [U], count)`` of
+        :meth:`_compact_batches`, computing only its first ``count`` units, those that can
+        learn: whole chunks of ``chunk = U / COMPACT_CHUNKS`` units, then the rest in half
+        chunks (loops whose trip counts are the data's), each gathering its units' data
+        (:meth:`_unit_data`) and taking the gradient of its share of the masked losses
+        (:meth:`_chunk_loss`), summed. The sum is :meth:`_loss`'s gradient on the same
+        minibatch up to float rounding: the losses are sums over transitions divided by
+        whole-minibatch counts, and the advantages are normalised over the whole minibatch
+        first (they are data, not parameters)."""
+        units, count = batch
+        chunk, half = compact_chunks(units.shape[0])
+        traj = rollout.traj
+        adv, counts = _normalised_advantages(
+            self._take_units(traj.active, units), self._take_units(traj.decides, units),
+            self._take_units(rollout.advantages, units))
         grad_fn = jax.grad(self._chunk_loss, has_aux=True)
 
-        def add(i: Array, total: tuple) -> tuple:
-            grads, aux = grad_fn(params, piece(i, memory, 0),
-                                 *piece(i, (sub, adv, target), 1), counts, hyper)
+        def add(start: Array, size: int, total: tuple) -> tuple:
+            memory, sub, _, targets = self._unit_data(
+                rollout, jax.lax.dynamic_slice_in_dim(units, start, size))
+            share = jax.lax.dynamic_slice_in_dim(adv, start, size, axis=1)
+            grads, aux = grad_fn(params, memory, sub, share, targets, counts, hyper)
             return jax.tree.map(jnp.add, total, (grads, aux))
 
         zero = (jax.tree.map(jnp.zeros_like, params),
                 {name: jnp.zeros((), jnp.float32) for name in LOSS_TERMS})
-        return jax.lax.fori_loop(0, (count + chunk - 1) // chunk, add, zero)
+        whole = count // chunk
+        total = jax.lax.fori_loop(0, whole, lambda i, t: add(i * chunk, chunk, t), zero)
+        rest = (count - whole * chunk + half - 1) // half
+        return jax.lax.fori_loop(0, rest, lambda i, t: add(whole * chunk + i * half, half, t),
+                                 total)
 
     def _chunk_loss(self, params: Any, carry: tuple, traj: Transition, adv: Array,
                     targets: Array, counts: tuple[Array, Array], hyper: dict | None = None
@@ -855,24 +876,34 @@ def _active_first(mask: Array) -> Array:
     return jnp.zeros_like(index).at[rows, where].set(index, unique_indices=True)
 
 
+def compact_chunks(units: int) -> tuple[int, int]:
+    """The compact learning phase's chunk sizes for a minibatch of ``units`` units: ``(chunk,
+    tail)``, ``chunk = units / d`` (``d`` the largest divisor of ``units`` up to
+    :data:`COMPACT_CHUNKS`) and ``tail`` half a chunk (a whole one when ``chunk`` is odd): a
+    divisor of ``chunk``, so that the tail chunks never run past the minibatch."""
+    chunk = units // divisor_up_to(units, COMPACT_CHUNKS)
+    return chunk, (chunk // 2 if chunk % 2 == 0 else chunk)
+
+
 def divisor_up_to(n: int, most: int) -> int:
     """The largest divisor of ``n`` that is at most ``most``."""
     return max(d for d in range(1, most + 1) if n % d == 0)
 
 
-def _normalised_advantages(traj: Transition, advantages: Array
+def _normalised_advantages(active: Array, decides: Array, advantages: Array
                            ) -> tuple[Array, tuple[Array, Array]]:
-    """A minibatch's advantages normalised over its acted transitions (active, and the action
-    read), as :meth:`Trainer._loss` does, and its counts of active and of acted transitions
-    (at least 1 each): the whole-minibatch statistics every chunk's loss shares."""
+    """A minibatch's advantages normalised over its acted transitions (``active``, and the
+    action read: ``decides``; all ``[T', U]``), as :meth:`Trainer._loss` does, and its counts
+    of active and of acted transitions (at least 1 each): the whole-minibatch statistics every
+    chunk's loss shares."""
     def count(mask: Array) -> Array:
         return jnp.maximum(jnp.sum(mask.astype(jnp.float32)), 1.0)
 
-    acted_mask = (traj.active & traj.decides).astype(jnp.float32)
+    acted_mask = (active & decides).astype(jnp.float32)
     acted = count(acted_mask)
     adv_mean = jnp.sum(advantages * acted_mask) / acted
     adv_std = jnp.sqrt(jnp.sum(jnp.square(advantages - adv_mean) * acted_mask) / acted)
-    return (advantages - adv_mean) / (adv_std + 1e-8), (count(traj.active), acted)
+    return (advantages - adv_mean) / (adv_std + 1e-8), (count(active), acted)
 
 
 def _critic_in(traj: Transition) -> Array:

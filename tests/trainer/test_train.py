@@ -504,24 +504,29 @@ def test_compact_minibatch_gradient_equals_the_masked_one(name):
     params = compact.init(jax.random.PRNGKey(4)).params
     order = jax.random.permutation(jax.random.PRNGKey(6), compact.num_agents)
     dense = masked._masked_batches(order, rollout)
-    packed = jax.jit(compact._compact_batches)(order, rollout)
-    counts = np.asarray(packed[-1])
-    units = packed[2].shape[-1]
-    assert counts.min() > 0 and counts.max() < units  # some units skipped in every minibatch
+    units, counts = jax.jit(compact._compact_batches)(order, rollout)
+    counts = np.asarray(counts)
+    assert counts.min() > 0 and counts.max() < units.shape[1]  # some skipped in every minibatch
+    chunk, _ = ppo.compact_chunks(units.shape[1])
+    if name == "mlp":  # transitions: some minibatch ends in half chunks
+        assert any(count % chunk for count in counts)
     dense_grad = jax.jit(jax.grad(masked._loss, has_aux=True))
     compact_grad = jax.jit(compact._compact_grads)
     for j in range(len(counts)):
         grads, aux = dense_grad(params, *jax.tree.map(lambda x, j=j: x[j], dense))
-        c_grads, c_aux = compact_grad(params, jax.tree.map(lambda x, j=j: x[j], packed))
+        c_grads, c_aux = compact_grad(params, (units[j], counts[j]), rollout)
         assert leaves_close(c_grads, grads, rtol=1e-4, atol=1e-6), j
         for term in ppo.LOSS_TERMS:
             np.testing.assert_allclose(c_aux[term], aux[term], rtol=1e-4, atol=1e-6)
-    # the units that can learn come first
+    # the units that can learn come first, and they are the minibatch's active ones
     size = compact.num_agents // compact.config.algorithm.num_minibatches
     for j, count in enumerate(counts):
-        first = np.asarray(packed[1].active[j]).any(axis=0)
+        first = np.asarray(compact._unit_data(rollout, units[j])[1].active).any(axis=0)
         assert first[:count].all() and not first[count:].any()
-    assert units == (size if name == "gru" else size * compact.config.algorithm.num_steps)
+        dense_active = np.asarray(dense[1].active[j])  # [T, U]
+        assert count == (dense_active.any(axis=0).sum() if name == "gru" else dense_active.sum())
+    assert units.shape[1] == (size if name == "gru"
+                              else size * compact.config.algorithm.num_steps)
 
 
 @pytest.mark.parametrize(("name", "all_active"), [
