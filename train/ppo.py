@@ -62,10 +62,12 @@ from train.normalize import RunningStats
 
 LOSS_TERMS = ("policy_loss", "value_loss", "entropy", "approx_kl")  # learn's aux, per minibatch
 # algorithm.compact: a minibatch's units are computed in whole chunks of 1/COMPACT_CHUNKS of it,
-# the rest in half chunks (the last one partly padded with units that cannot learn). The 3-seed
-# MLP reproduce cell's learning phase on the 2-core AMD EPYC: 8 chunks with half-chunk tails
-# 0.963 s, with quarter-chunk tails 0.968 s, 4 chunks 0.987-1.057 s; 8 whole chunks alone
-# 1.045 s; 16 and 32 whole chunks ran slower than 8 (smaller products).
+# then the rest in half chunks (the last one partly padded with units that cannot learn), each
+# chunk gathering its own units' data. The 3-seed MLP reproduce cell's learning phase (2-core
+# AMD EPYC, min of 16, one process): whole chunks, the minibatch gathered first 1.10 s; with the
+# half-chunk tails 1.05 s; gathered by chunk 1.02 s; both 0.96 s (quarter-chunk tails 0.97 s;
+# 4 chunks with half, quarter or eighth tails 1.03, 0.99, 1.06 s). 16 and 32 whole chunks ran
+# slower than 8 (smaller products).
 COMPACT_CHUNKS = 8
 # Algorithm settings held as numbers in the runner state (``RunnerState.hyper``), which the
 # compiled program reads there when its Trainer is told that lanes vary them (``varied``), so
