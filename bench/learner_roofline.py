@@ -49,7 +49,7 @@ from compiled import compile_measured
 
 from train.config import TrainConfig, load_config
 from train.networks import log_prob, sample
-from train.ppo import Rollout, RunnerState, Trainer, _critic_in, compact_chunks
+from train.ppo import Rollout, RunnerState, Trainer, _critic_in, compact_chunks, compact_trips
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "train/configs/doorway.yaml"
@@ -280,7 +280,8 @@ class Phases:
             if name == "compact":
                 units, counts = batches[0].shape[-1], np.asarray(batches[1])
                 chunk, half = compact_chunks(units)
-                run = counts // chunk * chunk + -(-(counts % chunk) // half) * half
+                whole, tails = compact_trips(counts, chunk, half)
+                run = whole * chunk + tails * half
                 share = float(np.sum(run) / (units * len(run)))
                 out["computed"] = share
                 out["active"] = float(np.sum(counts) / (units * len(run)))

@@ -711,16 +711,17 @@ class Trainer:
         return x.reshape((-1,) + x.shape[2:])[units][None]
 
     def _unit_data(self, rollout: Rollout, units: Array) -> tuple:
-        """The learning data of ``units [C]``: ``(memory [C, H], traj [T', C, ...], advantages
-        [T', C], targets [T', C])``, ``T' = T`` for a GRU, 1 otherwise (the memoryless network
-        ignores the memory: zeros)."""
+        """The learning data of ``units [C]`` but their advantages (normalised over the whole
+        minibatch first: :meth:`_compact_grads`): ``(memory [C, H], traj [T', C, ...],
+        targets [T', C])``, ``T' = T`` for a GRU, 1 otherwise (the memoryless network ignores
+        the memory: zeros)."""
         if self._recurrent:
             memory = jax.tree.map(lambda c: c[units], rollout.memory)
         else:
             memory = jax.tree.map(lambda c: jnp.zeros(units.shape + c.shape[1:], c.dtype),
                                   rollout.memory)
         return (memory,) + jax.tree.map(lambda x: self._take_units(x, units),
-                                        (rollout.traj, rollout.advantages, rollout.targets))
+                                        (rollout.traj, rollout.targets))
 
     def _compact_step(self, carry: tuple, batch: tuple, rollout: Rollout, hyper: dict
                       ) -> tuple[tuple, dict]:
@@ -750,7 +751,7 @@ class Trainer:
         grad_fn = jax.grad(self._chunk_loss, has_aux=True)
 
         def add(start: Array, size: int, total: tuple) -> tuple:
-            memory, sub, _, targets = self._unit_data(
+            memory, sub, targets = self._unit_data(
                 rollout, jax.lax.dynamic_slice_in_dim(units, start, size))
             share = jax.lax.dynamic_slice_in_dim(adv, start, size, axis=1)
             grads, aux = grad_fn(params, memory, sub, share, targets, counts, hyper)
@@ -758,9 +759,8 @@ class Trainer:
 
         zero = (jax.tree.map(jnp.zeros_like, params),
                 {name: jnp.zeros((), jnp.float32) for name in LOSS_TERMS})
-        whole = count // chunk
+        whole, rest = compact_trips(count, chunk, half)
         total = jax.lax.fori_loop(0, whole, lambda i, t: add(i * chunk, chunk, t), zero)
-        rest = (count - whole * chunk + half - 1) // half
         return jax.lax.fori_loop(0, rest, lambda i, t: add(whole * chunk + i * half, half, t),
                                  total)
 
@@ -885,6 +885,12 @@ def compact_chunks(units: int) -> tuple[int, int]:
     divisor of ``chunk``, so that the tail chunks never run past the minibatch."""
     chunk = units // divisor_up_to(units, COMPACT_CHUNKS)
     return chunk, (chunk // 2 if chunk % 2 == 0 else chunk)
+
+
+def compact_trips(count: Any, chunk: int, tail: int) -> tuple[Any, Any]:
+    """How many whole chunks and then tail chunks compute ``count`` units (ints or arrays):
+    ``(count // chunk, ceil((count mod chunk) / tail))``."""
+    return count // chunk, -(-(count % chunk) // tail)
 
 
 def divisor_up_to(n: int, most: int) -> int:
