@@ -1,8 +1,14 @@
 """Play a batch of episodes of the map being edited: the evaluator's metrics over the batch and
-episode 0 as frames for the page to animate."""
+episode 0 as frames for the page to animate.
+
+A batch plays in parts of at most :data:`PART_EPISODES` episodes (equal sizes: one compiled
+program), so that the page's Stop (``POST /api/play/cancel``) ends it after the part under way.
+Part ``k`` of a batch of several draws its episodes from ``fold_in(key(seed), k)``; a batch of
+one part plays ``key(seed)`` itself, as ``sgjax evaluate`` would."""
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 import time
 from typing import Any
@@ -20,7 +26,9 @@ HEADLINE = ("team_success", "success", "collisions", "robot_collisions", "deadlo
             "episode_length", "time_to_goal")
 MAX_EPISODES = 1024
 MAX_ROBOTS = 32
+PART_EPISODES = 64  # episodes per part of a batch: Stop takes effect after the current part
 _running = threading.Lock()
+_cancelled = threading.Event()
 
 
 def _integer(request: dict[str, Any], field: str, default: int, low: int, high: int) -> int:
@@ -46,7 +54,8 @@ def play(request: dict[str, Any]) -> dict[str, Any]:
     except MapError as err:
         raise EditorError(422, f"play: {err}") from None
     if not _running.acquire(blocking=False):
-        raise EditorError(409, "play: another batch is running; wait for it")
+        raise EditorError(409, "play: another batch is running; wait for it or stop it")
+    _cancelled.clear()
     try:
         return _play(spec, policy, robots, episodes, seed)
     except (ValueError, KeyError, TypeError, FileNotFoundError) as err:
@@ -55,13 +64,41 @@ def play(request: dict[str, Any]) -> dict[str, Any]:
         _running.release()
 
 
+def cancel() -> bool:
+    """Ask the batch under way to stop after its current part; whether one was running."""
+    running = _running.locked()
+    if running:
+        _cancelled.set()
+    return running
+
+
+def part_sizes(episodes: int) -> tuple[int, int]:
+    """``(parts, episodes per part)``: the fewest equal parts of at most
+    :data:`PART_EPISODES` that hold ``episodes`` (the last part's extra episodes are dropped)."""
+    parts = -(-episodes // PART_EPISODES)
+    return parts, -(-episodes // parts)
+
+
 def _play(spec: Any, policy: str, robots: int, episodes: int, seed: int) -> dict[str, Any]:
     env, by_count = policy_environment(spec, [robots], policy)
     params = by_count[robots]
+    loaded = load_policy(policy, env, True)
+    parts, size = part_sizes(episodes)
+    key = jax.random.key(seed)
     start = time.perf_counter()
-    batch = run_episodes(env, params, load_policy(policy, env, True), jax.random.key(seed),
-                         episodes, record=True)
+    played = []
+    for part in range(parts):
+        if _cancelled.is_set():
+            raise EditorError(409, f"play: stopped after {part} of {parts} part(s) "
+                                   f"({part * size} of {episodes} episodes)", cancelled=True)
+        played.append(run_episodes(env, params, loaded,
+                                   key if parts == 1 else jax.random.fold_in(key, part),
+                                   size, record=True))
     seconds = time.perf_counter() - start
+    batch = dataclasses.replace(
+        played[0], values={name: np.concatenate([p.values[name] for p in played])[:episodes]
+                           for name in played[0].values},
+        compile_seconds=sum(p.compile_seconds or 0.0 for p in played))
     summary = {name: s.as_dict() for name, s in summarize_episodes(batch).items()}
     ordered = {name: summary[name] for name in HEADLINE if name in summary}
     ordered.update({name: value for name, value in summary.items() if name not in ordered})

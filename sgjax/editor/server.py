@@ -2,7 +2,9 @@
 
 Standard library only (``http.server``): one process, one opened map, threads so that the page
 stays responsive while a batch plays. Every answer is JSON or a shipped static file; an error is
-``{"error": message}`` with its status, never a traceback page.
+``{"error": message}`` with its status, never a traceback page. Every request passes
+:class:`sgjax.editor.guard.RequestGuard` first: only the editor's own page, holding this launch's
+token, is answered.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib import resources
 from typing import Any
 
+from sgjax.editor.guard import RequestGuard, new_token
 from sgjax.editor.session import EditorError, EditorSession
 from sgjax.evaluation.policies import BASELINES
 
@@ -77,6 +80,7 @@ class EditorHandler(BaseHTTPRequestHandler):
     API of docs/editor.md."""
 
     session: EditorSession  # set on the subclass made by make_server
+    guard: RequestGuard  # set by make_server once the port is known
     quiet = True
 
     def log_message(self, format: str, *args: Any) -> None:  # noqa: A002 (the base's name)
@@ -92,19 +96,37 @@ class EditorHandler(BaseHTTPRequestHandler):
         body = json.dumps({"error": message or HTTPStatus(code).phrase}).encode()
         self.send_response(code, message)
         self.send_header("Content-Type", "application/json")
+        self._safety_headers()
         self.send_header("Connection", "close")
         self.send_header("Content-Length", str(len(body)))
         self.end_headers()
         if self.command != "HEAD" and code >= 200 and code not in (204, 304):
             self.wfile.write(body)
 
+    def _safety_headers(self) -> None:
+        """No framing by other pages, no content sniffing, no token in a Referer."""
+        self.send_header("X-Content-Type-Options", "nosniff")
+        self.send_header("X-Frame-Options", "DENY")
+        self.send_header("Content-Security-Policy", "frame-ancestors 'none'")
+        self.send_header("Referrer-Policy", "no-referrer")
+
     def _send(self, status: int, body: bytes, content_type: str) -> None:
         self.send_response(status)
         self.send_header("Content-Type", content_type)
         self.send_header("Content-Length", str(len(body)))
         self.send_header("Cache-Control", "no-store")
+        self._safety_headers()
         self.end_headers()
         self.wfile.write(body)
+
+    def _trusted(self, path: str) -> bool:
+        """Whether the guard lets this request through (else the refusal is sent)."""
+        try:
+            self.guard.check(self.command, path, self.headers)
+        except EditorError as err:
+            self._json(err.status, {"error": str(err)})
+            return False
+        return True
 
     def _json(self, status: int, payload: dict[str, Any]) -> None:
         self._send(status, json.dumps(payload).encode(), "application/json")
@@ -123,6 +145,8 @@ class EditorHandler(BaseHTTPRequestHandler):
 
     def do_GET(self) -> None:  # noqa: N802 (http.server's name)
         path = self.path.split("?", 1)[0]
+        if not self._trusted(path):
+            return
         if path in ("/", "/index.html"):
             path = "/static/index.html"
         if path.startswith("/static/"):
@@ -169,9 +193,11 @@ class EditorHandler(BaseHTTPRequestHandler):
 
     def do_POST(self) -> None:  # noqa: N802 (http.server's name)
         path = self.path.split("?", 1)[0]
+        if not self._trusted(path):
+            return
         actions = {"/api/check": self._check, "/api/routes": self._routes,
                    "/api/save": self._save, "/api/autosave": self._autosave,
-                   "/api/play": self._play}
+                   "/api/play": self._play, "/api/play/cancel": self._cancel}
         if path not in actions:
             self._json(404, {"error": f"no such API: {path}"})
             return
@@ -202,24 +228,46 @@ class EditorHandler(BaseHTTPRequestHandler):
 
         return 200, play(body)
 
+    def _cancel(self, body: dict[str, Any]) -> tuple[int, dict[str, Any]]:
+        from sgjax.editor.play import cancel
+
+        return 200, {"cancelled": cancel()}
+
+
+class EditorServer(ThreadingHTTPServer):
+    """The editor's HTTP server: ``token`` is this launch's secret, ``url`` the page's address
+    with it."""
+
+    token: str
+    url: str
+
 
 def make_server(session: EditorSession, host: str = "127.0.0.1", port: int = 8765,
-                tries: int = 20) -> ThreadingHTTPServer:
-    """A server for ``session`` on ``port`` or, if taken, the next free one of ``tries``."""
+                tries: int = 20, token: str | None = None) -> EditorServer:
+    """A server for ``session`` on ``port`` or, if taken, the next free one of ``tries``;
+    ``token``: the secret every API call must carry (default: a new random one)."""
     handler = type("Handler", (EditorHandler,), {"session": session})
     for offset in range(tries):
         try:
-            return ThreadingHTTPServer((host, port + offset), handler)
+            server = EditorServer((host, port + offset), handler)
+            break
         except OSError:
             if port == 0 or offset == tries - 1:
                 raise
-    raise OSError(f"no free port in {port}..{port + tries - 1}")
+    else:  # pragma: no cover - the loop returns or raises
+        raise OSError(f"no free port in {port}..{port + tries - 1}")
+    bound = server.server_address[1]
+    server.token = token or new_token()
+    handler.guard = RequestGuard(host, bound, server.token)
+    name = f"[{host}]" if ":" in host else host
+    server.url = f"http://{name}:{bound}/?token={server.token}"
+    return server
 
 
 def serve(session: EditorSession, host: str, port: int, browser: bool) -> None:
     """Serve until interrupted, opening the page in the default browser if ``browser``."""
     server = make_server(session, host, port)
-    url = f"http://{host}:{server.server_address[1]}/"
+    url = server.url
     print(f"sgjax edit: {session.root / session.file} at {url} (Ctrl+C to stop)", flush=True)
     if browser:
         import webbrowser

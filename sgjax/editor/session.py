@@ -134,10 +134,11 @@ class EditorSession:
         return check_map(data, self.file)
 
     def save(self, data: dict[str, Any], file: str, overwrite: bool) -> tuple[Path, int]:
-        """Write ``data`` to ``file``: refused outside the root, over an existing file unless
-        ``overwrite``, or with errors. Unchanged from what was opened: the opened text."""
+        """Write ``data`` to ``file``: refused outside the root, over an existing file other
+        than the one being edited unless ``overwrite``, or with errors. Unchanged from what was
+        opened: the opened text."""
         path = self.resolve(file)
-        if path.exists() and not overwrite:
+        if path.exists() and not overwrite and path != self.resolve(self.file):
             raise EditorError(409, f"{file} exists; confirm to overwrite it", exists=True)
         errors = [p for p in self.check(data) if p.severity == "error"]
         if errors:

@@ -30,7 +30,6 @@ from typing import Any
 
 import numpy as np
 from scipy import ndimage
-from scipy.spatial import cKDTree
 
 from sgjax.maps.arrays import spawn_groups
 from sgjax.maps.routing import NO_PATH, all_pairs_shortest_paths, path_nodes
@@ -38,8 +37,8 @@ from sgjax.maps.schema import (
     DEFAULT_CLEARANCE,
     MapSpec,
     parse_map_collecting,
-    point_segment_distances,
 )
+from sgjax.maps.segment_grid import SegmentGrid
 
 SEVERITIES = ("error", "warning")
 # JSON list key -> the element kind the editor highlights
@@ -53,7 +52,8 @@ JOINED = 0.05  # m: wall ends closer than this to another wall are joined to it 
 TIE_TOLERANCE = 1e-6  # relative: paths this close in length are equally short
 TIE_ANGLE = 1e-3  # rad: predecessors arriving from directions this close are one path
 MAX_TIE_EXAMPLES = 3
-MAX_WALL_SAMPLES = 4000  # points per wall for the open-end search
+GRID_CELL = 0.5  # m: the cells of the open-end searches' segment grids
+RASTER_CHUNK = 1 << 21  # wall points rasterised at once by the enclosure check
 
 
 @dataclasses.dataclass(frozen=True)
@@ -186,11 +186,21 @@ def _not_enclosed(spec: MapSpec, clearance: float) -> list[MapProblem]:
     cell = max(0.05, float(np.max(high - low)) / 1500)
     shape = tuple(np.ceil((high - low) / cell).astype(int) + 1)
     wall_cells = np.zeros(shape, bool)
-    for x1, y1, x2, y2 in spec.walls:  # the cells each wall passes through, sampled at cell / 2
-        count = int(np.ceil(np.hypot(x2 - x1, y2 - y1) / (cell / 2))) + 1
-        t = np.linspace(0.0, 1.0, count)[:, None]
-        cells = np.round((np.array([x1, y1]) + t * np.array([x2 - x1, y2 - y1]) - low) / cell)
-        wall_cells[cells[:, 0].astype(int), cells[:, 1].astype(int)] = True
+    # the cells each wall passes through, sampled at cell / 2, walls in bounded batches
+    counts = np.ceil(np.hypot(*(spec.walls[:, 2:] - spec.walls[:, :2]).T) / (cell / 2)) + 1
+    batch_end = np.cumsum(counts)
+    first = 0
+    while first < len(spec.walls):
+        done = batch_end[first - 1] if first else 0
+        last = max(first + 1, int(np.searchsorted(batch_end, done + RASTER_CHUNK, "right")))
+        walls, n = spec.walls[first:last], counts[first:last].astype(int)
+        owner = np.repeat(np.arange(len(walls)), n)
+        step = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)
+        t = np.where(step == n[owner] - 1, 1.0, step * (1.0 / np.maximum(n[owner] - 1, 1)))
+        points = walls[owner, :2] + t[:, None] * (walls[owner, 2:] - walls[owner, :2])
+        cells = np.round((points - low) / cell).astype(int)
+        wall_cells[cells[:, 0], cells[:, 1]] = True
+        first = last
     # cells whose centre is within about 0.9 clearance of a wall (to a cell's accuracy)
     near = ndimage.distance_transform_edt(~wall_cells) * cell < 0.9 * clearance
     regions, _ = ndimage.label(~near)
@@ -242,7 +252,8 @@ def _zones_uncrossed(spec: MapSpec, paths: list) -> list[MapProblem]:
 def _open_wall_ends(spec: MapSpec) -> list[MapProblem]:
     """Wall ends that stop short of another wall (closer than :data:`NEAR_MISS`, joined to
     none) within :data:`OPEN_END_REACH` of a node or an edge: a corner that does not close. A
-    door, a gap a robot passes, is wider and is not reported."""
+    door, a gap a robot passes, is wider and is not reported. Both searches go through
+    :class:`SegmentGrid`: the work grows with the walls near each end."""
     walls = spec.walls
     if len(walls) < 2 or spec.num_nodes == 0:
         return []
@@ -250,32 +261,19 @@ def _open_wall_ends(spec: MapSpec) -> list[MapProblem]:
     graph = np.concatenate([pos[:, [0, 1, 0, 1]],
                             np.concatenate([pos[spec.edges[:, 0]], pos[spec.edges[:, 1]]], 1)])
     ends = np.concatenate([walls[:, :2], walls[:, 2:]])  # [2W, 2]: end k of wall k % W
-    # candidate walls near each end from points sampled along every wall, every 0.25 m (at
-    # most MAX_WALL_SAMPLES per wall: a wall of any length costs a bounded amount)
-    lengths = np.hypot(*(walls[:, 2:] - walls[:, :2]).T)
-    counts = np.minimum(np.ceil(lengths / 0.25) + 1, MAX_WALL_SAMPLES).astype(int)
-    spacing = float(np.max(lengths / np.maximum(counts - 1, 1)))
-    owner = np.repeat(np.arange(len(walls)), counts)
-    t = np.concatenate([np.linspace(0.0, 1.0, n) for n in counts])[:, None]
-    samples = walls[owner, :2] + t * (walls[owner, 2:] - walls[owner, :2])
-    near = cKDTree(samples).query_ball_point(ends, NEAR_MISS + spacing)
-    gap = np.full(len(ends), np.inf)
-    nearest = np.zeros(len(ends), int)
-    for k, hits in enumerate(near):
-        candidates = np.setdiff1d(owner[hits], [k % len(walls)])
-        if len(candidates):
-            distances = point_segment_distances(ends[k][None], walls[candidates])[0]
-            gap[k], nearest[k] = distances.min(), candidates[np.argmin(distances)]
+    reach = SegmentGrid(graph, GRID_CELL).nearest(ends, OPEN_END_REACH)[0]
+    near_graph = np.flatnonzero(reach < OPEN_END_REACH)
+    gap, nearest = SegmentGrid(walls, GRID_CELL).nearest(ends[near_graph], NEAR_MISS,
+                                                         skip=near_graph % len(walls))
     out = []
-    for k in np.flatnonzero((gap >= JOINED) & (gap < NEAR_MISS)):
+    for row in np.flatnonzero((gap >= JOINED) & (gap < NEAR_MISS)):
+        k = near_graph[row]
         end = ends[k]
-        reach = float(point_segment_distances(end[None], graph).min())
-        if reach < OPEN_END_REACH:
-            out.append(MapProblem(
-                "warning", spec.source, f"$.walls[{k % len(walls)}]",
-                f"wall end at ({end[0]:.2f}, {end[1]:.2f}) stops {gap[k]:.2f} m short of wall "
-                f"$.walls[{nearest[k]}], {reach:.2f} m from the navigation graph: a corner "
-                "that does not close?", (float(end[0]), float(end[1]))))
+        out.append(MapProblem(
+            "warning", spec.source, f"$.walls[{k % len(walls)}]",
+            f"wall end at ({end[0]:.2f}, {end[1]:.2f}) stops {gap[row]:.2f} m short of wall "
+            f"$.walls[{nearest[row]}], {reach[k]:.2f} m from the navigation graph: a corner "
+            "that does not close?", (float(end[0]), float(end[1]))))
     return sorted(out, key=lambda problem: int(problem.path[8:-1]))
 
 

@@ -34,7 +34,13 @@ from typing import Any
 
 import numpy as np
 
-from sgjax.kernels.geometry import segments_intersect
+from sgjax.maps.limits import (
+    DENSITY_CELL,
+    MAX_WALLS_PER_CELL,
+    density_problem,
+    oversized_lists,
+)
+from sgjax.maps.segment_grid import SegmentGrid, pairs_intersect
 from sgjax.validation import suggest
 
 TOP_LEVEL_REQUIRED = ("name", "description", "bounds", "walls", "nodes", "edges")
@@ -226,6 +232,9 @@ def parse_map_collecting(data: Any, source: str = "<memory>",
     if not isinstance(data, dict):
         found.add(MapError(source, "$", f"expected an object, got {_type_name(data)}"))
         return None, found.errors
+    oversized = oversized_lists(data)
+    if oversized:  # refused before any other work (sgjax.maps.limits)
+        return None, [MapError(source, path, problem) for path, problem in oversized]
     valid = TOP_LEVEL_REQUIRED + TOP_LEVEL_OPTIONAL
     for key in data:
         if key not in valid:
@@ -252,11 +261,16 @@ def parse_map_collecting(data: Any, source: str = "<memory>",
             bounds = parsed
 
     walls = _parse_walls(found, data.get("walls", []))
+    grid = SegmentGrid(walls, DENSITY_CELL)
+    most, centre = grid.most_in_one_cell()
+    if most > MAX_WALLS_PER_CELL:  # refused before the checks that look near every wall
+        found.add(MapError(source, "$.walls", density_problem(most, centre, grid.cell)))
+        return None, found.errors
     node_ids, positions = _parse_nodes(found, data.get("nodes", []), "nodes" in data)
     index = {int(node_id): i for i, node_id in enumerate(node_ids)}
     edges = _parse_edges(found, data.get("edges", []), index)
-    _check_clearance(found, walls, node_ids, positions, clearance)
-    edges = _check_edges_clear_walls(found, walls, edges, positions, node_ids)
+    _check_clearance(found, grid, node_ids, positions, clearance)
+    edges = _check_edges_clear_walls(found, grid, edges, positions, node_ids)
 
     if "groups" not in data and "routes" not in data:
         found.add(MapError(source, "$", "a map needs 'groups' or 'routes' to place robots"))
@@ -301,6 +315,7 @@ def _parse_walls(found: _Collector, raw: Any) -> np.ndarray:
 def _parse_nodes(found: _Collector, raw: Any, given: bool) -> tuple[np.ndarray, np.ndarray]:
     source = found.source
     ids: list[int] = []
+    seen: set[int] = set()
     positions: list[list[float]] = []
     with found.element():
         nodes = _expect_list(source, "$.nodes", raw)
@@ -311,8 +326,9 @@ def _parse_nodes(found: _Collector, raw: Any, given: bool) -> tuple[np.ndarray, 
                 path = f"$.nodes[{i}]"
                 _expect_keys(source, path, node, ("id", "position"))
                 node_id = _expect_int(source, f"{path}.id", node["id"])
-                if node_id in ids:
+                if node_id in seen:
                     raise MapError(source, f"{path}.id", f"duplicate node id {node_id}")
+                seen.add(node_id)
                 pos = _expect_list(source, f"{path}.position", node["position"], 2)
                 positions.append([_expect_number(source, f"{path}.position[{k}]", v)
                                   for k, v in enumerate(pos)])
@@ -351,42 +367,41 @@ def point_segment_distances(points: np.ndarray, walls: np.ndarray) -> np.ndarray
     return np.linalg.norm(p - (a + t[..., None] * e), axis=-1)
 
 
-def _check_clearance(found: _Collector, walls: np.ndarray, ids: np.ndarray,
+def _check_clearance(found: _Collector, grid: SegmentGrid, ids: np.ndarray,
                      positions: np.ndarray, clearance: float) -> None:
-    """Every node closer to a wall than ``clearance`` (m), each with its nearest wall."""
+    """Every node closer to a wall than ``clearance`` (m), each with its nearest wall (the
+    lowest-numbered of equally near ones); ``grid``: the walls'."""
+    walls = grid.segments
     if walls.shape[0] == 0 or positions.shape[0] == 0:
         return
-    dist = point_segment_distances(positions, walls)  # [N, W]
-    nearest = np.argmin(dist, axis=1)
-    for node in np.flatnonzero(dist[np.arange(len(ids)), nearest] < clearance):
-        wall = int(nearest[node])
+    best, nearest = grid.nearest(positions, clearance)
+    for node in np.flatnonzero(best < clearance):
         found.add(MapError(
             found.source,
             f"$.nodes[{node}]",
             f"node {ids[node]} at ({positions[node][0]:.3f}, {positions[node][1]:.3f}) is "
-            f"{dist[node, wall]:.3f} m from "
-            f"wall $.walls[{wall}], closer than the robot radius {clearance} m",
+            f"{best[node]:.3f} m from "
+            f"wall $.walls[{nearest[node]}], closer than the robot radius {clearance} m",
         ))
 
 
-def _check_edges_clear_walls(found: _Collector, walls: np.ndarray, edges: np.ndarray,
+def _check_edges_clear_walls(found: _Collector, grid: SegmentGrid, edges: np.ndarray,
                              positions: np.ndarray, ids: np.ndarray) -> np.ndarray:
-    """Every edge that crosses a wall is an error (named with the first wall it crosses);
-    ``edges [E, 3]`` (file index, row a, row b) -> ``[E', 2]`` rows of the edges kept."""
-    kept = []
-    low = np.minimum(walls[:, :2], walls[:, 2:]) - 1e-9  # [W, 2] wall bounding boxes
-    high = np.maximum(walls[:, :2], walls[:, 2:]) + 1e-9
-    for i, a, b in edges:
-        p, q = positions[a], positions[b]
-        near = np.flatnonzero(np.all((low <= np.maximum(p, q)) & (high >= np.minimum(p, q)), 1))
-        crossed = next((int(w) for w in near if segments_intersect(
-            tuple(p), tuple(q), tuple(walls[w, :2]), tuple(walls[w, 2:]))), None)
-        if crossed is None:
-            kept.append((a, b))
-        else:
+    """Every edge that crosses a wall is an error (named with the lowest-numbered wall it
+    crosses); ``edges [E, 3]`` (file index, row a, row b) -> ``[E', 2]`` rows of the edges
+    kept; ``grid``: the walls'."""
+    walls = grid.segments
+    segments = np.concatenate([positions[edges[:, 1]], positions[edges[:, 2]]], 1)
+    crossed = np.full(len(edges), len(walls), np.int64)
+    if len(walls):
+        for edge, wall in grid.near_segments(segments):
+            hit = pairs_intersect(segments[edge], walls[wall])
+            np.minimum.at(crossed, edge[hit], wall[hit])
+    for (i, a, b), wall in zip(edges, crossed, strict=True):
+        if wall < len(walls):
             found.add(MapError(found.source, f"$.edges[{i}]",
-                               f"edge {ids[a]}-{ids[b]} crosses wall $.walls[{crossed}]"))
-    return np.asarray(kept, dtype=np.int64).reshape(-1, 2)
+                               f"edge {ids[a]}-{ids[b]} crosses wall $.walls[{wall}]"))
+    return edges[crossed == len(walls)][:, 1:].reshape(-1, 2)
 
 
 def _parse_groups(found: _Collector, raw: Any, index: dict[int, int], field: str = "groups"

@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
 import shutil
 import socket
 import subprocess
@@ -82,6 +83,8 @@ class Server:
 
     @property
     def url(self) -> str:
+        """The page's address as ``sgjax edit`` printed it (``http://127.0.0.1:PORT/?token=...``),
+        once the server answers an API call with that token."""
         base = f"http://127.0.0.1:{self.port}/"
         deadline = time.monotonic() + WAIT
         while not self._ready:
@@ -91,12 +94,20 @@ class Server:
             if time.monotonic() > deadline:
                 raise AssertionError(f"sgjax edit did not answer in {WAIT} s:\n"
                                      f"{self.log.read_text()}")
+            printed = re.search(r" at (http://\S+\?token=(\S+)) ", self.log.read_text())
+            if printed is None:
+                time.sleep(0.1)
+                continue
+            self.printed, self.token = printed.group(1), printed.group(2)
+            request = urllib.request.Request(base + "api/session",
+                                             headers={"X-Sgjax-Token": self.token})
             try:
-                with urllib.request.urlopen(base + "api/session", timeout=5) as answer:
+                with urllib.request.urlopen(request, timeout=5) as answer:
                     self._ready = answer.status == 200
             except (urllib.error.URLError, ConnectionError, TimeoutError):
                 time.sleep(0.1)
-        return base
+        assert self.printed.startswith(base), self.printed
+        return self.printed
 
     def stop(self) -> None:
         if self.process.poll() is None:
@@ -131,7 +142,7 @@ class InProcessServer:
         self.httpd = make_server(EditorSession.open(str(target)), port=0)
         self.thread = threading.Thread(target=self.httpd.serve_forever, daemon=True)
         self.thread.start()
-        self.url = f"http://127.0.0.1:{self.httpd.server_address[1]}/"
+        self.url = self.httpd.url
 
     def stop(self) -> None:
         self.httpd.shutdown()
@@ -529,7 +540,7 @@ def test_an_invalid_node_shows_its_error_at_the_node(browser, doorway, tmp_path)
     assert abs(px - w / 2) < 15 and abs(py - h / 2) < 15
     screenshot(browser, tmp_path / "screenshots", "problem", docs=True)
     # saving refuses a map with errors (422): the message says why
-    message = save(browser, overwrite=True)
+    message = save(browser)
     assert message.startswith("not saved") and "error" in message
     assert json.loads((doorway.folder / "doorway.json").read_text()) == json.loads(
         (REPO / "maps" / "doorway.json").read_text())
@@ -545,7 +556,7 @@ def test_a_shipped_map_opens_and_saves_back_equal(browser, launcher, tmp_path, p
         assert get_map(browser) == json.loads(path.read_text())
         if path.stem == "office":
             screenshot(browser, tmp_path / "screenshots", "office", docs=True)
-        message = save(browser, overwrite=True)
+        message = save(browser)
     finally:
         s.stop()
     assert message == f"saved {copy.resolve()}"

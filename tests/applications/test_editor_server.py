@@ -13,6 +13,7 @@ import pytest
 
 import sgjax
 from sgjax.command import main as sgjax_main
+from sgjax.editor.guard import TOKEN_HEADER
 from sgjax.editor.server import make_server
 from sgjax.editor.session import EditorError, EditorSession
 from sgjax.maps import MapError, parse_map
@@ -182,13 +183,20 @@ def test_saves_stay_in_the_root_never_overwrite_unasked_and_keep_unchanged_bytes
     assert not (tmp_path.parent / "evil.json").exists()
     with pytest.raises(EditorError, match="ending in .json"):
         session.save(ROOMS, "rooms.txt", overwrite=True)
-    with pytest.raises(EditorError, match="exists; confirm") as err:
-        session.save(ROOMS, "rooms.json", overwrite=False)
-    assert err.value.status == 409 and err.value.extra == {"exists": True}
-    session.save(ROOMS, "rooms.json", overwrite=True)
+    # the file being edited is saved without a question; any other existing file is asked for
+    session.save(ROOMS, "rooms.json", overwrite=False)
     assert (tmp_path / "rooms.json").read_text() == text  # unchanged: the same bytes
+    (tmp_path / "other.json").write_text("{}")
+    with pytest.raises(EditorError, match="exists; confirm") as err:
+        session.save(ROOMS, "other.json", overwrite=False)
+    assert err.value.status == 409 and err.value.extra == {"exists": True}
+    assert (tmp_path / "other.json").read_text() == "{}"
     session.save(ROOMS, "copy.json", overwrite=False)
     assert (tmp_path / "copy.json").read_text() == text
+    assert session.file == "copy.json"  # Save as: now the file being edited
+    session.save(ROOMS, "copy.json", overwrite=False)
+    with pytest.raises(EditorError, match="exists; confirm"):
+        session.save(ROOMS, "rooms.json", overwrite=False)
     changed = edited(lambda d: d.update(name="rooms2"))
     session.save(changed, "sub/rooms2.json", overwrite=False)
     assert json.loads((tmp_path / "sub" / "rooms2.json").read_text()) == changed
@@ -211,20 +219,34 @@ def test_autosave_is_offered_back_and_cleared_by_a_save(tmp_path):
     assert not (tmp_path / ".rooms.json.autosave").exists()
 
 
+_TOKENS: dict[str, str] = {}  # base URL of a test server -> its launch token
+
+
 @pytest.fixture()
 def server(tmp_path):
     (tmp_path / "rooms.json").write_text(json.dumps(ROOMS))
     httpd = make_server(EditorSession.open(str(tmp_path / "rooms.json")), port=0)
     thread = threading.Thread(target=httpd.serve_forever, daemon=True)
     thread.start()
-    yield f"http://127.0.0.1:{httpd.server_address[1]}"
+    url = f"http://127.0.0.1:{httpd.server_address[1]}"
+    _TOKENS[url] = httpd.token
+    yield url
     httpd.shutdown()
     httpd.server_close()
 
 
-def call(url, body=None, raw=None):
+def call(url, body=None, raw=None, headers=None, token=True):
+    """``GET`` (no body) or ``POST`` ``url`` as the editor's page does: the token of the server
+    the URL belongs to and a JSON Content-Type, unless ``headers`` or ``token=False`` say
+    otherwise. Returns ``(status, body bytes)``."""
     data = raw if raw is not None else (None if body is None else json.dumps(body).encode())
     request = urllib.request.Request(url, data=data, method="GET" if data is None else "POST")
+    if token and "/api/" in url:
+        request.add_header(TOKEN_HEADER, _TOKENS[url.split("/api/")[0]])
+    if data is not None:
+        request.add_header("Content-Type", "application/json")
+    for name, value in (headers or {}).items():
+        request.add_header(name, value)
     try:
         with urllib.request.urlopen(request, timeout=120) as answer:
             return answer.status, answer.read()

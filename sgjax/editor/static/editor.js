@@ -102,10 +102,16 @@
     el.title = text;
   }
 
-  async function api(path, body) {
-    const init = body === undefined ? { method: "GET" } : {
-      method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body),
+  // This launch's secret (docs/editor.md, "Security"): `sgjax edit` opens /?token=...; every
+  // API call carries it in a header that no other web page can send here.
+  const TOKEN = new URLSearchParams(window.location.search).get("token") || "";
+
+  async function api(path, body, signal) {
+    const headers = { "X-Sgjax-Token": TOKEN };
+    const init = body === undefined ? { method: "GET", headers } : {
+      method: "POST", headers: { ...headers, "Content-Type": "application/json" }, body: JSON.stringify(body),
     };
+    if (signal) init.signal = signal;
     let response;
     try {
       response = await fetch(path, init);
@@ -381,7 +387,8 @@
     const r = await api("/api/session");
     if (!r.ok) {
       $("status").textContent = "no session";
-      message(`could not load the session: ${r.data.error || r.status}`, "error");
+      message(TOKEN ? `could not load the session: ${r.data.error || r.status}`
+        : "this page needs the editor's token: open the address that `sgjax edit` printed (it ends in ?token=...)", "error");
       return;
     }
     const s = r.data;
