@@ -25,6 +25,9 @@ from sgjax.evaluation.policies import BASELINES
 
 STATIC_PACKAGE = "sgjax.editor"
 MAX_BODY = 64 * 1024 * 1024  # bytes: the largest request body accepted (GDC3 is ~2 MB)
+# One check, routes or save of a map at a time: a burst of requests for a large map waits in
+# line instead of holding several copies of its work in memory at once.
+_map_work = threading.Lock()
 ROUTES_SHOWN = 400
 
 
@@ -204,17 +207,21 @@ class EditorHandler(BaseHTTPRequestHandler):
         self._guarded(lambda: actions[path](self._body()))
 
     def _check(self, body: dict[str, Any]) -> tuple[int, dict[str, Any]]:
-        return 200, {"problems": [p.as_dict() for p in self.session.check(self._map(body))]}
+        with _map_work:
+            problems = self.session.check(self._map(body))
+        return 200, {"problems": [p.as_dict() for p in problems]}
 
     def _routes(self, body: dict[str, Any]) -> tuple[int, dict[str, Any]]:
-        return 200, routes(self._map(body))
+        with _map_work:
+            return 200, routes(self._map(body))
 
     def _save(self, body: dict[str, Any]) -> tuple[int, dict[str, Any]]:
         data = self._map(body)
         if not isinstance(data, dict):
             raise EditorError(400, "save: the map must be a JSON object")
-        path, size = self.session.save(data, body.get("file", self.session.file),
-                                       bool(body.get("overwrite", False)))
+        with _map_work:
+            path, size = self.session.save(data, body.get("file", self.session.file),
+                                           bool(body.get("overwrite", False)))
         return 200, {"saved": str(path), "bytes": size}
 
     def _autosave(self, body: dict[str, Any]) -> tuple[int, dict[str, Any]]:

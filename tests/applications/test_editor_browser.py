@@ -704,3 +704,208 @@ def test_a_socialgym_folder_opens_and_saves_its_import(browser, launcher, tmp_pa
     saved = folder / f"{name}.json"
     assert message == f"saved {saved.resolve()}"
     assert json.loads(saved.read_text()) == import_socialgym(folder).to_json()
+
+
+# ------------------------------------------------------------------ safety and friction
+
+
+def test_a_page_from_another_origin_cannot_write_through_the_editor(browser, doorway, tmp_path):
+    """The cross-origin request of the security report, replayed from a real page on another
+    port: no-cors POSTs with a text/plain body to save, autosave and play, and a CORS request
+    guessing at the token. Nothing is written, deleted or switched."""
+    import http.server
+
+    open_page(browser, doorway.url)
+    tool(browser, "n")
+    click_at(browser, 3.0, 0.5)  # an edit, so that an autosave of the open map exists
+    autosave = doorway.folder / ".doorway.json.autosave"
+    wait_for(browser, lambda d: autosave.exists(), timeout=10, what="the autosave")
+    before = {p.name: p.read_bytes() for p in doorway.folder.iterdir() if p.suffix != ".log"}
+    editor = doorway.url.split("/?token=")[0]
+    attack = tmp_path / "attack"
+    attack.mkdir()
+    body = json.dumps({"map": json.loads((REPO / "maps" / "doorway.json").read_text()),
+                       "file": "evil.json", "overwrite": True})
+    (attack / "index.html").write_text(f"""<!DOCTYPE html><html><body><script>
+const target = {json.dumps(editor)};
+const body = {json.dumps(body)};
+const simple = {{method: "POST", mode: "no-cors", headers: {{"Content-Type": "text/plain"}}, body}};
+window.results = [];
+Promise.allSettled([
+  fetch(target + "/api/save", simple), fetch(target + "/api/autosave", simple),
+  fetch(target + "/api/play", simple),
+  fetch(target + "/api/save", {{method: "POST", headers: {{"Content-Type": "application/json",
+    "X-Sgjax-Token": "guess"}}, body}}),
+  fetch(target + "/api/session").then((r) => r.text()),
+]).then((all) => {{ window.results = all.map((r) => r.status); window.done = true; }});
+</script></body></html>""")
+    handler = type("Quiet", (http.server.SimpleHTTPRequestHandler,),
+                   {"log_message": lambda *args: None})
+    evil = http.server.ThreadingHTTPServer(
+        ("127.0.0.1", 0), lambda *a: handler(*a, directory=str(attack)))
+    threading.Thread(target=evil.serve_forever, daemon=True).start()
+    try:
+        browser.get(f"http://127.0.0.1:{evil.server_address[1]}/index.html")
+        wait_for(browser, lambda d: js(d, "return window.done === true"), timeout=30,
+                 what="the other page's requests")
+        # the reads are opaque or refused: a no-cors answer is hidden, CORS is never granted
+        assert "fulfilled" not in js(browser, "return window.results")[3:]
+    finally:
+        evil.shutdown()
+        evil.server_close()
+    time.sleep(0.5)
+    after = {p.name: p.read_bytes() for p in doorway.folder.iterdir() if p.suffix != ".log"}
+    assert after == before
+    open_page(browser, doorway.url, restore=None)  # the editor still edits doorway.json
+    assert browser.find_element(By.ID, "filename").get_attribute("value") == "doorway.json"
+    browser.find_element(By.ID, "restore-no").click()
+    autosave.unlink()
+    # and the page without its token says what to open
+    browser.get(editor + "/")
+    wait_for(browser, lambda d: "token" in text(d, "message"), timeout=20,
+             what="the missing-token message")
+
+
+def test_fields_edit_only_what_they_show_and_give_the_keys_back(browser, scratch, tmp_path):
+    open_page(browser, scratch.url)
+    js(browser, "window.sgjaxEditor.setMap(arguments[0])",
+       {"name": "scratch", "description": "", "bounds": [-6, -4, 6, 4],
+        "walls": [[-5, 3, 0, 3], [0, 3, 5, 3]], "nodes": [], "edges": [], "groups": []})
+    browser.find_element(By.ID, "fit").click()
+    # a zone's name field names new zones only; the drawn one is renamed under Selection
+    set_field(browser, "zone-name", "left door")
+    tool(browser, "z")
+    drag(browser, (-4, -1), (-3, 1))
+    set_field(browser, "zone-name", "right door")  # zone 0 is still selected
+    assert [z["name"] for z in get_map(browser)["zones"]] == ["left door"]
+    tool(browser, "z")
+    drag(browser, (3, -1), (4, 1))
+    assert [z["name"] for z in get_map(browser)["zones"]] == ["left door", "right door"]
+    tool(browser, "v")
+    click_at(browser, -3.5, 0)
+    assert browser.find_element(By.ID, "sel-name").get_attribute("value") == "left door"
+    set_field(browser, "sel-name", "west door")
+    set_field(browser, "sel-x-min", -4.25)
+    zones = get_map(browser)["zones"]
+    assert zones[0] == {"name": "west door", "rect": [-4.25, -1, -3, 1]}
+    assert zones[1]["name"] == "right door"
+    # exact positions: a node right after placing it, and a wall end (its joined end moves too)
+    tool(browser, "n")
+    click_at(browser, -2, 0)
+    set_field(browser, "sel-x", 1.75)
+    set_field(browser, "sel-y", "-0.3")
+    assert get_map(browser)["nodes"] == [{"id": 0, "position": [1.75, -0.3]}]
+    tool(browser, "v")
+    click_at(browser, -2.5, 3)  # wall 0
+    set_field(browser, "sel-x2", 0.4)
+    set_field(browser, "sel-y2", 2.9)
+    assert get_map(browser)["walls"] == [[-5, 3, 0.4, 2.9], [0.4, 2.9, 5, 3]]
+    set_field(browser, "sel-y1", "abc")  # refused: said, and the map is unchanged
+    assert "expected a number" in text(browser, "message")
+    assert get_map(browser)["walls"][0] == [-5, 3, 0.4, 2.9]
+    # Escape and Enter in a field hand the keys back to the map
+    field = browser.find_element(By.ID, "zone-name")
+    field.click()
+    keys(browser, Keys.ESCAPE)
+    assert js(browser, "return document.activeElement.id") == "canvas"
+    keys(browser, "n")
+    assert "active" in browser.find_element(By.CSS_SELECTOR, "[data-tool=node]").get_attribute(
+        "class")
+    grid = browser.find_element(By.ID, "grid")
+    grid.click()
+    grid.send_keys(Keys.CONTROL, "a")
+    grid.send_keys("0.25", Keys.ENTER)
+    assert js(browser, "return document.activeElement.id") == "canvas"
+    keys(browser, "e")
+    assert "active" in browser.find_element(By.CSS_SELECTOR, "[data-tool=edge]").get_attribute(
+        "class")
+    screenshot(browser, tmp_path / "screenshots", "fields")
+
+
+def test_runs_of_edges_group_boxes_and_ids_as_loaded(browser, scratch, tmp_path):
+    open_page(browser, scratch.url)
+    row = [(-4.0, 0.0), (-2.0, 0.0), (0.0, 0.0), (2.0, 0.0), (4.0, 0.0)]
+    ids = [0, 1, 2, 20, 21]  # a gap in the ids, as a file may have
+    js(browser, "window.sgjaxEditor.setMap(arguments[0])",
+       {"name": "scratch", "description": "", "bounds": [-5, -3, 5, 3], "walls": [],
+        "nodes": [{"id": i, "position": list(p)} for i, p in zip(ids, row, strict=True)],
+        "edges": [], "groups": []})
+    browser.find_element(By.ID, "fit").click()
+    # one drag through the row joins it in order: one undo step takes the run back
+    tool(browser, "e")
+    canvas = browser.find_element(By.ID, "canvas")
+    chain = actions(browser).move_to_element_with_offset(canvas, *canvas_offset(browser, *row[0]))
+    chain.click_and_hold()
+    for p in row[1:]:  # the pointer passes over each node in turn
+        chain.move_to_element_with_offset(canvas, *canvas_offset(browser, *p))
+    chain.release().perform()
+    assert get_map(browser)["edges"] == [[0, 1], [1, 2], [2, 20], [20, 21]]
+    browser.find_element(By.ID, "undo").click()
+    assert get_map(browser)["edges"] == []
+    browser.find_element(By.ID, "redo").click()
+    # clicks still join one pair
+    click_at(browser, *row[0])
+    click_at(browser, *row[4])
+    assert get_map(browser)["edges"][-1] == [0, 21]
+    # a box adds every node in it to the group's current phase
+    tool(browser, "g")
+    drag(browser, (-4.5, -1), (-1.5, 1))
+    browser.find_element(By.ID, "group-phase").click()
+    drag(browser, (1.5, -1), (4.5, 1))
+    assert get_map(browser)["groups"] == [{"starts": [0, 1], "goals": [20, 21]}]
+    # ids stay as loaded: a new node takes the largest + 1, and an id can be set
+    tool(browser, "n")
+    click_at(browser, 0, 2)
+    assert [n["id"] for n in get_map(browser)["nodes"]] == [0, 1, 2, 20, 21, 22]
+    tool(browser, "v")
+    click_at(browser, 2, 0)  # node 20
+    set_field(browser, "sel-id", 7)
+    set_field(browser, "sel-id", 21)  # taken: refused
+    assert "taken" in text(browser, "message")
+    edited = get_map(browser)
+    assert [n["id"] for n in edited["nodes"]] == [0, 1, 2, 7, 21, 22]
+    assert edited["edges"] == [[0, 1], [1, 2], [2, 7], [7, 21], [0, 21]]
+    assert edited["groups"] == [{"starts": [0, 1], "goals": [7, 21]}]
+    # saving the file being edited twice asks nothing
+    assert save(browser).startswith("saved")
+    tool(browser, "n")
+    click_at(browser, 0, -2)
+    assert save(browser).startswith("saved")
+    saved = json.loads((scratch.root / "scratch.json").read_text())
+    assert [n["id"] for n in saved["nodes"]] == [0, 1, 2, 7, 21, 22, 23]
+    (scratch.root / "scratch.json").unlink()
+    screenshot(browser, tmp_path / "screenshots", "runs")
+
+
+def test_the_autosave_message_clears_and_stop_cancels_a_batch(browser, doorway, tmp_path):
+    open_page(browser, doorway.url)
+    autosave = doorway.folder / ".doorway.json.autosave"
+    autosave.mkdir()  # an autosave cannot be written while a folder has its name
+    try:
+        tool(browser, "n")
+        click_at(browser, 3.0, 0.5)
+        wait_for(browser, lambda d: text(d, "message").startswith("autosave failed"),
+                 timeout=15, what="the autosave failure")
+    finally:
+        autosave.rmdir()
+    click_at(browser, 3.0, -0.5)
+    wait_for(browser, lambda d: text(d, "message") == "autosaved: the server answers again",
+             timeout=15, what="the autosave message to clear")
+    assert autosave.is_file()
+    # Stop ends a batch of 1,024 episodes after its current part of 64
+    set_field(browser, "play-robots", 4)
+    set_field(browser, "play-episodes", 1024)
+    browser.find_element(By.ID, "play").click()
+    wait_for(browser, lambda d: text(d, "play-result").startswith("running"), timeout=10,
+             what="the batch to start")
+    browser.find_element(By.ID, "play-stop").click()
+    wait_for(browser, lambda d: text(d, "play-result").startswith("stopped after"),
+             timeout=120, what="the batch to stop")
+    assert "of 16 part(s)" in text(browser, "play-result")
+    assert int(text(browser, "play-result").split("stopped after ")[1].split()[0]) < 16
+    assert browser.find_element(By.ID, "play").is_enabled()
+    set_field(browser, "play-episodes", 8)  # the next batch plays
+    browser.find_element(By.ID, "play").click()
+    wait_for(browser, lambda d: "team_success" in text(d, "play-result"), timeout=120,
+             what="the next batch")
+    autosave.unlink()

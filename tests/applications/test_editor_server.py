@@ -301,3 +301,149 @@ def test_unsupported_methods_answer_json_too(server):
         with pytest.raises(urllib.error.HTTPError) as err:
             urllib.request.urlopen(request, timeout=30)
         assert err.value.code == 501 and "error" in json.loads(err.value.read())
+
+
+# --- who may call the server (docs/editor.md, "Security") -----------------------------------
+
+
+def _state(folder):
+    """Every file under ``folder`` with its bytes."""
+    return {p.relative_to(folder): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file()}
+
+
+def test_other_pages_and_forged_hosts_are_refused(server, tmp_path):
+    # the open map has an autosave beside it and the session edits rooms.json
+    status, _ = call(server + "/api/autosave", {"map": edited(lambda d: d.update(name="x"))})
+    assert status == 200
+    before = _state(tmp_path)
+    port = server.rsplit(":", 1)[1]
+    evil = {"map": ROOMS, "file": "evil.json", "overwrite": True}
+    # the replay of a page on another origin: fetch(..., {mode: "no-cors"}) with a text/plain
+    # body, which a browser sends without asking the server
+    no_cors = {"Content-Type": "text/plain", "Origin": "http://127.0.0.1:9"}
+    for path in ("/api/save", "/api/autosave", "/api/check", "/api/play"):
+        status, body = call(server + path, raw=json.dumps(evil).encode(), headers=no_cors,
+                            token=False)
+        assert status == 403 and "127.0.0.1:9" in json.loads(body)["error"], (path, body)
+        status, body = call(server + path, raw=json.dumps(evil).encode(),
+                            headers={"Content-Type": "text/plain"}, token=False)
+        assert status == 403 and "X-Sgjax-Token" in json.loads(body)["error"], (path, body)
+    # the token is not enough from another origin, or with another Host (DNS rebinding)
+    status, body = call(server + "/api/save", evil, headers={"Origin": "http://evil.example"})
+    assert status == 403 and "evil.example" in json.loads(body)["error"]
+    for host in ("evil.example", f"evil.example:{port}", "127.0.0.1:1"):
+        for path in ("/api/save", "/api/session", "/", "/static/editor.js"):
+            status, body = call(server + path, None if path[-4:] != "save" else evil,
+                                headers={"Host": host})
+            assert status == 403 and "is not this editor's address" in json.loads(body)["error"]
+    # a write needs a JSON body type even with the token
+    status, body = call(server + "/api/save", raw=json.dumps(evil).encode(),
+                        headers={"Content-Type": "text/plain"})
+    assert status == 415 and "application/json" in json.loads(body)["error"]
+    status, body = call(server + "/api/session", token=False)
+    assert status == 403
+    status, body = call(server + "/api/session", headers={"X-Sgjax-Token": "x" * 32},
+                        token=False)
+    assert status == 403
+    assert _state(tmp_path) == before  # nothing written, deleted or switched
+    status, body = call(server + "/api/session")
+    assert status == 200 and json.loads(body)["file"] == "rooms.json"
+    # the editor's own page, under each loopback name, with the token
+    for host in (f"127.0.0.1:{port}", f"localhost:{port}"):
+        status, body = call(server + "/api/check", {"map": ROOMS},
+                            headers={"Host": host, "Origin": f"http://{host}"})
+        assert status == 200 and json.loads(body) == {"problems": []}
+    status, _ = call(server + "/?token=" + _TOKENS[server])
+    assert status == 200
+
+
+def test_the_printed_address_carries_a_new_token_each_launch(tmp_path):
+    session = EditorSession.open(None, new="x", root=str(tmp_path))
+    first, second = make_server(session, port=0), make_server(session, port=0)
+    try:
+        assert first.token != second.token and len(first.token) >= 32
+        assert first.url == (f"http://127.0.0.1:{first.server_address[1]}/?token="
+                             f"{first.token}")
+    finally:
+        first.server_close()
+        second.server_close()
+
+
+def _packed_room(count, size=20.0, seed=0):
+    """``count`` walls 10 cm long scattered over a ``size`` m square room (the issue's dense
+    map), a node on either side and an edge between them."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    h = size / 2
+    centres = rng.uniform(-h + 1, h - 1, (count, 2))
+    angle = rng.uniform(0, np.pi, count)
+    half = 0.05 * np.stack([np.cos(angle), np.sin(angle)], 1)
+    walls = np.concatenate([centres - half, centres + half], 1).round(3).tolist()
+    return {"name": "packed", "description": "", "bounds": [-h - 1, -h - 1, h + 1, h + 1],
+            "walls": [[-h, -h, h, -h], [h, -h, h, h], [h, h, -h, h], [-h, h, -h, -h]] + walls,
+            "nodes": [{"id": 0, "position": [-h + 0.5, 0]}, {"id": 1, "position": [h - 0.5, 0]}],
+            "edges": [[0, 1]], "groups": [{"starts": [0], "goals": [1]}]}
+
+
+def _peak_rss_mb(pid):
+    """The peak resident memory (MB) of process ``pid`` so far (Linux: VmHWM)."""
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024
+    raise AssertionError("no VmHWM")
+
+
+@pytest.mark.slow
+def test_dense_and_oversized_maps_are_answered_within_a_memory_bound(tmp_path):
+    """200,000 walls packed into one room (which took the server to 24 GB and a kill before):
+    ``sgjax edit``'s check answers every problem in a bounded memory and stays up; a map past
+    the limits gets its error at once."""
+    import subprocess
+    import sys
+    import time
+
+    from sgjax.maps.limits import MAX_WALLS
+
+    (tmp_path / "rooms.json").write_text(json.dumps(ROOMS))
+    log = (tmp_path / "server.log").open("w")
+    process = subprocess.Popen(
+        [sys.executable, "-m", "sgjax.command", "edit", str(tmp_path / "rooms.json"),
+         "--port", "0", "--no-browser"], stdout=log, stderr=subprocess.STDOUT)
+    try:
+        deadline = time.monotonic() + 60
+        while "?token=" not in (tmp_path / "server.log").read_text():
+            assert process.poll() is None and time.monotonic() < deadline, (
+                (tmp_path / "server.log").read_text())
+            time.sleep(0.1)
+        url = (tmp_path / "server.log").read_text().split(" at ", 1)[1].split(" ", 1)[0]
+        base = url.split("/?token=")[0]
+        _TOKENS[base] = url.split("?token=")[1]
+        status, body = call(base + "/api/check", {"map": ROOMS})
+        assert status == 200
+        idle = _peak_rss_mb(process.pid)
+        status, body = call(base + "/api/check", {"map": _packed_room(200_000)})
+        problems = json.loads(body)["problems"]
+        assert status == 200 and problems, body[:300]
+        assert {p["path"] for p in problems if p["severity"] == "error"} <= {
+            "$.edges[0]", "$.groups[0]"}
+        peak = _peak_rss_mb(process.pid)
+        assert peak - idle < 1500, f"the check took {peak - idle:.0f} MB over {idle:.0f} MB"
+        too_many = _packed_room(MAX_WALLS + 1)
+        status, body = call(base + "/api/save", {"map": too_many, "file": "big.json"})
+        answer = json.loads(body)
+        assert status == 422 and answer["problems"][0]["path"] == "$.walls"
+        assert f"at most {MAX_WALLS:,}" in answer["problems"][0]["message"]
+        pile = edited(lambda d: d["walls"].extend([[2, 2 + 0.001 * i, 2.3, 2.2]
+                                                   for i in range(300)]))
+        status, body = call(base + "/api/check", {"map": pile})
+        (problem,) = json.loads(body)["problems"]
+        assert problem["path"] == "$.walls" and "walls pass through" in problem["message"]
+        status, body = call(base + "/api/session")
+        assert status == 200 and process.poll() is None  # still up
+        assert not (tmp_path / "big.json").exists()
+    finally:
+        process.terminate()
+        process.wait(10)
+        log.close()

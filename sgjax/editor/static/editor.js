@@ -51,6 +51,9 @@
     routesSeq: 0,
     activeProblem: -1,
     playback: null,
+    stopping: false, // Stop was pressed while a batch plays
+    autosaveFailed: false,
+    fieldsFor: "", // which element the selection fields show ("kind:index")
     fitted: false,
     redrawQueued: false,
   };
@@ -308,7 +311,13 @@
     state.autosaveTimer = setTimeout(async () => {
       state.autosaveTimer = null;
       const r = await api("/api/autosave", { map: state.map });
-      if (!r.ok) message(`autosave failed: ${r.data.error || r.status}`, "error");
+      if (!r.ok) {
+        state.autosaveFailed = true;
+        message(`autosave failed: ${r.data.error || r.status}`, "error");
+      } else if (state.autosaveFailed) { // the failure is over: say so instead of keeping it
+        state.autosaveFailed = false;
+        message("autosaved: the server answers again", "ok");
+      }
     }, AUTOSAVE_DELAY_MS);
   }
 
@@ -515,8 +524,10 @@
     $("play").disabled = true;
     const started = performance.now();
     const ticker = setInterval(() => {
-      result.textContent = `running... ${Math.round((performance.now() - started) / 1000)} s`;
+      const secs = Math.round((performance.now() - started) / 1000);
+      result.textContent = state.stopping ? `stopping... ${secs} s` : `running... ${secs} s`;
     }, 1000);
+    state.stopping = false;
     state.pending.play++;
     let r;
     try {
@@ -524,7 +535,13 @@
     } finally {
       clearInterval(ticker);
       state.pending.play--;
+      state.stopping = false;
       $("play").disabled = false;
+    }
+    if (r.status === 409 && r.data.cancelled) {
+      result.textContent = r.data.error.replace(/^play: /, "");
+      message("play stopped");
+      return;
     }
     if (!r.ok) {
       result.textContent = "failed";
@@ -577,6 +594,16 @@
   function stopPlayback() {
     state.playback = null;
     redraw();
+  }
+
+  // Stop: the animation, and a batch under way (the server ends it after its current part).
+  async function stop() {
+    stopPlayback();
+    if (!state.pending.play || state.stopping) return;
+    state.stopping = true;
+    $("play-result").textContent = "stopping...";
+    const r = await api("/api/play/cancel", {});
+    if (!r.ok) message(`stop failed: ${r.data.error || r.status}`, "error");
   }
 
   function playbackFrame() {
@@ -639,7 +666,8 @@
       ? `starts: ${ids(g.starts) || "none"}; goals: ${ids(g.goals) || "none"}`
       : "With the group tool, clicking a node makes a group.";
     // selection
-    $("selection-info").textContent = selectionText();
+    $("selection-info").textContent = selectionText() || "Nothing selected: click a node, wall, edge or zone with Select (V).";
+    showSelectionFields();
     // tools
     for (const b of document.querySelectorAll("[data-tool]")) b.classList.toggle("active", b.dataset.tool === state.tool);
     updateUndoButtons();
@@ -665,6 +693,126 @@
       return z ? `zone ${s.index} "${z.name}": ${z.rect.map((v) => fmt(v)).join(", ")}` : "";
     }
     return "";
+  }
+
+  // ---------------------------------------------------------------- the selection's exact values
+
+  // The fields of the selected element: {key, label, value, text?, integer?, set(value) ->
+  // error string or nothing}. Each edits that element only; a wall end moves every wall end at
+  // the same place, as dragging it does.
+  function selectionFields() {
+    const s = state.selection;
+    if (!s) return [];
+    if (s.kind === "node") {
+      const n = list("nodes")[s.index];
+      if (!n) return [];
+      return [
+        { key: "id", label: "id", value: n.id, integer: true, set: (v) => renameNode(n, v) },
+        { key: "x", label: "x (m)", value: n.position[0], set: (v) => { n.position[0] = v; } },
+        { key: "y", label: "y (m)", value: n.position[1], set: (v) => { n.position[1] = v; } },
+      ];
+    }
+    if (s.kind === "wall") {
+      const w = list("walls")[s.index];
+      if (!w) return [];
+      const end = (k, axis, label) => ({
+        key: `${label}`, label: `${label} (m)`, value: w[k + axis],
+        set: (v) => { for (const [i, kk] of endsAt(w[k], w[k + 1])) list("walls")[i][kk + axis] = v; },
+      });
+      return [end(0, 0, "x1"), end(0, 1, "y1"), end(2, 0, "x2"), end(2, 1, "y2")];
+    }
+    if (s.kind === "zone") {
+      const z = list("zones")[s.index];
+      if (!z) return [];
+      const corner = (j, label) => ({
+        key: label, label: `${label} (m)`, value: z.rect[j],
+        set: (v) => {
+          const r = [...z.rect];
+          r[j] = v;
+          z.rect = [Math.min(r[0], r[2]), Math.min(r[1], r[3]), Math.max(r[0], r[2]), Math.max(r[1], r[3])];
+        },
+      });
+      return [
+        { key: "name", label: "name", value: z.name, text: true, set: (v) => {
+          if (!v.trim()) return "a zone needs a name";
+          z.name = v.trim();
+        } },
+        corner(0, "x min"), corner(1, "y min"), corner(2, "x max"), corner(3, "y max"),
+      ];
+    }
+    return [];
+  }
+
+  // Rebuild the fields when another element is selected; otherwise refresh the values of the
+  // fields not being typed in.
+  function showSelectionFields() {
+    const box = $("selection-fields");
+    const s = state.selection;
+    const fields = selectionFields();
+    const id = s && fields.length ? `${s.kind}:${s.index}` : "";
+    if (id !== state.fieldsFor || box.children.length !== fields.length) {
+      state.fieldsFor = id;
+      box.replaceChildren(...fields.map(fieldElement));
+      return;
+    }
+    fields.forEach((f, i) => {
+      const input = box.children[i].querySelector("input");
+      if (input !== document.activeElement) input.value = f.text ? f.value : String(f.value);
+    });
+  }
+
+  function fieldElement(f) {
+    const label = document.createElement("label");
+    label.className = f.text ? "wide" : "";
+    const input = document.createElement("input");
+    input.id = `sel-${f.key.replace(" ", "-")}`;
+    input.type = f.text ? "text" : "number";
+    if (!f.text) input.step = f.integer ? "1" : "any";
+    input.spellcheck = false;
+    input.value = f.text ? f.value : String(f.value);
+    input.addEventListener("change", () => {
+      const field = selectionFields().find((g) => g.key === f.key);
+      if (!field) return;
+      const raw = input.value.trim();
+      let value = input.value;
+      if (!field.text) {
+        value = raw === "" ? NaN : field.integer ? Number(raw) : round6(Number(raw));
+        if (!Number.isFinite(value) || (field.integer && !Number.isInteger(value))) {
+          message(`${field.label}: expected ${field.integer ? "an integer" : "a number"}, got ${JSON.stringify(input.value)}`, "error");
+          input.value = String(field.value);
+          return;
+        }
+      }
+      const error = field.set(value);
+      if (error) {
+        message(error, "error");
+        input.value = field.text ? field.value : String(field.value);
+        return;
+      }
+      changed();
+    });
+    label.append(document.createTextNode(`${f.label} `), input);
+    return label;
+  }
+
+  // Give node `node` the id `id` (unused), in every edge, group and route that names it.
+  function renameNode(node, id) {
+    const old = node.id;
+    if (id === old) return undefined;
+    if (list("nodes").some((n) => n.id === id)) return `node id ${id} is taken`;
+    const swap = (v) => (v === old ? id : v);
+    node.id = id;
+    const m = state.map;
+    if (Array.isArray(m.edges)) m.edges = m.edges.map((e) => e.map(swap));
+    for (const key of ["groups", "pedestrian_groups"]) {
+      for (const g of list(key)) {
+        if (Array.isArray(g.starts)) g.starts = g.starts.map(swap);
+        if (Array.isArray(g.goals)) g.goals = g.goals.map(swap);
+      }
+    }
+    if (Array.isArray(m.routes)) m.routes = m.routes.map((r) => r.map(swap));
+    if (state.edgeFrom === old) state.edgeFrom = id;
+    return undefined;
   }
 
   function setTool(tool) {
@@ -967,10 +1115,15 @@
     if (tool === "select") selectDown(e, px, py);
     else if (tool === "wall") wallDown(px, py);
     else if (tool === "node") nodeDown(px, py);
-    else if (tool === "edge") edgeDown(px, py);
+    else if (tool === "edge") edgeDown(e, px, py);
     else if (tool === "group") {
       const i = hitNode(px, py);
       if (i >= 0) toggleInGroup(i);
+      else { // a box: every node in it joins the group's current phase
+        const [wx, wy] = screenToWorld(px, py);
+        state.drag = { type: "groupBox", start: { x: wx, y: wy }, end: { x: wx, y: wy } };
+        canvas.setPointerCapture(e.pointerId);
+      }
     } else if (tool === "zone") {
       const p = snapPoint(px, py);
       state.drag = { type: "newZone", start: p, end: p };
@@ -1005,7 +1158,6 @@
       } else if (corner) {
         state.selection = { kind: "zone", index: corner.index };
         state.drag = { type: "zoneCorner", ...corner, moved: false, px, py };
-        $("zone-name").value = list("zones")[corner.index].name;
       } else {
         const sel = pick(px, py);
         state.selection = sel;
@@ -1017,7 +1169,6 @@
           };
         } else if (sel && sel.kind === "zone") {
           state.drag = { type: "zone", index: sel.index, orig: [...list("zones")[sel.index].rect], moved: false, px, py };
-          $("zone-name").value = list("zones")[sel.index].name;
         } else if (!sel) {
           beginPan(e, px, py);
           return;
@@ -1054,27 +1205,62 @@
     changed();
   }
 
-  function edgeDown(px, py) {
+  // The edge tool: press on a node and drag through others to join the run in order (one undo
+  // step), or click one node and then another.
+  function edgeDown(e, px, py) {
     const i = hitNode(px, py);
     if (i < 0) {
       state.edgeFrom = null;
       return;
     }
-    const id = list("nodes")[i].id;
+    state.drag = { type: "edgeRun", last: list("nodes")[i].id, added: 0, moved: false, px, py };
+    canvas.setPointerCapture(e.pointerId);
+  }
+
+  function edgeClick(id) {
     if (state.edgeFrom === null || state.edgeFrom === id) {
       state.edgeFrom = id;
+      redraw();
       return;
     }
     const a = state.edgeFrom;
     state.edgeFrom = null;
+    if (addEdge(a, id)) changed();
+    else redraw();
+  }
+
+  // Join nodes a and b (ids) unless they are joined already; whether an edge was added.
+  function addEdge(a, b) {
     const edges = ensureList("edges");
-    if (edges.some((e) => (e[0] === a && e[1] === id) || (e[0] === id && e[1] === a))) {
-      message(`edge ${a} - ${id} exists`);
-      return;
+    if (edges.some((e) => (e[0] === a && e[1] === b) || (e[0] === b && e[1] === a))) {
+      message(`edge ${a} - ${b} exists`);
+      return false;
     }
-    edges.push([a, id]);
+    edges.push([a, b]);
     state.selection = { kind: "edge", index: edges.length - 1 };
-    changed();
+    return true;
+  }
+
+  function nodesInBox(a, b) {
+    const [x0, x1] = [Math.min(a.x, b.x), Math.max(a.x, b.x)];
+    const [y0, y1] = [Math.min(a.y, b.y), Math.max(a.y, b.y)];
+    return list("nodes").filter((n) => n.position[0] >= x0 && n.position[0] <= x1 &&
+      n.position[1] >= y0 && n.position[1] <= y1).map((n) => n.id);
+  }
+
+  function addToGroup(ids) {
+    const groups = ensureList(state.group.kind);
+    if (state.group.index >= groups.length || state.group.index < 0) {
+      groups.push({ starts: [], goals: [] });
+      state.group.index = groups.length - 1;
+    }
+    const g = groups[state.group.index];
+    const key = state.group.phase;
+    if (!Array.isArray(g[key])) g[key] = [];
+    const added = ids.filter((id) => !g[key].includes(id));
+    g[key].push(...added);
+    message(`${plural(added.length, "node")} added to group ${state.group.index}'s ${key}`);
+    if (added.length) changed();
   }
 
   canvas.addEventListener("pointermove", (e) => {
@@ -1121,6 +1307,18 @@
       rect[d.cy] = p.y;
     } else if (d.type === "newZone") {
       d.end = snapPoint(px, py);
+    } else if (d.type === "groupBox") {
+      d.end = { x: wx, y: wy };
+    } else if (d.type === "edgeRun" && d.moved) {
+      const j = hitNode(px, py);
+      const id = j >= 0 ? list("nodes")[j].id : null;
+      if (id !== null && id !== d.last) {
+        if (addEdge(d.last, id)) {
+          d.added++;
+          changed(false); // one undo step for the run, when it ends
+        }
+        d.last = id;
+      }
     }
     redraw();
   });
@@ -1145,6 +1343,20 @@
     canvas.style.cursor = state.tool === "select" ? "default" : "crosshair";
     if (d.type === "pan") {
       if (!d.moved && state.tool === "select" && !state.spaceDown) { state.selection = null; refreshPanels(); }
+      redraw();
+      return;
+    }
+    if (d.type === "edgeRun") {
+      if (d.added) {
+        state.edgeFrom = null;
+        changed();
+      } else {
+        edgeClick(d.last);
+      }
+      return;
+    }
+    if (d.type === "groupBox") {
+      addToGroup(nodesInBox(d.start, d.end));
       redraw();
       return;
     }
@@ -1213,7 +1425,14 @@
       }
       return;
     }
-    if (typing(e.target)) return; // the field's own keys (its own undo too)
+    if (typing(e.target)) { // the field's own keys (its own undo too), but Escape and Enter
+      if (key === "Escape" || (key === "Enter" && e.target.tagName === "INPUT")) {
+        e.preventDefault();
+        e.target.blur(); // applies the field (its change event)
+        canvas.focus({ preventScroll: true });
+      }
+      return;
+    }
     if (ctrl && key === "z") {
       e.preventDefault();
       if (e.shiftKey) redo(); else undo();
@@ -1272,7 +1491,7 @@
   $("fit").addEventListener("click", fitView);
   $("save").addEventListener("click", () => save(false));
   $("play").addEventListener("click", play);
-  $("play-stop").addEventListener("click", stopPlayback);
+  $("play-stop").addEventListener("click", stop);
   $("bounds-fit").addEventListener("click", () => { if (state.map) boundsToContent(); });
   $("group-new").addEventListener("click", newGroup);
   $("group-phase").addEventListener("click", () => {
@@ -1319,14 +1538,6 @@
       state.map.bounds[i] = x;
       return true;
     });
-  });
-  $("zone-name").addEventListener("change", () => {
-    const s = state.selection;
-    const name = $("zone-name").value.trim();
-    if (s && s.kind === "zone" && list("zones")[s.index] && name && list("zones")[s.index].name !== name) {
-      list("zones")[s.index].name = name;
-      changed();
-    }
   });
 
   // ---------------------------------------------------------------- drawing
@@ -1728,6 +1939,15 @@
       ctx.lineWidth = 1.5;
       ctx.strokeRect(x, y, w, h);
       drawLabel(`${fmt(Math.abs(d.end.x - d.start.x))} x ${fmt(Math.abs(d.end.y - d.start.y))} m`, x + w, y + h);
+    }
+    if (d && d.type === "groupBox") {
+      const [x, y, w, h] = zoneRectScreen({ rect: [d.start.x, d.start.y, d.end.x, d.end.y] });
+      ctx.save();
+      ctx.setLineDash([5, 4]);
+      ctx.strokeStyle = state.group.phase === "starts" ? COLORS.start : COLORS.goal;
+      ctx.lineWidth = 1.5;
+      ctx.strokeRect(x, y, w, h);
+      ctx.restore();
     }
     if (state.tool === "group" && c) {
       drawLabel(`group ${state.group.index} (${state.group.kind === "groups" ? "robots" : "pedestrians"}): ${state.group.phase}`, c.px, c.py);
