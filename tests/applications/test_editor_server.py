@@ -10,6 +10,7 @@ import urllib.request
 from pathlib import Path
 
 import pytest
+from dense_maps import packed_room
 
 import sgjax
 from sgjax.command import main as sgjax_main
@@ -370,23 +371,6 @@ def test_the_printed_address_carries_a_new_token_each_launch(tmp_path):
         second.server_close()
 
 
-def _packed_room(count, size=20.0, seed=0):
-    """``count`` walls 10 cm long scattered over a ``size`` m square room (the issue's dense
-    map), a node on either side and an edge between them."""
-    import numpy as np
-
-    rng = np.random.default_rng(seed)
-    h = size / 2
-    centres = rng.uniform(-h + 1, h - 1, (count, 2))
-    angle = rng.uniform(0, np.pi, count)
-    half = 0.05 * np.stack([np.cos(angle), np.sin(angle)], 1)
-    walls = np.concatenate([centres - half, centres + half], 1).round(3).tolist()
-    return {"name": "packed", "description": "", "bounds": [-h - 1, -h - 1, h + 1, h + 1],
-            "walls": [[-h, -h, h, -h], [h, -h, h, h], [h, h, -h, h], [-h, h, -h, -h]] + walls,
-            "nodes": [{"id": 0, "position": [-h + 0.5, 0]}, {"id": 1, "position": [h - 0.5, 0]}],
-            "edges": [[0, 1]], "groups": [{"starts": [0], "goals": [1]}]}
-
-
 def _peak_rss_mb(pid):
     """The peak resident memory (MB) of process ``pid`` so far (Linux: VmHWM)."""
     for line in Path(f"/proc/{pid}/status").read_text().splitlines():
@@ -423,14 +407,14 @@ def test_dense_and_oversized_maps_are_answered_within_a_memory_bound(tmp_path):
         status, body = call(base + "/api/check", {"map": ROOMS})
         assert status == 200
         idle = _peak_rss_mb(process.pid)
-        status, body = call(base + "/api/check", {"map": _packed_room(200_000)})
+        status, body = call(base + "/api/check", {"map": packed_room(200_000)})
         problems = json.loads(body)["problems"]
         assert status == 200 and problems, body[:300]
         assert {p["path"] for p in problems if p["severity"] == "error"} <= {
             "$.edges[0]", "$.groups[0]"}
         peak = _peak_rss_mb(process.pid)
         assert peak - idle < 1500, f"the check took {peak - idle:.0f} MB over {idle:.0f} MB"
-        too_many = _packed_room(MAX_WALLS + 1)
+        too_many = packed_room(MAX_WALLS + 1)
         status, body = call(base + "/api/save", {"map": too_many, "file": "big.json"})
         answer = json.loads(body)
         assert status == 422 and answer["problems"][0]["path"] == "$.walls"
