@@ -5,7 +5,7 @@ peak resident memory (the process's ``ru_maxrss``, the interpreter and imports i
 200 MB of it). The maps: SocialGym 2.0's largest floor (GDC3, imported; needs
 ``../shared/sg2maps``), ``N`` walls 10 cm long packed into a 20 m room (the editor's security
 report: 200,000 of them took the editor's server past 24 GB), and the same walls spread over a
-600 m floor. A map past ``sgjax.maps.limits`` is refused at once, which the last row shows.
+600 m floor. A map past ``sgjax.maps.size_limits`` is refused at once (the last row).
 
     python bench/map_check.py
     python bench/map_check.py --packed 50000 200000
@@ -47,7 +47,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--packed", type=int, nargs="+", default=[20_000, 50_000, 200_000])
     args = parser.parse_args()
-    from sgjax.maps.limits import MAX_WALLS
+    from sgjax.maps.size_limits import MAX_WALLS
 
     cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text()
                 .splitlines() if line.startswith("model name")), platform.processor())

@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from sgjax.maps.limits import (
+from sgjax.maps.size_limits import (
     DENSITY_CELL,
     MAX_WALLS_PER_CELL,
     density_problem,
@@ -233,7 +233,7 @@ def parse_map_collecting(data: Any, source: str = "<memory>",
         found.add(MapError(source, "$", f"expected an object, got {_type_name(data)}"))
         return None, found.errors
     oversized = oversized_lists(data)
-    if oversized:  # refused before any other work (sgjax.maps.limits)
+    if oversized:  # refused before any other work (sgjax.maps.size_limits)
         return None, [MapError(source, path, problem) for path, problem in oversized]
     valid = TOP_LEVEL_REQUIRED + TOP_LEVEL_OPTIONAL
     for key in data:

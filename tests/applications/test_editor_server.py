@@ -388,7 +388,7 @@ def test_dense_and_oversized_maps_are_answered_within_a_memory_bound(tmp_path):
     import sys
     import time
 
-    from sgjax.maps.limits import MAX_WALLS
+    from sgjax.maps.size_limits import MAX_WALLS
 
     (tmp_path / "rooms.json").write_text(json.dumps(ROOMS))
     log = (tmp_path / "server.log").open("w")

@@ -38,7 +38,7 @@ def oversized_lists(data: Any) -> list[tuple[str, str]]:
         items = data.get(key)
         if isinstance(items, list) and len(items) > limit:
             found.append((f"$.{key}", f"{len(items):,} {key}; a map has at most {limit:,} "
-                                      f"(sgjax.maps.limits.LIST_LIMITS, docs/maps.md)"))
+                                      f"(sgjax.maps.size_limits.LIST_LIMITS, docs/maps.md)"))
     return found
 
 
@@ -46,4 +46,4 @@ def density_problem(count: int, centre: Any, cell: float = DENSITY_CELL) -> str:
     """The error for ``count`` walls through one ``cell`` m square at ``centre``."""
     return (f"{count:,} walls pass through the {cell:g} m square around "
             f"({centre[0]:.2f}, {centre[1]:.2f}); at most {MAX_WALLS_PER_CELL} may "
-            "(sgjax.maps.limits.MAX_WALLS_PER_CELL): walls that dense are not a floor plan")
+            "(sgjax.maps.size_limits.MAX_WALLS_PER_CELL): walls that dense are not a floor plan")
