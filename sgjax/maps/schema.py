@@ -34,13 +34,13 @@ from typing import Any
 
 import numpy as np
 
+from sgjax.maps.segment_grid import SegmentGrid, pairs_intersect
 from sgjax.maps.size_limits import (
     DENSITY_CELL,
     MAX_WALLS_PER_CELL,
     density_problem,
     oversized_lists,
 )
-from sgjax.maps.segment_grid import SegmentGrid, pairs_intersect
 from sgjax.validation import suggest
 
 TOP_LEVEL_REQUIRED = ("name", "description", "bounds", "walls", "nodes", "edges")

@@ -8,9 +8,9 @@ import pytest
 from sgjax.kernels.geometry import segments_intersect
 from sgjax.maps import MapError, parse_map
 from sgjax.maps.check import check_map
-from sgjax.maps.size_limits import MAX_NODES, MAX_WALLS, MAX_WALLS_PER_CELL
 from sgjax.maps.schema import point_segment_distances
 from sgjax.maps.segment_grid import SegmentGrid, pairs_intersect
+from sgjax.maps.size_limits import MAX_NODES, MAX_WALLS, MAX_WALLS_PER_CELL
 
 
 def random_segments(rng, count, spread=10.0):
