@@ -764,6 +764,40 @@ Promise.allSettled([
     browser.get(editor + "/")
     wait_for(browser, lambda d: "token" in text(d, "message"), timeout=20,
              what="the missing-token message")
+    # DNS rebinding: another name for 127.0.0.1 (Chromium resolves *.localhost to it) is refused
+    # even with the token
+    port = editor.rsplit(":", 1)[1]
+    browser.get(f"http://rebound.localhost:{port}/?token={doorway.token}")
+    assert "is not this editor's address" in browser.find_element(By.TAG_NAME, "body").text
+    assert not (doorway.folder / "evil.json").exists()
+
+
+def _peak_rss_mb(pid: int) -> float:
+    """The peak resident memory (MB) of process ``pid`` so far (Linux: VmHWM)."""
+    line = next(v for v in Path(f"/proc/{pid}/status").read_text().splitlines()
+                if v.startswith("VmHWM:"))
+    return int(line.split()[1]) / 1024
+
+
+def test_a_dense_map_and_its_autosave_open_within_a_memory_bound(browser, tmp_path):
+    """The security report's dense map: 200,000 short walls packed into one room, opened in the
+    editor with an autosave of it to restore (which took the server to 24 GB before). The page
+    shows its problems, the server's memory stays bounded and it answers on."""
+    from dense_maps import packed_room
+
+    dense = packed_room(200_000)
+    (tmp_path / "packed.json").write_text(json.dumps(dense))
+    dense["walls"] = dense["walls"][:150_000]
+    (tmp_path / ".packed.json.autosave").write_text(json.dumps(dense))
+    with server([str(tmp_path / "packed.json")], tmp_path) as s:
+        url = s.url
+        idle_mb = _peak_rss_mb(s.process.pid)
+        open_page(browser, url, restore=True)
+        assert len(get_map(browser)["walls"]) == 150_000  # the autosave, restored
+        assert status_counts(browser).startswith("2 errors"), status_counts(browser)
+        peak_mb = _peak_rss_mb(s.process.pid)
+        assert peak_mb - idle_mb < 1500, f"{peak_mb:.0f} MB at peak, {idle_mb:.0f} MB idle"
+        assert s.process.poll() is None
 
 
 def test_fields_edit_only_what_they_show_and_give_the_keys_back(browser, scratch, tmp_path):

@@ -371,63 +371,22 @@ def test_the_printed_address_carries_a_new_token_each_launch(tmp_path):
         second.server_close()
 
 
-def _peak_rss_mb(pid):
-    """The peak resident memory (MB) of process ``pid`` so far (Linux: VmHWM)."""
-    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-        if line.startswith("VmHWM:"):
-            return int(line.split()[1]) / 1024
-    raise AssertionError("no VmHWM")
-
-
-@pytest.mark.slow
-def test_dense_and_oversized_maps_are_answered_within_a_memory_bound(tmp_path):
-    """200,000 walls packed into one room (which took the server to 24 GB and a kill before):
-    ``sgjax edit``'s check answers every problem in a bounded memory and stays up; a map past
-    the limits gets its error at once."""
-    import subprocess
-    import sys
-    import time
-
+def test_oversized_and_dense_maps_get_their_error_and_the_server_answers_on(server, tmp_path):
+    """A map past the limits gets its error at once (the 200,000 packed walls within a memory
+    bound: tests/applications/test_editor_browser.py, through the page)."""
     from sgjax.maps.size_limits import MAX_WALLS
 
-    (tmp_path / "rooms.json").write_text(json.dumps(ROOMS))
-    log = (tmp_path / "server.log").open("w")
-    process = subprocess.Popen(
-        [sys.executable, "-m", "sgjax.command", "edit", str(tmp_path / "rooms.json"),
-         "--port", "0", "--no-browser"], stdout=log, stderr=subprocess.STDOUT)
-    try:
-        deadline = time.monotonic() + 60
-        while "?token=" not in (tmp_path / "server.log").read_text():
-            assert process.poll() is None and time.monotonic() < deadline, (
-                (tmp_path / "server.log").read_text())
-            time.sleep(0.1)
-        url = (tmp_path / "server.log").read_text().split(" at ", 1)[1].split(" ", 1)[0]
-        base = url.split("/?token=")[0]
-        _TOKENS[base] = url.split("?token=")[1]
-        status, body = call(base + "/api/check", {"map": ROOMS})
-        assert status == 200
-        idle = _peak_rss_mb(process.pid)
-        status, body = call(base + "/api/check", {"map": packed_room(200_000)})
-        problems = json.loads(body)["problems"]
-        assert status == 200 and problems, body[:300]
-        assert {p["path"] for p in problems if p["severity"] == "error"} <= {
-            "$.edges[0]", "$.groups[0]"}
-        peak = _peak_rss_mb(process.pid)
-        assert peak - idle < 1500, f"the check took {peak - idle:.0f} MB over {idle:.0f} MB"
-        too_many = packed_room(MAX_WALLS + 1)
-        status, body = call(base + "/api/save", {"map": too_many, "file": "big.json"})
-        answer = json.loads(body)
-        assert status == 422 and answer["problems"][0]["path"] == "$.walls"
-        assert f"at most {MAX_WALLS:,}" in answer["problems"][0]["message"]
-        pile = edited(lambda d: d["walls"].extend([[2, 2 + 0.001 * i, 2.3, 2.2]
-                                                   for i in range(300)]))
-        status, body = call(base + "/api/check", {"map": pile})
-        (problem,) = json.loads(body)["problems"]
-        assert problem["path"] == "$.walls" and "walls pass through" in problem["message"]
-        status, body = call(base + "/api/session")
-        assert status == 200 and process.poll() is None  # still up
-        assert not (tmp_path / "big.json").exists()
-    finally:
-        process.terminate()
-        process.wait(10)
-        log.close()
+    too_many = packed_room(MAX_WALLS + 1)
+    status, body = call(server + "/api/save", {"map": too_many, "file": "big.json"})
+    answer = json.loads(body)
+    assert status == 422 and answer["problems"][0]["path"] == "$.walls"
+    assert f"at most {MAX_WALLS:,}" in answer["problems"][0]["message"]
+    pile = edited(lambda d: d["walls"].extend([[2, 2 + 0.001 * i, 2.3, 2.2] for i in range(300)]))
+    status, body = call(server + "/api/check", {"map": pile})
+    (problem,) = json.loads(body)["problems"]
+    assert problem["path"] == "$.walls" and "walls pass through" in problem["message"]
+    status, body = call(server + "/api/routes", {"map": pile})
+    assert status == 422 and "walls pass through" in json.loads(body)["error"]
+    status, body = call(server + "/api/session")
+    assert status == 200
+    assert not (tmp_path / "big.json").exists()
