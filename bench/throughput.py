@@ -43,7 +43,7 @@ import jax.numpy as jnp
 from compiled import compile_measured
 
 import sgjax
-from sgjax.terms.presets import REWARD_PRESETS
+from sgjax.environment.presets import REWARD_PRESETS
 
 DEFAULT_ENVS = (1, 64, 1024, 4096, 16384)
 DEFAULT_ROBOTS = (4, 10)

@@ -42,8 +42,8 @@ from jax import Array
 
 from sgjax.dynamics.limits import RobotParams
 from sgjax.dynamics.models import Kinematics
+from sgjax.dynamics.planner import PlannerParams
 from sgjax.humans.pedestrians import HumanParams, HumanState
-from sgjax.kernels.planner import PlannerParams
 from sgjax.kernels.zone_books import ZoneState
 from sgjax.maps.arrays import MapArrays
 from sgjax.maps.sampling import Route

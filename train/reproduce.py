@@ -57,6 +57,7 @@ import numpy as np
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.environment.options import MakeOptions
+from sgjax.environment.presets import REWARD_PRESETS
 from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.policies import load_policy, policy_options
 from sgjax.evaluation.protocols import MINI_GAMES, PAPER
@@ -71,7 +72,6 @@ from sgjax.evaluation.statistics import (
     summarize,
 )
 from sgjax.files import write_atomic
-from sgjax.terms.presets import REWARD_PRESETS
 from train import checkpoint
 from train.actor import ActorWeights, play_modes_evaluator
 from train.config import EVALUATION_SEED_OFFSET, TrainConfig, as_trained, config_from_dict

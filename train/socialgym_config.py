@@ -25,8 +25,8 @@ from typing import Any
 
 import yaml
 
+from sgjax.environment.presets import ZONE_OBSERVATIONS
 from sgjax.terms.base import ConfigError
-from sgjax.terms.presets import ZONE_OBSERVATIONS
 from sgjax.validation import suggest
 from train.config import config_from_dict
 

@@ -1,4 +1,5 @@
-"""Robot dynamics: limits, presets and the kinematic integrator."""
+"""Robot dynamics: limits, presets, the kinematic integrator (``limits``, ``models``) and
+SocialGym 2.0's local planner that drives a robot along its route (``planner``)."""
 
 from sgjax.dynamics.limits import (
     ACKERMANN,

@@ -50,11 +50,12 @@ from jax import Array
 
 from sgjax.dynamics.limits import ACKERMANN
 from sgjax.dynamics.models import Kinematics, decode_continuous
+from sgjax.dynamics.planner import PlannerConfig, approach, carrot_point, plan, route_progress
 from sgjax.environment import physics
 from sgjax.environment.physics import Commands
+from sgjax.environment.presets import OBSERVATION_PRESETS, REWARD_PRESETS
 from sgjax.humans.pedestrians import HumanConfig, HumanState, advance_waypoints, spawn_humans
 from sgjax.kernels.geometry import safe_norm
-from sgjax.kernels.planner import PlannerConfig, approach, carrot_point, plan, route_progress
 from sgjax.kernels.row_chunks import chunk_size, update_flagged_rows
 from sgjax.kernels.zone_books import start_zones, update_zones
 from sgjax.maps.sampling import build_routes, sample_starts_goals
@@ -62,7 +63,6 @@ from sgjax.observations import Observer
 from sgjax.rewards import Rewarder
 from sgjax.terms.contract import TermInput
 from sgjax.terms.enders import Enders, Outcome
-from sgjax.terms.presets import OBSERVATION_PRESETS, REWARD_PRESETS
 from sgjax.types import (
     GO,
     STOP,
@@ -579,7 +579,8 @@ class SocialNavEnv:
         through the local planner, STOP as braking at the deceleration limit. Settling robots
         (``arrived="settle"``) ignore their actions: under GO/STOP they follow the planner no
         faster than they can stop at their goal point; under continuous actions (where the
-        planner is not run) they drive straight onto it (:func:`sgjax.kernels.planner.approach`)."""
+        planner is not run) they drive straight onto it
+        (:func:`sgjax.dynamics.planner.approach`)."""
         cfg, rp, robots = self.config, params.robots, state.robots
         settle = cfg.arrived == "settle"
         if cfg.action_mode == "continuous":

@@ -14,19 +14,18 @@ import numpy as np
 from jax import Array
 
 from sgjax.dynamics.limits import RobotPreset, resolve_robots, robot_params
+from sgjax.dynamics.planner import PlannerConfig, PlannerParams
 from sgjax.environment.env import EnvConfig, SocialNavEnv
 from sgjax.environment.options import MakeOptions
-from sgjax.humans.groups import GroupParams, leaders
+from sgjax.environment.presets import resolve_terms
 from sgjax.humans.hsfm import MAX_SUBSTEP as HSFM_MAX_SUBSTEP
+from sgjax.humans.map_params import human_params
 from sgjax.humans.pedestrians import HumanConfig, HumanParams, spawn_humans
-from sgjax.humans.slots import spawn_slots, wall_sample_points
-from sgjax.kernels.planner import PlannerConfig, PlannerParams
 from sgjax.maps.arrays import MapArrays, compile_map, spawn_groups
 from sgjax.maps.crowd_scenarios import CROWD_SCENARIOS
 from sgjax.maps.io import load, shipped_map_names
 from sgjax.maps.sampling import sample_starts_goals
 from sgjax.maps.schema import MapSpec, parse_map
-from sgjax.terms.presets import resolve_terms
 from sgjax.types import EnvParams
 from sgjax.validation import suggest
 
@@ -34,11 +33,6 @@ CAPACITY_TRIALS = 64
 _HUMAN_DEFAULTS = {f.name: f.default for f in dataclasses.fields(HumanParams)}
 # m/s: the fastest pedestrian at the default params (top desired speed x the speed cap)
 HUMAN_TOP_SPEED = _HUMAN_DEFAULTS["speed_max"] * _HUMAN_DEFAULTS["max_speed_factor"]
-# Pedestrian constants make() stores as float32 arrays (the dataclasses' defaults), so params
-# changed or batched later keep their types.
-_FLOAT_CONSTANTS = ("speed_mean", "speed_std", "speed_min", "speed_max", "max_speed_factor",
-                    "waypoint_radius", "robot_weight", "orca", "hsfm")
-WALL_RESOLUTION = 10.0  # wall points per metre for human_walls="points" (PySocialForce's)
 PLANNER_SLACK = 0.2  # m: how much obstacle_margin may grow after make() with walls still seen
 
 
@@ -127,46 +121,6 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
     )
     _check_capacity(spec.source, params, max_agents, human_config)
     return SocialNavEnv(config, params), params
-
-
-def human_params(
-    spec: MapSpec, config: HumanConfig, num_humans: int, radius: float,
-    see_robots: bool = True, groups: tuple[int, ...] = (),
-) -> HumanParams:
-    """Pedestrian params for a map: spawn slots for ``radius`` (m), the map's routes, and the
-    constants' defaults (``HumanParams``, ``SocialForceParams``, ``OrcaParams``,
-    ``HsfmParams``, ``GroupParams``). ``see_robots`` False zeroes the robots' weight in the
-    force laws and in ORCA (``robot_weight``, ``orca.robot_share``): pedestrians that do not
-    see robots. ``groups``: sizes of the groups the first pedestrians walk in
-    (``sgjax.humans.groups``)."""
-    slots, slot_nodes = spawn_slots(spec, radius) if config.max_humans else (
-        np.zeros((0, 2)), np.zeros((0, 2), np.int64))
-    points = (wall_sample_points(spec.walls, WALL_RESOLUTION) if config.wall_model == "points"
-              else np.zeros((0, 2)))
-    f32 = jnp.float32
-    groups_of_routes = spec.pedestrian_groups or tuple(spawn_groups(spec))
-    routes = np.asarray([(a, b) for starts, goals in groups_of_routes for a in starts
-                         for b in goals if a != b] or [(0, 0)], np.int64)
-    hp = HumanParams(
-        num_humans=jnp.asarray(num_humans, jnp.int32),
-        radius=jnp.asarray(radius, f32),
-        spawn_x=jnp.asarray(slots[:, 0], f32),
-        spawn_y=jnp.asarray(slots[:, 1], f32),
-        spawn_nodes=jnp.asarray(slot_nodes, jnp.int32),
-        wall_points_x=jnp.asarray(points[:, 0], f32),
-        wall_points_y=jnp.asarray(points[:, 1], f32),
-        route_start=jnp.asarray(routes[:, 0], jnp.int32),
-        route_goal=jnp.asarray(routes[:, 1], jnp.int32),
-    )
-    if not see_robots:
-        hp = hp.replace(robot_weight=0.0, orca=hp.orca.replace(robot_share=0.0))
-    as_f32 = functools.partial(jax.tree.map, lambda v: jnp.asarray(v, f32))
-    group_params = None
-    if groups:
-        leader = jnp.asarray(leaders(groups, config.max_humans))
-        group_params = as_f32(GroupParams(leader=leader)).replace(leader=leader)
-    return hp.replace(groups=group_params,
-                      **{name: as_f32(getattr(hp, name)) for name in _FLOAT_CONSTANTS})
 
 
 def _substeps(

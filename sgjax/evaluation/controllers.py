@@ -30,6 +30,7 @@ import jax.numpy as jnp
 from jax import Array
 
 from sgjax.dynamics.limits import ACKERMANN, OMNIDIRECTIONAL
+from sgjax.dynamics.planner import carrot_point, point_along_route
 from sgjax.humans.forces import (
     cap_speed,
     desired_force,
@@ -43,7 +44,6 @@ from sgjax.kernels.geometry import (
     wrap_angle,
 )
 from sgjax.kernels.orca import nearest_bodies, nearest_walls, orca_velocity, wall_lines
-from sgjax.kernels.planner import carrot_point, point_along_route
 
 if TYPE_CHECKING:
     from sgjax.environment.env import SocialNavEnv

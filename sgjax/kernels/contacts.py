@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import jax.numpy as jnp
 from jax import Array
 
 from sgjax.kernels.geometry import safe_norm, swept_disc_segment_toi
-from sgjax.maps.arrays import MapArrays
 
 WALL_SKIN = 1e-3  # m: robots stop this far short of the contact point with a wall
 # m: robots whose gap is at most this are in contact. Two robots pushed apart rest at a gap of
@@ -46,8 +47,20 @@ def separate_robots(
     return jnp.sum(push * ux, axis=1), jnp.sum(push * uy, axis=1), jnp.any(touching, axis=1)
 
 
+class Walls(Protocol):
+    """The wall arrays a contact test reads (``sgjax.maps.MapArrays`` has them): segment ends
+    ``wall_x1, wall_y1, wall_x2, wall_y2`` ``[W]`` (m) and ``wall_valid`` ``[W]`` bool (padding
+    slots are False)."""
+
+    wall_x1: Array
+    wall_y1: Array
+    wall_x2: Array
+    wall_y2: Array
+    wall_valid: Array
+
+
 def clamp_to_walls(
-    x: Array, y: Array, dx: Array, dy: Array, radius: Array, m: MapArrays
+    x: Array, y: Array, dx: Array, dy: Array, radius: Array, m: Walls
 ) -> tuple[Array, Array, Array]:
     """Cut each displacement ``(dx, dy)`` ``[R]`` at the first wall contact (swept disc test).
 

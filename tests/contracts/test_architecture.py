@@ -1,8 +1,9 @@
 """The layer map of docs/architecture.md, checked on the import graph.
 
 Every import counts: module level, under ``TYPE_CHECKING`` and inside functions. A module may
-import its own layer or a lower one; ``sgjax`` never imports ``train``; there is no import
-circle inside ``sgjax/``.
+import its own layer or a lower one, and a package only its own floor or lower ones (the floors
+order the packages inside each layer too); ``sgjax`` never imports ``train``; there is no
+import circle inside ``sgjax/``.
 """
 
 from __future__ import annotations
@@ -29,6 +30,14 @@ LAYERS: dict[str, tuple[str, ...]] = {
     "applications": ("sgjax.adapters", "sgjax.editor", "sgjax.command",
                      "sgjax.compilation_cache"),
 }
+# Every package (and top-level module) of sgjax/ as a floor, lowest first: an import from one
+# floor to another must point down this list, inside a layer as well as across layers (within
+# a floor anything goes, bar circles).
+FLOORS: tuple[str, ...] = (
+    "sgjax.version", "sgjax.validation", "sgjax.files", "sgjax.kernels", "sgjax.maps",
+    "sgjax.dynamics", "sgjax.humans", "sgjax.types", "sgjax.terms", "sgjax.observations",
+    "sgjax.rewards", "sgjax.environment", "sgjax", "sgjax.evaluation", "sgjax.compilation_cache",
+    "sgjax.adapters", "sgjax.editor", "sgjax.command")
 # Modules that sit directly in sgjax/ (the rest live in the layer packages).
 TOP_LEVEL_MODULES = {"sgjax.version", "sgjax.validation", "sgjax.files", "sgjax.types",
                      "sgjax.command",
@@ -37,7 +46,7 @@ TOP_LEVEL_MODULES = {"sgjax.version", "sgjax.validation", "sgjax.files", "sgjax.
 # allowed to be longer, with the reason.
 MAX_FUNCTION_LINES = 80
 LONG_FUNCTIONS: dict[str, str] = {
-    "sgjax.kernels.planner:plan": (
+    "sgjax.dynamics.planner:plan": (
         "the local planner's hot path: one straight data flow (arcs, clearances, scores, the "
         "chosen command) whose intermediate [R, A] arrays XLA fuses; split into functions it "
         "would read the same arrays through more names and no shorter"),
@@ -93,6 +102,27 @@ def layer_of(name: str) -> int:
             if inside and len(prefix) > len(best):
                 best, index = prefix, i
     return index
+
+
+def floor_of(name: str, floors: tuple[str, ...] = FLOORS) -> int:
+    """The index in ``floors`` of the longest floor holding module ``name`` (-1: none)."""
+    best, index = "", -1
+    for i, floor in enumerate(floors):
+        inside = name == floor or (floor != "sgjax" and name.startswith(floor + "."))
+        if inside and len(floor) > len(best):
+            best, index = floor, i
+    return index
+
+
+def upward_edges(graph: dict[str, set[str]], floors: tuple[str, ...]) -> list[str]:
+    """``"a -> b (floor A -> floor B)"`` for every import from a floor to a higher one."""
+    found = []
+    for name in sorted(graph):
+        for target in sorted(graph[name]):
+            low, high = floor_of(name, floors), floor_of(target, floors)
+            if low >= 0 and high > low:
+                found.append(f"{name} -> {target} ({floors[low]} -> {floors[high]})")
+    return found
 
 
 def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
@@ -169,6 +199,24 @@ def test_module_imports_only_its_layer_or_lower(name):
     names = list(LAYERS)
     assert upward == [], (f"{name} ({names[layer_of(name)]}) imports a higher layer: "
                           + ", ".join(f"{t} ({names[layer_of(t)]})" for t in upward))
+
+
+def test_floor_finder_sees_an_edge_up_a_layer():
+    graph = {"p.low.a": {"p.high.b"}, "p.high.b": {"p.low.c"}, "p.low.c": set()}
+    assert upward_edges(graph, ("p.low", "p.high")) == ["p.low.a -> p.high.b (p.low -> p.high)"]
+
+
+def test_no_package_imports_a_higher_floor():
+    """Package to package, every edge points down :data:`FLOORS` (the kernels' ``contacts``
+    reads walls through a protocol, not ``maps``; the planner lives beside the robot dynamics;
+    the term presets beside the environment that assembles terms)."""
+    graph = {m: {t for t in ts if t.startswith("sgjax")} for m, ts in import_graph().items()
+             if m.startswith("sgjax")}
+    assert [m for m in sorted(graph) if floor_of(m) < 0] == [], "add the package to FLOORS"
+    assert upward_edges(graph, FLOORS) == []
+    # FLOORS refines LAYERS: a floor never sits below one of a lower layer
+    layers = [layer_of(floor) for floor in FLOORS]
+    assert layers == sorted(layers), list(zip(FLOORS, layers, strict=True))
 
 
 def test_architecture_doc_names_every_layer_module():

@@ -11,8 +11,9 @@ import pytest
 import sgjax
 from sgjax.environment.env import EnvConfig
 from sgjax.environment.options import MakeOptions
-from sgjax.environment.registry import HUMAN_TOP_SPEED, human_params
+from sgjax.environment.registry import HUMAN_TOP_SPEED
 from sgjax.humans.groups import GroupParams
+from sgjax.humans.map_params import human_params
 from sgjax.humans.orca_model import OrcaParams
 from sgjax.humans.pedestrians import HumanConfig, HumanParams
 from sgjax.maps.io import load

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import sgjax
-from sgjax.environment.registry import human_params
 from sgjax.humans import HumanState
 from sgjax.humans.groups import leaders
+from sgjax.humans.map_params import human_params
 from sgjax.humans.pedestrians import HumanConfig, advance_waypoints, human_forces, move_humans
 from sgjax.maps.arrays import compile_map
 

@@ -10,8 +10,8 @@ from long_runs import jit_for_long_runs
 from test_humans import _wide_corridor  # the 3 m wide, 20 m corridor
 
 import sgjax
-from sgjax.environment.registry import human_params
 from sgjax.humans import HumanState
+from sgjax.humans.map_params import human_params
 from sgjax.humans.pedestrians import HumanConfig, human_forces, move_humans
 from sgjax.kernels.geometry import point_segment_distance
 from sgjax.kernels.orca import orca_velocity

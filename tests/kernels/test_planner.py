@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import sgjax
+from sgjax.dynamics.planner import point_along_route, route_progress
 from sgjax.evaluation.runner import scan_until_done
-from sgjax.kernels.planner import point_along_route, route_progress
 from sgjax.maps.arrays import spawn_groups
 from sgjax.maps.sampling import build_routes
 

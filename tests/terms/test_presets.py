@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 import sgjax
+from sgjax.environment.presets import OBSERVATION_PRESETS, REWARD_PRESETS
 from sgjax.terms.base import ConfigError
 from sgjax.terms.contract import TermInput
-from sgjax.terms.presets import OBSERVATION_PRESETS, REWARD_PRESETS
 
 RICH = {
     "observations": ["pose", {"velocity": {"history": 2}}, {"goal_distance": {"history": 2}},
