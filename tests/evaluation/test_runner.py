@@ -7,7 +7,8 @@ import pytest
 
 import sgjax
 from sgjax.evaluation.policies import only_local
-from sgjax.evaluation.runner import EpisodeRunner, scan_until_done
+from sgjax.evaluation.runner import EpisodeRunner
+from sgjax.kernels.chunked_scan import scan_until_done
 
 
 def counting_step(carry, x):
