@@ -51,7 +51,8 @@ pytestmark = pytest.mark.slow
 
 REPO = Path(__file__).resolve().parents[2]
 SHIPPED = sorted((REPO / "maps").glob("*.json"))
-SG2MAPS = REPO.parent / "shared" / "sg2maps"  # SocialGym 2.0's maps, beside the checkout
+from shared_data import SG2MAPS, require  # noqa: E402 (SocialGym 2.0's maps, beside it)
+
 SG2_FOLDERS = sorted(p.name for p in SG2MAPS.iterdir() if p.is_dir()) if SG2MAPS.is_dir() else []
 DOCS_IMG = REPO / "docs" / "img"
 WAIT = 60  # s: the longest a page state may take to appear (a check of a big imported map)
@@ -687,7 +688,7 @@ def test_split_drag_and_delete(browser, scratch, tmp_path):
 @pytest.mark.parametrize("name", SG2_FOLDERS or ["(none)"])
 def test_a_socialgym_folder_opens_and_saves_its_import(browser, launcher, tmp_path, name):
     if not SG2_FOLDERS:
-        pytest.skip(f"no SocialGym 2.0 map folders at {SG2MAPS}")
+        require(SG2MAPS / "GDC1", "SocialGym 2.0's map folders")
     from sgjax.maps import import_socialgym
 
     s = launcher.take(("sg2", name))  # `sgjax edit FOLDER` on a copy of the folder

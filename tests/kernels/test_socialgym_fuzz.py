@@ -13,18 +13,22 @@ import pytest
 from fuzzing import JSON_VALUES, places, replaced
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from shared_data import SG2MAPS, require
 
 from sgjax.evaluation.protocols import load_protocol
 from sgjax.maps import MapError
 from sgjax.maps.socialgym import import_socialgym
 
-SG2MAPS = Path(__file__).resolve().parents[3] / "shared" / "sg2maps"
 DOOR = SG2MAPS / "door"
 
 FAST = settings(max_examples=50, deadline=None, suppress_health_check=[
     HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 
-pytestmark = pytest.mark.skipif(not DOOR.is_dir(), reason=f"SocialGym 2.0's maps not at {DOOR}")
+
+
+@pytest.fixture(autouse=True)
+def _socialgym_maps():
+    require(DOOR, "SocialGym 2.0's maps")
 
 
 def _folder(tmp_path: Path) -> Path:
