@@ -25,7 +25,6 @@ FAST = settings(max_examples=50, deadline=None, suppress_health_check=[
     HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 
 
-
 @pytest.fixture(autouse=True)
 def _socialgym_maps():
     require(DOOR, "SocialGym 2.0's maps")
