@@ -175,7 +175,7 @@ class AlgorithmConfig:
     team_reward: float = 0.0
     # How the lanes of one call (seeds, ablation variants) run the learning phase: "batched"
     # (one vmap: every product gains a lane dimension), "sequential" (one lane after
-    # another, each written as a batch of one: 1.7x faster learning on XLA:CPU, see
+    # another, each written as a batch of one: XLA:CPU lays a batch of one out better, see
     # docs/xla-cpu-learning-layout.md), or "auto" (sequential on a CPU, batched elsewhere).
     # Results agree to float rounding.
     lanes: str = "auto"
@@ -184,8 +184,8 @@ class AlgorithmConfig:
     # chunks whose gradients add up to the masked minibatch's, so inactive robot slots
     # (absent, settled, parked) cost no FLOPs. The same minibatches, losses and optimiser
     # steps as False (the masked path) up to float rounding (docs/training.md). "auto": on a
-    # CPU, masked elsewhere (on an H200 the compacted update took 1.6x longer: its chunks are
-    # too small for the GPU, docs/benchmark.md).
+    # CPU, masked elsewhere (a GPU wants the large masked products, not the compacted
+    # chunks: docs/benchmark.md, "On a GPU").
     compact: bool | str = "auto"
     # Multipliers on the reward terms the trainer sums (``info["reward_terms"]``: the
     # environment's reward terms and the enders that pay, such as stuck), {term: factor}; a

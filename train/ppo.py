@@ -63,11 +63,9 @@ from train.normalize import RunningStats
 LOSS_TERMS = ("policy_loss", "value_loss", "entropy", "approx_kl")  # learn's aux, per minibatch
 # algorithm.compact: a minibatch's units are computed in whole chunks of 1/COMPACT_CHUNKS of it,
 # then the rest in half chunks (the last one partly padded with units that cannot learn), each
-# chunk gathering its own units' data. The 3-seed MLP reproduce cell's learning phase (2-core
-# AMD EPYC, min of 16, one process): whole chunks, the minibatch gathered first 1.10 s; with the
-# half-chunk tails 1.05 s; gathered by chunk 1.02 s; both 0.96 s (quarter-chunk tails 0.97 s;
-# 4 chunks with half, quarter or eighth tails 1.03, 0.99, 1.06 s). 16 and 32 whole chunks ran
-# slower than 8 (smaller products).
+# chunk gathering its own units' data: eight chunks keep each chunk's products large while the
+# padding stays under a sixteenth of a minibatch (the variants' timings: docs/notes/
+# benchmark-journal.md, session 29; bench/learner_roofline.py measures it).
 COMPACT_CHUNKS = 8
 # Algorithm settings held as numbers in the runner state (``RunnerState.hyper``), which the
 # compiled program reads there when its Trainer is told that lanes vary them (``varied``), so

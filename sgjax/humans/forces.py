@@ -118,8 +118,8 @@ def moussaid_interaction(
     rx = ox[None, :] - x[:, None] + _pair_offset(weight)
     ry = oy[None, :] - y[:, None]
     # Written lean on purpose: XLA's CPU backend stops vectorising a fused pair kernel once it
-    # holds too many distinct terms (measured: 4x slower), so t = D / |D| is folded into the
-    # two scalar factors and no select or arctan2 appears.
+    # holds too many distinct terms, so t = D / |D| is folded into the two scalar factors and
+    # no select or arctan2 appears (bench/throughput.py --table pedestrians shows the cost).
     dist = jnp.sqrt(rx * rx + ry * ry)
     inv_dist = 1.0 / jnp.maximum(dist, _TINY)
     dx = p.lambda_importance * (vx[:, None] - ovx[None, :]) + rx * inv_dist
