@@ -47,9 +47,16 @@ import jax.numpy as jnp
 import numpy as np
 from compiled import compile_measured
 
-from train.config import TrainConfig, load_config
-from train.networks import log_prob, sample
-from train.ppo import Rollout, RunnerState, Trainer, _critic_in, compact_chunks, compact_trips
+from train.algorithm.config import TrainConfig, load_config
+from train.algorithm.networks import log_prob, sample
+from train.algorithm.ppo import (
+    Rollout,
+    RunnerState,
+    Trainer,
+    _critic_in,
+    compact_chunks,
+    compact_trips,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "train/configs/doorway.yaml"

@@ -52,8 +52,8 @@ def per_update(config: str, space_path: str, counts: list[int], sets: list[str])
     """Seconds per update of ``count`` lanes (best of 3 calls of 2 updates, after compiling)."""
     import jax
 
-    from train.config import load_config
-    from train.search_space import load_space
+    from train.algorithm.config import load_config
+    from train.run.search_space import load_space
     from train.sweep import Group, with_values
 
     space = load_space(space_path)
@@ -98,7 +98,7 @@ def main() -> None:
     out = Path(args.out)
     lanes = args.lanes
     if lanes is None:
-        from train.search_space import load_space
+        from train.run.search_space import load_space
         lanes = load_space(args.space).lanes
     rows = [run(args.config, args.space, out / f"lanes-{lanes}", lanes, extra),
             run(args.config, args.space, out / "lanes-1", 1, extra)]

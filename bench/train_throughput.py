@@ -1,7 +1,7 @@
 """Training throughput: environment plus learning, in agent-steps per second.
 
 Times whole PPO updates (rollout with auto-reset, GAE, epochs of minibatches) of
-``train.ppo.Trainer`` on the doorway for several batch sizes, robot counts and numbers of
+``train.algorithm.ppo.Trainer`` on the doorway for several batch sizes, robot counts and numbers of
 seeds, and prints agent-steps/s, env-steps/s (over all seeds), compile time, peak memory
 (XLA's memory analysis of the compiled chunk of updates) and, for several seeds, the cost of
 one seed lane against a run of one seed (``lane cost`` 1.00x: lanes of one call are as cheap
@@ -29,8 +29,8 @@ import time
 import jax
 from compiled import compile_measured
 
-from train.config import LANE_MODES, config_from_dict
-from train.ppo import Trainer, seed_keys
+from train.algorithm.config import LANE_MODES, config_from_dict
+from train.algorithm.ppo import Trainer, seed_keys
 
 
 def time_updates(config: dict, seeds: int, updates: int) -> tuple[float, float, float]:

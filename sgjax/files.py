@@ -4,7 +4,7 @@
 renames it over the target (``os.replace``, atomic on POSIX and Windows): a reader, or a run
 killed with ``kill -9`` mid-write, sees the previous file whole or the new one whole, never a
 mixture. Used for every results file, map save and autosave (checkpoints do the same in
-``train.checkpoint``).
+``train.run.checkpoint``).
 """
 
 from __future__ import annotations

@@ -55,9 +55,8 @@ from sgjax.evaluation.statistics import paired_difference, probability_of_improv
 from sgjax.files import write_atomic
 from sgjax.terms.base import ConfigError
 from sgjax.validation import check_keys, freeze, thaw
-from train import checkpoint
-from train.actor import ActorWeights, lane_evaluator
-from train.config import (
+from train.algorithm.actor import ActorWeights, lane_evaluator
+from train.algorithm.config import (
     EVALUATION_SEED_OFFSET,
     TrainConfig,
     as_trained,
@@ -65,8 +64,9 @@ from train.config import (
     load_config,
     read_yaml,
 )
-from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
-from train.ppo import Trainer, divisor_up_to, observation_mask
+from train.algorithm.ppo import Trainer, divisor_up_to, observation_mask
+from train.run import checkpoint
+from train.run.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
 
 # With --out, a group's lanes are checkpointed about this many times while they train
 # (<out>/ablation.partial/), which --resume continues.
@@ -125,7 +125,7 @@ def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
 
     Each call of lanes trains in calls of equal numbers of updates, and with ``partial`` (a
     file path) is checkpointed there about :data:`CALLS_PER_GROUP` times
-    (:func:`train.checkpoint.checkpoint_due`; atomically: the runners and logs of the lane
+    (:func:`train.run.checkpoint.checkpoint_due`; atomically: the runners and logs of the lane
     calls so far); a ``resume`` run finding the file continues from it (the same trainer
     config and lanes, or an error naming the file), so a group killed midway loses at most a
     tenth of a lane call's work; a run without ``resume`` deletes a file it finds, and the

@@ -3,7 +3,7 @@ progress, evaluate periodically, keep the best checkpoint, and finish with the m
 beside the baseline and a GIF of an evaluation episode.
 
 Writes into ``logging.out`` (or ``--out``): ``config.yaml``, ``progress.csv`` and its
-``learning_curve.png`` (``train.curves``), TensorBoard events under ``tb/``,
+``learning_curve.png`` (``train.reports.curves``), TensorBoard events under ``tb/``,
 ``checkpoints/{latest,best}.msgpack``, and ``eval/`` (``metrics.json``,
 ``metrics.csv``, ``table.md``, charts, ``episode.gif``) and ``provenance.json`` (commit,
 versions, machine, command, seeds, phase times). ``--resume`` continues from
@@ -37,9 +37,8 @@ from sgjax.files import write_atomic
 from sgjax.maps.io import load as load_map
 from sgjax.terms.base import ConfigError
 from sgjax.version import __version__
-from train import checkpoint
-from train.actor import ActorLayout, ActorWeights, lane_evaluator, table_evaluator
-from train.config import (
+from train.algorithm.actor import ActorLayout, ActorWeights, lane_evaluator, table_evaluator
+from train.algorithm.config import (
     EVALUATION_SEED_OFFSET,
     VALIDATION_SEED,
     NetworkConfig,
@@ -48,10 +47,11 @@ from train.config import (
     config_from_dict,
     load_config,
 )
-from train.curves import plot_learning_curves
-from train.ppo import Trainer, seed_keys
-from train.sharding import device_mesh, shard_runner
-from train.socialgym_config import convert, is_socialgym_config, read_socialgym_config, table
+from train.algorithm.ppo import Trainer, seed_keys
+from train.algorithm.sharding import device_mesh, shard_runner
+from train.reports.curves import plot_learning_curves
+from train.run import checkpoint
+from train.run.socialgym_config import convert, is_socialgym_config, read_socialgym_config, table
 
 COLUMNS = ("steps", "updates", "wall_s", "env_steps_per_s", "agent_steps_per_s", "num_agents",
            "episodes", "team_success", "robot_success", "mean_return", "policy_loss",
@@ -135,8 +135,8 @@ def _updates_per_chunk(config: TrainConfig) -> int:
 
 def make_evaluator(trainer: Trainer, scenario: str, episodes: int):
     """``(seed-batched ActorWeights, key, num_agents) -> (values, robot)`` evaluating every seed
-    at once (:func:`train.actor.lane_evaluator`), compiled once for every robot count of the
-    curriculum (the environment at the trainer's slots; counts are params) and, in one
+    at once (:func:`train.algorithm.actor.lane_evaluator`), compiled once for every robot count
+    of the curriculum (the environment at the trainer's slots; counts are params) and, in one
     process, for every evaluator of the same setting (a resumed run's, say). It is not the
     final evaluation's program: that one plays at ``max(evaluation.num_agents)`` slots and
     every count and policy at once (:func:`final_evaluation`), other shapes."""
@@ -285,10 +285,10 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
     tables, write them and a GIF of one evaluated episode.
 
     Per scenario, the trained policy and the baseline are the lanes of one compiled program
-    (:func:`train.actor.table_evaluator`), called once per robot count (two programs only where
-    the baseline acts in another environment than the policy, e.g. a continuous-action policy
-    beside GO/STOP ``only_local``): the same episodes, keys and results as evaluating each
-    policy with :func:`sgjax.evaluation.evaluate.evaluate` (seed ``config.seed +
+    (:func:`train.algorithm.actor.table_evaluator`), called once per robot count (two programs
+    only where the baseline acts in another environment than the policy, e.g. a
+    continuous-action policy beside GO/STOP ``only_local``): the same episodes, keys and results
+    as evaluating each policy with :func:`sgjax.evaluation.evaluate.evaluate` (seed ``config.seed +
     EVALUATION_SEED_OFFSET``, no training lane's). The
     weights are an argument of the program, so the next run of the job finds it in the
     persistent compilation cache, however its training went. The GIF is episode 0
@@ -446,7 +446,7 @@ def _checkpoint_seeds(path: Path) -> list[tuple[int, ActorWeights, bool]]:
 
 def _checkpoint_actor(path: Path) -> tuple[NetworkConfig, ActorLayout, ActorWeights]:
     """The acting network, layout and weights (the best seed) of a checkpoint: what
-    :func:`train.checkpoint.load_checkpoint_policy` builds its policy from, with the weights
+    :func:`train.run.checkpoint.load_checkpoint_policy` builds its policy from, with the weights
     kept apart so that they are an argument of the evaluation program."""
     saved, meta, raw = checkpoint.read(path)
     layout = checkpoint.actor_layout(path, saved, meta, raw)
@@ -567,7 +567,7 @@ def _socialgym_config(path: str, overrides: list[str]) -> TrainConfig | None:
         return None
     converted, rows = convert(data, path)
     print(f"{path}: a SocialGym 2.0 experiment config, read as (python -m "
-          f"train.socialgym_config {path} --out <file.yaml> writes it):\n{table(rows)}\n")
+          f"train.run.socialgym_config {path} --out <file.yaml> writes it):\n{table(rows)}\n")
     return config_from_dict(apply_overrides(converted, overrides), f"{path} (converted)")
 
 

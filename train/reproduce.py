@@ -23,7 +23,7 @@ Two profiles (``--profile``):
 * ``socialgym``: each baseline as SocialGym 2.0 itself ran it: its ``config_run.py`` defaults
   for the baseline's run type (``SACADRL`` for CADRL, the same on RecurrentPPO for CADRL(L),
   ``AO``, ``EO``) with the settings of the paper's Listing 1, converted by
-  :mod:`train.socialgym_config` (40 Hz steps, 3200-step episodes, its observation and reward
+  :mod:`train.run.socialgym_config` (40 Hz steps, 3200-step episodes, its observation and reward
   sets, the stuck ender with its -100000 penalty, SB3 PPO's hyperparameters and network with
   n_steps 4096, 16 environments), the paper's curriculum (35 episodes of 3 robots, 35 of 4,
   then 5), 250,000 environment steps by default, greedy evaluation. 4x the simulated steps
@@ -39,7 +39,7 @@ trained baseline against Only Local, paired over the shared episodes, with seed 
 ``play_modes.md`` (trained policies playing greedily and sampling), ``results.json`` (every
 seed's value of every metric, per configuration, schema ``sgjax.reproduce/1``;
 ``--from-results`` writes the tables again from it) and ``marl_eval.json`` (the same results
-for marl-eval, :mod:`train.marl_eval`).
+for marl-eval, :mod:`train.reports.marl_eval`).
 """
 
 from __future__ import annotations
@@ -72,12 +72,12 @@ from sgjax.evaluation.statistics import (
     summarize,
 )
 from sgjax.files import write_atomic
-from train import checkpoint
-from train.actor import ActorWeights, play_modes_evaluator
-from train.config import EVALUATION_SEED_OFFSET, TrainConfig, as_trained, config_from_dict
-from train.marl_eval import to_marl_eval
-from train.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
-from train.ppo import Trainer, divisor_up_to, seed_keys
+from train.algorithm.actor import ActorWeights, play_modes_evaluator
+from train.algorithm.config import EVALUATION_SEED_OFFSET, TrainConfig, as_trained, config_from_dict
+from train.algorithm.ppo import Trainer, divisor_up_to, seed_keys
+from train.reports.marl_eval import to_marl_eval
+from train.run import checkpoint
+from train.run.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
 
 BASELINES = {
     "cadrl": {"env": {"preset": "cadrl"}, "network": {}},
@@ -138,8 +138,8 @@ def socialgym_baseline_config(name: str, scenario: str, seeds: int, total_steps:
                               seed: int, counts: Sequence[int], episodes: int,
                               time_limit: float | None = None) -> TrainConfig:
     """Baseline ``name`` on ``scenario`` as SocialGym 2.0 ran it (the ``socialgym`` profile;
-    see the module doc): its config converted by :func:`train.socialgym_config.convert`."""
-    from train.socialgym_config import SCENARIOS, convert
+    see the module doc): its config converted by :func:`train.run.socialgym_config.convert`."""
+    from train.run.socialgym_config import SCENARIOS, convert
 
     names = {ours: theirs for theirs, ours in SCENARIOS.items()}
     if scenario not in names:
@@ -185,7 +185,7 @@ def train_baseline(config: Any, partial: Path | None = None, resume: bool = Fals
     seed-batched runner, the seconds spent compiling and the seconds spent training.
 
     With ``partial`` (a checkpoint path) the runner is saved there about
-    :data:`CALLS_PER_CELL` times (:func:`train.checkpoint.checkpoint_due`; atomically, with the
+    :data:`CALLS_PER_CELL` times (:func:`train.run.checkpoint.checkpoint_due`; atomically, with the
     updates done) and a ``resume`` run finding the file continues from it (the same config, or
     an error naming the file), so a cell killed midway loses at most a tenth of its work (a run
     without ``resume`` deletes a file it finds); the caller deletes the file once the cell is
@@ -479,7 +479,7 @@ def tables_from_results(path: Path, out: Path, table_robots: int = 4) -> dict[st
 def gather_seeds(by_count: dict[int, dict[str, list[float]]], seeds: int,
                  processes: Processes) -> dict[int, dict[str, list[float]]]:
     """This process's seeds' values (``{robots: {metric: [its seeds]}}``) joined with every
-    other process's, in seed order (:func:`train.multiprocess.gather_lanes`)."""
+    other process's, in seed order (:func:`train.run.multiprocess.gather_lanes`)."""
     if processes.count == 1:
         return by_count
     counts = sorted(by_count)

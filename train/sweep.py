@@ -5,7 +5,7 @@
         [--storage sqlite:///runs/sweep/study.db | postgresql://...] [--study NAME] \\
         [--out runs/sweep/doorway] [--set algorithm.total_steps=5e5] [--worker 0]
 
-The space file (``train.search_space``) lists the parameters, the objective and the study's
+The space file (``train.run.search_space``) lists the parameters, the objective and the study's
 settings. Trials are asked from Optuna (ask-and-tell) and placed in **lanes** of one compiled
 training call (``Trainer.update_chunk_lanes``): trials that differ only in lane values
 (learning rate, entropy and value coefficients, clip range, gamma, GAE lambda, team reward,
@@ -16,8 +16,8 @@ group compiles once. A trial with ``trial.seeds`` seeds takes that many lanes (t
 validation episodes).
 
 Every ``1 / trial.evaluations`` of a trial's updates, each lane is evaluated by the project's
-evaluator (``train.actor.lane_evaluator``, one compiled evaluation per group) on the
-validation episodes (``train.config.VALIDATION_SEED``, never the final evaluation's), the
+evaluator (``train.algorithm.actor.lane_evaluator``, one compiled evaluation per group) on the
+validation episodes (``train.algorithm.config.VALIDATION_SEED``, never the final evaluation's), the
 trial's mean is reported to Optuna, and the pruner may stop it. A finished or pruned trial's
 lanes are refilled with the next trial at once (a lane in a fixed-width ``vmap`` costs the
 same whether it works or idles, so stopping a lane saves nothing; refilling it is the gain).
@@ -67,10 +67,10 @@ from sgjax.evaluation.result_schema import SWEEP
 from sgjax.files import write_atomic
 from sgjax.terms.base import ConfigError
 from sgjax.validation import freeze, thaw
-from train.actor import ActorWeights, lane_evaluator
-from train.config import VALIDATION_SEED, TrainConfig, config_from_dict, load_config
-from train.ppo import LANE_SETTINGS, Trainer, observation_mask
-from train.search_space import (
+from train.algorithm.actor import ActorWeights, lane_evaluator
+from train.algorithm.config import VALIDATION_SEED, TrainConfig, config_from_dict, load_config
+from train.algorithm.ppo import LANE_SETTINGS, Trainer, observation_mask
+from train.run.search_space import (
     PRUNERS,
     SearchSpace,
     grid,

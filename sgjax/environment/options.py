@@ -16,7 +16,7 @@ each belongs to one group:
 flat keywords (an unknown one names the nearest valid keyword), ``options.keywords()`` gives them
 back, ``options.to_dict()`` / ``MakeOptions.from_dict`` write and read the nested form (what a
 training checkpoint stores), and ``make(scenario, options=...)`` takes it whole. The trainer's
-``env`` config section takes the same keywords (``train/config.py``) and hands a
+``env`` config section takes the same keywords (``train/algorithm/config.py``) and hands a
 ``MakeOptions`` on. Bad values raise ``ValueError`` naming the keyword and the value
 (``sgjax.validation``).
 """

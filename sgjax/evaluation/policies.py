@@ -22,7 +22,7 @@ ORCA
 Other policies come from *loaders* (:class:`PolicyLoader`): each recognises the specs it reads
 (a trainer checkpoint, say) and builds the policy for an environment. Loaders register with
 :func:`register_loader`, or are found at first use in the ``sgjax.policy_loaders`` entry point
-group (the trainer ships ``checkpoint = "train.checkpoint:LOADER"``), so this module never
+group (the trainer ships ``checkpoint = "train.run.checkpoint:LOADER"``), so this module never
 imports the packages that provide them.
 """
 
@@ -220,7 +220,7 @@ def load_policy(spec: str | Policy | RecurrentPolicy, env: SocialNavEnv,
                 deterministic: bool | None = None) -> Policy | RecurrentPolicy:
     """A policy for ``env`` from a baseline name, ``"package.module:function"`` naming a
     function ``fn(obs, key) -> actions``, a spec a registered loader reads (a trainer
-    checkpoint: a ``.msgpack`` file or a run folder, see ``train.checkpoint``), or a policy
+    checkpoint: a ``.msgpack`` file or a run folder, see ``train.run.checkpoint``), or a policy
     (returned as is).
 
     ``deterministic`` (True: the most likely action every step; False: sampled; None: the
@@ -250,7 +250,7 @@ def load_policy(spec: str | Policy | RecurrentPolicy, env: SocialNavEnv,
             f"reads it (loaders: {sorted(_LOADERS) or 'none'}{problems}). Install the trainer, "
             "pip install 'sgjax[train]' (from a checkout: pip install -e '.[train]'), which "
             f"registers its loader in the {LOADER_GROUP!r} entry point group, or import "
-            "train.checkpoint before evaluating")
+            "train.run.checkpoint before evaluating")
     raise ValueError(f"policy {spec!r} is not known: use a baseline ({', '.join(BASELINES)}), "
                      "'package.module:function' for a function (obs, key) -> actions, or a "
                      "trainer checkpoint (.msgpack file or run folder)")

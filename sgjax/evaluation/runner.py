@@ -412,8 +412,9 @@ class ParamLaneRunner(EpisodeRunner):
     episode loop: under ``vmap`` the loop's stop test becomes per lane, and JAX turns every
     carried leaf into a select and traces the loop body again for each batching pass; here
     only the policy is ``vmap``-ed (over the lanes, once per step), so tracing, lowering and
-    compiling take less (``train.actor``'s evaluator of a tiny MLP's 2 seeds x 2 play modes:
-    trace 2.0 -> 0.5 s, lower 0.7 -> 0.3 s, XLA compile 2.5 -> 1.6 s with the tests' flags).
+    compiling take less (``train.algorithm.actor``'s evaluator of a tiny MLP's 2 seeds x 2 play
+    modes: trace 2.0 -> 0.5 s, lower 0.7 -> 0.3 s, XLA compile 2.5 -> 1.6 s with the tests'
+    flags).
 
     ``episodes(key, params) -> (values, robot, None)``: every metric per lane and episode
     ``{name: [L, E]}`` and per robot ``{name: [L, E, R]}``. Build it where ``lane_params`` are

@@ -1,5 +1,6 @@
 """Every command's ``--help`` prints its usage and exits 0 (an argparse help string with a bare
-``%`` crashes ``--help`` with "ValueError: incomplete format", as train.sweep_table's did)."""
+``%`` crashes ``--help`` with "ValueError: incomplete format", as train.reports.sweep_table's
+did)."""
 
 import importlib
 import importlib.util
@@ -9,8 +10,9 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-MODULES = ["train.cli", "train.ablation", "train.curves", "train.marl_eval", "train.reproduce",
-           "train.socialgym_config", "train.sweep", "train.sweep_table", "sgjax.command",
+MODULES = ["train.cli", "train.ablation", "train.reports.curves", "train.reports.marl_eval",
+           "train.reproduce", "train.run.socialgym_config", "train.sweep",
+           "train.reports.sweep_table", "sgjax.command",
            "sgjax.evaluation.metrics.catalogue", "sgjax.evaluation.result_schema"]
 # bench/ and scripts/ files that read arguments (make_maps and make_pictures take none).
 FILES = sorted(str(p.relative_to(ROOT)) for folder in ("bench", "scripts")

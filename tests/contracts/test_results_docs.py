@@ -1,16 +1,17 @@
-"""docs/results.md's generated tables equal the files the runs wrote (train.results_doc)."""
+"""docs/results.md's generated tables equal the files the runs wrote (train.reports.results_doc)."""
 
 from pathlib import Path
 
 import pytest
 
-from train.results_doc import ROOT, DocumentError, main, refresh
+from train.reports.results_doc import ROOT, DocumentError, main, refresh
 
 
 def test_every_generated_block_of_the_results_document_matches_its_file(capsys):
     text = (ROOT / "docs" / "results.md").read_text()
     _, stale = refresh(text, "docs/results.md")
-    assert stale == [], f"stale: {stale} (python -m train.results_doc docs/results.md --write)"
+    assert stale == [], (f"stale: {stale} (python -m train.reports.results_doc docs/results.md "
+                         "--write)")
     assert text.count("<!-- generated from docs/results/") >= 4
 
 
@@ -39,7 +40,7 @@ def test_a_missing_file_or_an_unclosed_block_names_the_document_and_line(tmp_pat
 
 
 def test_the_command_fails_on_a_stale_block_and_write_fixes_it(tmp_path, monkeypatch, capsys):
-    import train.results_doc as results_doc
+    import train.reports.results_doc as results_doc
 
     monkeypatch.setattr(results_doc, "ROOT", tmp_path)
     doc = tmp_path / "doc.md"

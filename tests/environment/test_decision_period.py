@@ -8,8 +8,8 @@ import pytest
 from scenes import go_run_counting_traces
 
 import sgjax
-from train.config import config_from_dict
-from train.ppo import Trainer
+from train.algorithm.config import config_from_dict
+from train.algorithm.ppo import Trainer
 
 STOP = 1
 

@@ -1,5 +1,5 @@
-"""``train.curves``: learning curves drawn from ``progress.csv``, and its errors naming the file
-and column."""
+"""``train.reports.curves``: learning curves drawn from ``progress.csv``, and its errors naming
+the file and column."""
 
 import csv
 import math
@@ -8,7 +8,7 @@ import pytest
 from PIL import Image
 
 from train.cli import COLUMNS
-from train.curves import main, plot_learning_curves, read_progress
+from train.reports.curves import main, plot_learning_curves, read_progress
 
 
 def _write_run(folder, rows):

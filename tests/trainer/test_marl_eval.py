@@ -1,11 +1,12 @@
-"""train.marl_eval: reproduce's results.json in marl-eval's raw-data layout (marl-eval 0.0.4's
-own DiagnoseData and data_process_pipeline accepted the export of docs/results/results.json; the
-package pins pandas 1.4.4, which has no wheel for Python 3.11, so it is not a test dependency)."""
+"""train.reports.marl_eval: reproduce's results.json in marl-eval's raw-data layout (marl-eval
+0.0.4's own DiagnoseData and data_process_pipeline accepted the export of
+docs/results/results.json; the package pins pandas 1.4.4, which has no wheel for Python 3.11,
+so it is not a test dependency)."""
 
 import json
 import math
 
-from train.marl_eval import main, to_marl_eval
+from train.reports.marl_eval import main, to_marl_eval
 
 DOCUMENT = {
     "profile": "sgjax", "seeds": 2, "episodes": 3, "total_steps": 1000,

@@ -1,9 +1,9 @@
-"""The running observation and return statistics (train/normalize.py) against numpy."""
+"""The running observation and return statistics (train/algorithm/normalize.py) against numpy."""
 
 import jax
 import numpy as np
 
-from train.normalize import RunningStats
+from train.algorithm.normalize import RunningStats
 
 
 def test_masked_running_statistics_equal_numpy_over_the_masked_rows():

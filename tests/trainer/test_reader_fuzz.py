@@ -15,9 +15,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from sgjax.terms.base import ConfigError
-from train import checkpoint
-from train.config import config_from_dict, load_config
-from train.search_space import space_from_dict
+from train.algorithm.config import config_from_dict, load_config
+from train.run import checkpoint
+from train.run.search_space import space_from_dict
 
 ROOT = Path(__file__).resolve().parents[2]
 BASE = load_config(ROOT / "train" / "configs" / "doorway.yaml").to_dict()
@@ -68,7 +68,7 @@ def saved_checkpoint(tmp_path_factory) -> bytes:
     """A real checkpoint file's bytes (a tiny config's fresh runner)."""
     import jax
 
-    from train.ppo import Trainer, seed_keys
+    from train.algorithm.ppo import Trainer, seed_keys
 
     config = config_from_dict({
         "env": {"scenarios": ["open"], "curriculum": [[0, 2]], "observations": "default"},

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from sgjax.terms.base import ConfigError
-from train.config import apply_overrides, config_from_dict
-from train.ppo import Trainer
-from train.socialgym_config import DEFAULTS, convert, read_socialgym_config
+from train.algorithm.config import apply_overrides, config_from_dict
+from train.algorithm.ppo import Trainer
+from train.run.socialgym_config import DEFAULTS, convert, read_socialgym_config
 
 LISTING = Path(__file__).resolve().parents[1] / "data" / "socialgym_listing1.json"
 

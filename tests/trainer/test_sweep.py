@@ -20,9 +20,9 @@ from postgres import postgres_server
 from provenance_checks import check_document
 
 from sgjax.terms.base import ConfigError
-from train.config import config_from_dict, load_config
-from train.ppo import LANE_SETTINGS, Trainer, observation_mask
-from train.search_space import is_lane_key, load_space
+from train.algorithm.config import config_from_dict, load_config
+from train.algorithm.ppo import LANE_SETTINGS, Trainer, observation_mask
+from train.run.search_space import is_lane_key, load_space
 from train.sweep import Sweep, open_study, with_values, write_outputs
 
 optuna = pytest.importorskip("optuna", reason="train.sweep needs optuna (the dev extra)")

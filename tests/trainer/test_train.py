@@ -17,11 +17,12 @@ from jaxprs import equations
 from sgjax.environment.options import MakeOptions
 from sgjax.evaluation.policies import load_policy, policy_options
 from sgjax.terms.base import ConfigError
-from train import checkpoint, ppo
-from train.actor import ActorWeights
-from train.config import config_from_dict, load_config
-from train.networks import ResetGRU
-from train.ppo import Trainer, seed_keys
+from train.algorithm import ppo
+from train.algorithm.actor import ActorWeights
+from train.algorithm.config import config_from_dict, load_config
+from train.algorithm.networks import ResetGRU
+from train.algorithm.ppo import Trainer, seed_keys
+from train.run import checkpoint
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -378,7 +379,7 @@ def test_lstm_encoder_skips_the_slots_that_are_always_empty_in_training():
     """The trainer's LSTM reads only the slots that can hold a body in its environments (one
     other robot here, of k = 4 slots): outputs and gradients equal, bit for bit, those of the
     network reading every slot, which the saved actor keeps for other robot counts."""
-    from train.networks import ActorCritic, initial_carry
+    from train.algorithm.networks import ActorCritic, initial_carry
 
     trainer = Trainer(tiny(network={"others_encoder": "lstm", "encoder_size": 8,
                                     "shared_encoder": True}, env={"observations": "navigation"}))
@@ -408,8 +409,8 @@ def test_masks_and_the_others_encoder_read_the_observation_column_layout():
     observation's published column layout (no term internals): ``pose.heading``,
     ``others.<feature>``, or any ``term.feature`` the layout names."""
     import sgjax
-    from train.networks import OthersLayout, most_seen, others_layout
-    from train.ppo import observation_mask
+    from train.algorithm.networks import OthersLayout, most_seen, others_layout
+    from train.algorithm.ppo import observation_mask
 
     env, _ = sgjax.make("open", num_agents=2, max_agents=3, observations="socialgym")
     columns = env.config.observer.columns(env.config.layout)
@@ -446,7 +447,7 @@ def test_gru_state_resets_at_episode_starts():
 
 
 def test_team_reward_shares_the_mean_of_the_robots_that_acted():
-    from train.ppo import share_rewards
+    from train.algorithm.ppo import share_rewards
 
     reward = jnp.array([[1.0, 3.0, 100.0], [2.0, 0.0, 0.0]])
     acted = jnp.array([[True, True, False], [True, False, False]])
@@ -595,7 +596,7 @@ def test_compact_lanes_train_the_same_seeds_batched_or_sequential():
 def test_critic_alone_gives_the_values_of_the_whole_network(network):
     """``ActorCritic.value`` (the bootstrap values of the rollout) is the whole network's
     value, bit for bit, for separate and shared encoders and a GRU."""
-    from train.networks import ActorCritic, initial_carry
+    from train.algorithm.networks import ActorCritic, initial_carry
 
     trainer = Trainer(tiny(network=network, env={"observations": "navigation"}))
     runner = trainer.init(jax.random.PRNGKey(2))
@@ -621,8 +622,8 @@ def test_final_values_come_from_the_truncating_environments_alone(network, algor
     products are smaller); 0 elsewhere. 40 environments, about half truncating: three chunks
     of 8 (``sgjax.kernels.row_chunks.chunk_size``), the last partly filled. (Under MAPPO the
     critic reads every robot of an environment; a GRU's memory comes along row by row.)"""
-    from train.networks import initial_carry
-    from train.normalize import RunningStats
+    from train.algorithm.networks import initial_carry
+    from train.algorithm.normalize import RunningStats
 
     trainer = Trainer(tiny(network=network, algorithm={"name": algorithm, "num_envs": 40}))
     envs, slots, size = trainer.num_envs, trainer.slots, trainer.batch.obs_size
@@ -701,7 +702,7 @@ def test_the_play_modes_program_plays_each_mode_as_its_own_evaluator():
     """train.reproduce's one program for both play modes (the modes as lanes beside the seeds)
     gives ``[modes, seeds, episodes]`` values, each mode's those of the evaluator compiled for
     that mode alone."""
-    from train.actor import lane_evaluator, play_modes_evaluator
+    from train.algorithm.actor import lane_evaluator, play_modes_evaluator
 
     config = tiny(num_seeds=2, env={"time_limit": 6.0})
     trainer = Trainer(config)
@@ -722,10 +723,10 @@ def test_the_play_modes_program_plays_each_mode_as_its_own_evaluator():
 
 
 def test_a_traced_play_mode_acts_as_the_static_one_under_vmap():
-    """train.reproduce's evaluator (train.actor.play_modes_evaluator) plays greedy and sampled
-    as a vmap over a traced flag, one compilation: under that vmap each mode's actions equal
+    """train.reproduce's evaluator (train.algorithm.actor.play_modes_evaluator) plays greedy and
+    sampled as a vmap over a traced flag, one compilation: under that vmap each mode's actions equal
     the static mode's, bit for bit (MLP and GRU; GO/STOP and continuous)."""
-    from train.actor import acting_policy
+    from train.algorithm.actor import acting_policy
 
     for network, mode in (({"hidden": [32]}, "go_stop"),
                           ({"kind": "gru", "hidden": [32]}, "continuous")):

@@ -16,16 +16,16 @@ from PIL import Image
 from provenance_checks import check_block, check_document
 from test_train import TINY
 
+from train.algorithm.config import EVALUATION_SEED_OFFSET
 from train.cli import main as train_main
-from train.config import EVALUATION_SEED_OFFSET
 
 ROOT = Path(__file__).resolve().parents[2]
 
 SHARDED = """
 import jax, numpy as np
-from train.config import config_from_dict
-from train.ppo import Trainer, seed_keys
-from train.sharding import device_mesh, shard_runner
+from train.algorithm.config import config_from_dict
+from train.algorithm.ppo import Trainer, seed_keys
+from train.algorithm.sharding import device_mesh, shard_runner
 assert jax.device_count() == 2, jax.devices()
 config = config_from_dict({"env": {"scenarios": ["open"], "curriculum": [[0, 2]]},
     "algorithm": {"num_envs": 8, "num_steps": 4, "total_steps": 32, "update_epochs": 1,
@@ -106,9 +106,9 @@ def test_final_evaluation_evaluates_like_separate_evaluate_calls_and_records_its
     from test_train import tiny
 
     from sgjax.evaluation.evaluate import evaluate, policy_environment, run_episodes
-    from train.checkpoint import load_checkpoint_policy, save
+    from train.algorithm.ppo import Trainer, seed_keys
     from train.cli import _checkpoint_actor, _evaluate_scenario, final_evaluation
-    from train.ppo import Trainer, seed_keys
+    from train.run.checkpoint import load_checkpoint_policy, save
 
     config = tiny(env={"time_limit": 10.0}, evaluation={"episodes": 3, "num_agents": [2, 3]})
     trainer = Trainer(config)
@@ -152,9 +152,9 @@ def test_final_evaluation_reports_every_training_seed(tmp_path, capsys):
     from test_train import tiny
 
     from sgjax.evaluation.evaluate import policy_environment, run_episodes
-    from train.checkpoint import load_checkpoint_policy, save
+    from train.algorithm.ppo import Trainer, seed_keys
     from train.cli import final_evaluation
-    from train.ppo import Trainer, seed_keys
+    from train.run.checkpoint import load_checkpoint_policy, save
 
     config = tiny(num_seeds=2, env={"time_limit": 10.0},
                   evaluation={"episodes": 4, "num_agents": [2], "gif": False})
@@ -198,7 +198,7 @@ def test_a_reproduce_cell_killed_midway_resumes_from_its_last_call(tmp_path, mon
     from test_train import tiny
 
     import train.reproduce as reproduce
-    from train import checkpoint
+    from train.run import checkpoint
 
     config = tiny(num_seeds=2, algorithm={"total_steps": 4 * 8 * 8})  # 4 updates
     assert config.algorithm.num_updates == 4
@@ -417,8 +417,8 @@ def test_an_ablation_group_killed_midway_resumes_from_its_last_call(tmp_path, mo
     from test_train import tiny
 
     import train.ablation as ablation
-    from train import checkpoint
-    from train.ppo import Trainer
+    from train.algorithm.ppo import Trainer
+    from train.run import checkpoint
 
     monkeypatch.setattr(ablation, "CALLS_PER_GROUP", 4)  # one update per call
     trainer = Trainer(tiny(algorithm={"total_steps": 4 * 8 * 8}))  # 4 updates
@@ -520,7 +520,7 @@ def test_two_processes_train_two_halves_of_one_sweep_and_gather(tmp_path):
 
 
 def test_lane_shares_cover_every_lane_once():
-    from train.multiprocess import Processes, gather_lanes, lane_share
+    from train.run.multiprocess import Processes, gather_lanes, lane_share
 
     for count in (1, 4, 7):
         for processes in (1, 2, 3):
@@ -528,7 +528,7 @@ def test_lane_shares_cover_every_lane_once():
                       for p in range(processes)]
             assert sum(shares, []) == list(range(count)), (count, processes, shares)
     assert gather_lanes([0.5, 0.25], 2, Processes()).tolist() == [0.5, 0.25]
-    from train.multiprocess import initialize
+    from train.run.multiprocess import initialize
 
     with pytest.raises(ValueError, match="--process-id must be in"):
         initialize("127.0.0.1:1", 2, 2)
@@ -565,7 +565,7 @@ def test_ablation_command_rejects_an_unknown_reward_term(tmp_path):
 def test_ablation_variant_sets_a_mapping_and_a_bad_one_fails_before_training(tmp_path,
                                                                               monkeypatch):
     import train.ablation as ablation
-    from train.config import load_config
+    from train.algorithm.config import load_config
 
     variants = tmp_path / "v.yaml"
     variants.write_text("baseline: {}\nexistence: {set: {env.rewards: "
@@ -613,7 +613,7 @@ def test_trained_baselines_are_paired_seed_by_seed_with_cadrl():
 def test_a_partial_cell_of_compact_true_resumes_under_auto_on_a_cpu_only():
     """A cell checkpointed when ``algorithm.compact`` defaulted to true is the same computation
     as ``auto`` on a CPU (resumed), not on a GPU (refused, as any other config)."""
-    from train.config import as_trained, config_from_dict
+    from train.algorithm.config import as_trained, config_from_dict
 
     auto = config_from_dict(TINY, "test").to_dict()
     old = {**auto, "algorithm": {**auto["algorithm"], "compact": True}}

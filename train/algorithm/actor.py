@@ -35,9 +35,9 @@ from sgjax.evaluation.runner import (
     argument_signature,
     check_steps,
 )
-from train.config import NetworkConfig
-from train.networks import ActorCritic, OthersLayout, greedy, initial_carry, sample
-from train.normalize import RunningStats
+from train.algorithm.config import NetworkConfig
+from train.algorithm.networks import ActorCritic, OthersLayout, greedy, initial_carry, sample
+from train.algorithm.normalize import RunningStats
 
 
 @dataclasses.dataclass(frozen=True)

@@ -16,7 +16,8 @@ rate). marl-eval needs every algorithm to have the same runs: an untrained basel
 does not depend on the seed, so each run repeats its values on the same first ``episodes``
 episodes that the trained seeds played.
 
-    python -m train.marl_eval runs/reproduce/results.json --out runs/reproduce/marl_eval.json
+    python -m train.reports.marl_eval runs/reproduce/results.json \
+        --out runs/reproduce/marl_eval.json
 """
 
 from __future__ import annotations

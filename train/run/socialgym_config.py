@@ -1,7 +1,7 @@
 """SocialGym 2.0 experiment configs (``config_runner/configs/*.json``, the paper's Listing 1) as
 sgjax train configs.
 
-    python -m train.socialgym_config door_ao.json --out door_ao.yaml   # the table, then the YAML
+    python -m train.run.socialgym_config door_ao.json --out door_ao.yaml   # the table, the YAML
     python -m train --config door_ao.json                              # converts, then trains
 
 Every key of ``src/config_run.py`` (``../shared/reference/socialgym2.md`` section 4) is read, with
@@ -28,7 +28,7 @@ import yaml
 from sgjax.environment.presets import ZONE_OBSERVATIONS
 from sgjax.terms.base import ConfigError
 from sgjax.validation import suggest
-from train.config import config_from_dict
+from train.algorithm.config import config_from_dict
 
 SOCIALGYM_DT = 0.025  # s: UTMRS's delta_t in every shipped template (40 Hz)
 SOCIALGYM_MAX_STEPS = 3200  # UTMRS max_steps: the stand-in limit when `timelimit` is off
@@ -385,7 +385,7 @@ def table(rows: list[tuple[str, str, str]]) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="python -m train.socialgym_config",
+    parser = argparse.ArgumentParser(prog="python -m train.run.socialgym_config",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("config", help="a SocialGym 2.0 experiment config (JSON)")
     parser.add_argument("--out", default=None, help="write the sgjax train config here (YAML)")
@@ -393,12 +393,12 @@ def main(argv: list[str] | None = None) -> None:
     try:
         config, rows = convert(read_socialgym_config(args.config), args.config)
     except ConfigError as err:
-        raise SystemExit(f"train.socialgym_config: {err}") from err
+        raise SystemExit(f"train.run.socialgym_config: {err}") from err
     print(table(rows))
     text = yaml.safe_dump(config, sort_keys=False)
     if args.out:
         Path(args.out).write_text(f"# converted from {args.config} by "
-                                  f"python -m train.socialgym_config\n{text}")
+                                  f"python -m train.run.socialgym_config\n{text}")
         print(f"\nwrote {args.out}")
     else:
         print(f"\n{text}")

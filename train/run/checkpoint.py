@@ -7,8 +7,8 @@ optimiser, normalisation statistics, environment states, random keys), so that a
 continues exactly where it stopped. Files are written to a temporary name and renamed into
 place, so a run killed mid-write loses at most one checkpoint interval.
 
-The meta also holds the actor's layout (``train.actor.ActorLayout``: observation size, action
-head, where the ``others`` block sits), so :func:`load_checkpoint_policy` rebuilds the acting
+The meta also holds the actor's layout (``train.algorithm.actor.ActorLayout``: observation size,
+action head, where the ``others`` block sits), so :func:`load_checkpoint_policy` rebuilds the acting
 policy from
 the file alone, without a ``Trainer`` or the training environments.
 
@@ -34,10 +34,10 @@ from sgjax.environment.options import MakeOptions
 from sgjax.environment.registry import make
 from sgjax.evaluation.policies import register_loader
 from sgjax.files import write_atomic
-from train.actor import ActorLayout, ActorWeights, acting_policy
-from train.config import TrainConfig, config_from_dict
-from train.networks import others_layout
-from train.normalize import RunningStats
+from train.algorithm.actor import ActorLayout, ActorWeights, acting_policy
+from train.algorithm.config import TrainConfig, config_from_dict
+from train.algorithm.networks import others_layout
+from train.algorithm.normalize import RunningStats
 
 
 def save(path: str | Path, config: TrainConfig, runner: Any, meta: dict[str, Any],
@@ -88,7 +88,7 @@ def restore(path: str | Path, trainer: Any, contents: tuple | None = None
             ) -> tuple[Any, dict[str, Any]]:
     """The seed-batched ``RunnerState`` and meta of a checkpoint, for ``trainer``
     (``contents``: what :func:`read` already returned for ``path``)."""
-    from train.ppo import seed_keys
+    from train.algorithm.ppo import seed_keys
 
     _, meta, raw = contents if contents is not None else read(path)
     template = jax.eval_shape(jax.vmap(trainer.init), seed_keys(trainer.config))

@@ -1,7 +1,7 @@
 """A grid sweep's results as a table: one parameter's values as rows, another's as columns,
 each cell the objective's mean over the trial's seeds with its 95% Student-t interval.
 
-    python -m train.sweep_table runs/sweep/table6/sweep.json \\
+    python -m train.reports.sweep_table runs/sweep/table6/sweep.json \\
         --rows network.others_encoder --columns algorithm.num_minibatches [--out table.md]
 
 Reads only the results file (``sweep.json`` of ``train.sweep``: every finished trial's
@@ -71,7 +71,7 @@ def _order(value: Any) -> tuple:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="python -m train.sweep_table",
+    parser = argparse.ArgumentParser(prog="python -m train.reports.sweep_table",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("sweep", help="sweep.json of train.sweep")
     parser.add_argument("--rows", required=True, help="parameter whose values are the rows")

@@ -11,8 +11,8 @@ beginning ``# ``: the document's own heading names the section). The runs write 
 (``train.reproduce``, ``--from-results``, ``train.ablation``, ``python -m train``), so a number
 in the document is never copied by hand::
 
-    python -m train.results_doc docs/results.md           # exit 1 naming every stale block
-    python -m train.results_doc docs/results.md --write   # rewrite the blocks from the files
+    python -m train.reports.results_doc docs/results.md           # exit 1 naming stale blocks
+    python -m train.reports.results_doc docs/results.md --write   # rewrite them from the files
 
 A plain include, written here rather than taken from ``cogapp`` (which runs Python code kept in
 the document): the document carries no code, only the names of the files.
@@ -25,7 +25,7 @@ import re
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 BLOCK = re.compile(r"(<!-- generated from (?P<source>\S+) -->\n)(?P<body>.*?)"
                    r"(<!-- end generated -->)", re.DOTALL)
 
@@ -66,7 +66,7 @@ def refresh(text: str, where: str, root: Path = ROOT) -> tuple[str, list[str]]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m train.results_doc",
+    parser = argparse.ArgumentParser(prog="python -m train.reports.results_doc",
                                      description=__doc__.splitlines()[0])
     parser.add_argument("documents", nargs="+", help="Markdown files (docs/results.md)")
     parser.add_argument("--write", action="store_true",
@@ -82,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
         elif stale:
             failed = True
             print(f"{name}: {len(stale)} block(s) differ from their files: {', '.join(stale)} "
-                  f"(python -m train.results_doc {name} --write)")
+                  f"(python -m train.reports.results_doc {name} --write)")
         else:
             print(f"{name}: every generated block matches its file")
     return 1 if failed else 0

@@ -39,7 +39,7 @@ class Processes:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group(
-        "multi-process sweep (jax.distributed; see train/multiprocess.py)")
+        "multi-process sweep (jax.distributed; see train/run/multiprocess.py)")
     group.add_argument("--coordinator", default=None, metavar="HOST:PORT",
                        help="address of process 0; every process passes the same one")
     group.add_argument("--num-processes", type=int, default=1,

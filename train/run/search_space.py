@@ -34,9 +34,9 @@ form), ``term_weights.<reward term>`` (a multiplier on that term of ``info["rewa
 trials where each named earlier parameter has the given value (or one of a list).
 
 Parameters are of two kinds (:func:`is_lane_key`): **lane values** (``algorithm.`` +
-``train.ppo.LANE_SETTINGS``, reward-term weights, hidden features) are numbers in the runner
-state, so trials that differ only in them train as lanes of one compiled call; every other key
-changes the compiled program (network sizes, minibatch count, environments) and trials are
+``train.algorithm.ppo.LANE_SETTINGS``, reward-term weights, hidden features) are numbers in the
+runner state, so trials that differ only in them train as lanes of one compiled call; every
+other key changes the compiled program (network sizes, minibatch count, environments) and trials are
 grouped by those values, one compilation per group.
 """
 
@@ -53,8 +53,8 @@ import yaml
 
 from sgjax.terms.base import ConfigError
 from sgjax.validation import check_choice, check_keys, freeze, suggest, thaw
-from train.config import SECTIONS, read_yaml
-from train.ppo import LANE_SETTINGS
+from train.algorithm.config import SECTIONS, read_yaml
+from train.algorithm.ppo import LANE_SETTINGS
 
 SAMPLERS = ("tpe", "random", "grid")
 PRUNERS = ("none", "median", "hyperband")

@@ -41,15 +41,15 @@ from sgjax.evaluation.metrics import team_success
 from sgjax.evaluation.policies import RecurrentPolicy
 from sgjax.kernels.row_chunks import chunk_size, update_flagged_rows
 from sgjax.terms.base import ConfigError
-from train.actor import (
+from train.algorithm.actor import (
     ActorLayout,
     ActorWeights,
     acting_policy,
     actor_features,
     head_log_std,
 )
-from train.config import TrainConfig, resolved_compact, resolved_lanes
-from train.networks import (
+from train.algorithm.config import TrainConfig, resolved_compact, resolved_lanes
+from train.algorithm.networks import (
     ActorCritic,
     entropy,
     initial_carry,
@@ -58,7 +58,7 @@ from train.networks import (
     others_layout,
     sample,
 )
-from train.normalize import RunningStats
+from train.algorithm.normalize import RunningStats
 
 LOSS_TERMS = ("policy_loss", "value_loss", "entropy", "approx_kl")  # learn's aux, per minibatch
 # algorithm.compact: a minibatch's units are computed in whole chunks of 1/COMPACT_CHUNKS of it,

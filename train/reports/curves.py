@@ -1,7 +1,7 @@
 """Learning curves of training runs, drawn from their ``progress.csv`` files.
 
-    python -m train.curves runs/intersection   # -> runs/intersection/learning_curve.png
-    python -m train.curves runs/seed0 runs/seed1 --out seeds.png   # several runs, one figure
+    python -m train.reports.curves runs/intersection   # -> runs/intersection/learning_curve.png
+    python -m train.reports.curves runs/seed0 runs/seed1 --out seeds.png   # several runs
 
 Three panels over environment steps: success (the team and robot success of the training
 episodes that ended in each chunk of updates, lines; the periodic evaluation's team success,
@@ -101,7 +101,7 @@ def plot_learning_curves(runs: Sequence[Path], path: Path,
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(
-        prog="python -m train.curves",
+        prog="python -m train.reports.curves",
         description="Draw the learning curves of training runs from their progress.csv.")
     parser.add_argument("runs", nargs="+", type=Path,
                         help="run folders (or progress.csv files) of python -m train")

@@ -27,8 +27,8 @@ import jax.numpy as jnp
 from jax import Array
 
 from sgjax.observations.columns import ObservationColumns
-from train.config import NetworkConfig
-from train.initializers import orthogonal
+from train.algorithm.config import NetworkConfig
+from train.algorithm.initializers import orthogonal
 
 OTHERS = "others"  # the observation term the others encoders read
 
@@ -37,7 +37,7 @@ OTHERS = "others"  # the observation term the others encoders read
 class OthersLayout:
     """Where the ``others`` block sits in the observation vector: ``k`` bodies x ``width``
     features from column ``start``, read from the observation's published column layout
-    (:meth:`from_columns`); saved with a trained actor (``train.actor.ActorLayout``)."""
+    (:meth:`from_columns`); saved with a trained actor (``train.algorithm.actor.ActorLayout``)."""
 
     start: int
     k: int
