@@ -1049,20 +1049,25 @@
     changed();
   }
 
-  function toggleInGroup(nodeIndex) {
-    const node = list("nodes")[nodeIndex];
-    if (!node) return;
+  // The node ids of the current group's current phase (starts or goals), made if missing.
+  function phaseIds() {
     const groups = ensureList(state.group.kind);
     if (state.group.index >= groups.length || state.group.index < 0) {
       groups.push({ starts: [], goals: [] });
       state.group.index = groups.length - 1;
     }
     const g = groups[state.group.index];
-    const key = state.group.phase;
-    if (!Array.isArray(g[key])) g[key] = [];
-    const at = g[key].indexOf(node.id);
-    if (at >= 0) g[key].splice(at, 1);
-    else g[key].push(node.id);
+    if (!Array.isArray(g[state.group.phase])) g[state.group.phase] = [];
+    return g[state.group.phase];
+  }
+
+  function toggleInGroup(nodeIndex) {
+    const node = list("nodes")[nodeIndex];
+    if (!node) return;
+    const ids = phaseIds();
+    const at = ids.indexOf(node.id);
+    if (at >= 0) ids.splice(at, 1);
+    else ids.push(node.id);
     changed();
   }
 
@@ -1249,17 +1254,10 @@
   }
 
   function addToGroup(ids) {
-    const groups = ensureList(state.group.kind);
-    if (state.group.index >= groups.length || state.group.index < 0) {
-      groups.push({ starts: [], goals: [] });
-      state.group.index = groups.length - 1;
-    }
-    const g = groups[state.group.index];
-    const key = state.group.phase;
-    if (!Array.isArray(g[key])) g[key] = [];
-    const added = ids.filter((id) => !g[key].includes(id));
-    g[key].push(...added);
-    message(`${plural(added.length, "node")} added to group ${state.group.index}'s ${key}`);
+    const phase = phaseIds();
+    const added = ids.filter((id) => !phase.includes(id));
+    phase.push(...added);
+    message(`${plural(added.length, "node")} added to group ${state.group.index}'s ${state.group.phase}`);
     if (added.length) changed();
   }
 
