@@ -390,3 +390,24 @@ def test_oversized_and_dense_maps_get_their_error_and_the_server_answers_on(serv
     status, body = call(server + "/api/session")
     assert status == 200
     assert not (tmp_path / "big.json").exists()
+
+
+@pytest.mark.slow
+def test_maps_check_of_50000_packed_walls_ends_within_seconds(tmp_path):
+    """``sgjax maps check`` on 50,000 walls packed into one room: every problem, quickly (a
+    guard against all-pairs work, which took it past 4 GB before; bench/map_check.py measures
+    it: about 2 s on the 2-core CPU)."""
+    import subprocess
+    import sys
+    import time
+
+    path = tmp_path / "packed.json"
+    path.write_text(json.dumps(packed_room(50_000)))
+    start = time.perf_counter()
+    out = subprocess.run([sys.executable, "-m", "sgjax.command", "maps", "check", str(path)],
+                         capture_output=True, text=True, timeout=120)
+    seconds = time.perf_counter() - start
+    assert out.returncode == 1, out.stderr[-2000:]  # the edge through the room is an error
+    assert "error: $.edges[0]: edge 0-1 crosses wall" in out.stdout
+    assert "1 file(s): 2 error(s)" in out.stdout and "warning(s)" in out.stdout
+    assert seconds < 60, f"sgjax maps check took {seconds:.0f} s on 50,000 packed walls"
