@@ -6,7 +6,7 @@ import subprocess
 import jsonschema
 
 from sgjax.evaluation import provenance as prov
-from sgjax.evaluation.result_schema import schema_for
+from train.reports.result_schemas import schema_for
 
 
 def check_block(block: dict) -> None:

@@ -50,7 +50,6 @@ from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.provenance import cpu_model, git_state, provenance
 from sgjax.evaluation.report import format_points, format_summary, markdown_table
-from sgjax.evaluation.result_schema import ABLATION
 from sgjax.evaluation.statistics import paired_difference, probability_of_improvement, summarize
 from sgjax.files import write_atomic
 from sgjax.terms.base import ConfigError
@@ -65,6 +64,7 @@ from train.algorithm.config import (
     read_yaml,
 )
 from train.algorithm.ppo import Trainer, divisor_up_to, observation_mask
+from train.reports.result_schemas import ABLATION
 from train.run import checkpoint
 from train.run.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
 

@@ -30,7 +30,6 @@ from sgjax.evaluation.metrics import DEFAULT_CONSTANTS
 from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.render import episode_frames, save_gif
 from sgjax.evaluation.report import markdown_table, summary_tables, write_all
-from sgjax.evaluation.result_schema import SEED_SPREAD
 from sgjax.evaluation.runner import Episodes
 from sgjax.evaluation.statistics import Summary, paired_difference, seed_aggregate
 from sgjax.files import write_atomic
@@ -50,6 +49,7 @@ from train.algorithm.config import (
 from train.algorithm.ppo import Trainer, seed_keys
 from train.algorithm.sharding import device_mesh, shard_runner
 from train.reports.curves import plot_learning_curves
+from train.reports.result_schemas import SEED_SPREAD
 from train.run import checkpoint
 from train.run.socialgym_config import convert, is_socialgym_config, read_socialgym_config, table
 

@@ -63,7 +63,6 @@ from sgjax.evaluation.policies import load_policy, policy_options
 from sgjax.evaluation.protocols import MINI_GAMES, PAPER
 from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import format_points, format_summary, markdown_table
-from sgjax.evaluation.result_schema import REPRODUCE
 from sgjax.evaluation.runner import EpisodeRunner
 from sgjax.evaluation.statistics import (
     paired_difference,
@@ -76,6 +75,7 @@ from train.algorithm.actor import ActorWeights, play_modes_evaluator
 from train.algorithm.config import EVALUATION_SEED_OFFSET, TrainConfig, as_trained, config_from_dict
 from train.algorithm.ppo import Trainer, divisor_up_to, seed_keys
 from train.reports.marl_eval import to_marl_eval
+from train.reports.result_schemas import REPRODUCE
 from train.run import checkpoint
 from train.run.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
 

@@ -63,13 +63,13 @@ from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import markdown_table
-from sgjax.evaluation.result_schema import SWEEP
 from sgjax.files import write_atomic
 from sgjax.terms.base import ConfigError
 from sgjax.validation import freeze, thaw
 from train.algorithm.actor import ActorWeights, lane_evaluator
 from train.algorithm.config import VALIDATION_SEED, TrainConfig, config_from_dict, load_config
 from train.algorithm.ppo import LANE_SETTINGS, Trainer, observation_mask
+from train.reports.result_schemas import SWEEP
 from train.run.search_space import (
     PRUNERS,
     SearchSpace,

@@ -1,49 +1,37 @@
-"""JSON Schemas of the result files, one per ``schema_version``.
+"""The JSON Schema of sgjax's own result file, and the pieces result schemas share.
 
-Every result file names its format in ``schema_version``:
+Every result file names its format in ``schema_version``. sgjax writes one:
 
 - ``sgjax.evaluate/1``: ``metrics.json`` of ``sgjax evaluate --out`` and of a training run's
   final evaluation (``RUN/eval/metrics.json``);
-- ``sgjax.reproduce/1``: ``results.json`` of ``python -m train.reproduce`` (the paper's Tables
-  3-4: per-seed values of every metric per mini-game, baseline and robot count, and per-episode
-  team success for the paired comparisons);
-- ``sgjax.ablation/1``: ``ablation.json`` of ``python -m train.ablation`` (Table 5);
-- ``sgjax.seed_spread/1``: ``RUN/eval/seed_spread.json`` of a training run of several seeds
-  (every seed's team success on the final evaluation's episodes, the aggregate over seeds and
-  each seed's paired difference against the baseline);
-- a training run's ``provenance.json`` is the provenance block itself
-  (``sgjax.provenance/1``, :data:`sgjax.evaluation.provenance.PROVENANCE_SCHEMA`).
+- a run's ``provenance.json`` is the provenance block itself (``sgjax.provenance/1``,
+  :data:`sgjax.evaluation.provenance.PROVENANCE_SCHEMA`).
 
+The trainer's result files (``train.reproduce``, ``train.ablation``, ``train.sweep``, a run of
+several seeds) have their schemas with the trainer (``train.reports.result_schemas``, which
+also writes ``docs/results/schema.json``), built from the pieces here: :data:`SUMMARY` (a
+metric's mean and interval), :data:`NUMBER_OR_NULL`, :data:`SECONDS` and :data:`COUNT_KEY`.
 ``RESULT_SCHEMAS`` maps each version to its schema (draft 2020-12); ``schema_for(document)``
-picks a document's. The tests validate every command's output against them with
-``jsonschema`` (a test dependency), and ``docs/results/schema.json`` is this module's
-``all_schemas()``, written by ``python -m sgjax.evaluation.result_schema --write FILE``.
+picks a document's.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-from pathlib import Path
 from typing import Any
 
 from sgjax.evaluation.provenance import PROVENANCE_SCHEMA
 
 EVALUATE = "sgjax.evaluate/1"
-REPRODUCE = "sgjax.reproduce/1"
-ABLATION = "sgjax.ablation/1"
-SWEEP = "sgjax.sweep/1"
-SEED_SPREAD = "sgjax.seed_spread/1"
 
-_NUMBER_OR_NULL = {"type": ["number", "null"]}
-_SUMMARY = {
+NUMBER_OR_NULL = {"type": ["number", "null"]}
+SUMMARY = {
     "type": "object", "required": ["mean", "ci_low", "ci_high", "std", "n"],
-    "properties": {"mean": _NUMBER_OR_NULL, "ci_low": _NUMBER_OR_NULL,
-                   "ci_high": _NUMBER_OR_NULL, "std": _NUMBER_OR_NULL,
+    "properties": {"mean": NUMBER_OR_NULL, "ci_low": NUMBER_OR_NULL,
+                   "ci_high": NUMBER_OR_NULL, "std": NUMBER_OR_NULL,
                    "n": {"type": "integer", "minimum": 0}},
 }
-_SECONDS = {"type": "object", "additionalProperties": {"type": "number"}}
-_COUNT_KEY = "^[0-9]+$"
+SECONDS = {"type": "object", "additionalProperties": {"type": "number"}}
+COUNT_KEY = "^[0-9]+$"
 
 EVALUATE_SCHEMA: dict[str, Any] = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
@@ -68,160 +56,18 @@ EVALUATE_SCHEMA: dict[str, Any] = {
                 "num_agents": {"type": "integer", "minimum": 1},
                 "episodes": {"type": "integer", "minimum": 1},
                 "seed": {"type": "integer"},
-                "metrics": {"type": "object", "additionalProperties": _SUMMARY}}}},
+                "metrics": {"type": "object", "additionalProperties": SUMMARY}}}},
     },
 }
 
-_PER_SEED_METRICS = {
-    "type": "object",
-    "properties": {"team_success_by_episode": {
-        "type": "array", "items": {"type": "array", "items": {"type": "number"}}}},
-    "additionalProperties": {"type": "array", "items": _NUMBER_OR_NULL},
-}
-
-REPRODUCE_SCHEMA: dict[str, Any] = {
-    "$schema": "https://json-schema.org/draft/2020-12/schema",
-    "title": "sgjax train.reproduce results.json",
-    "type": "object",
-    "required": ["schema_version", "provenance", "profile", "seeds", "total_steps", "num_envs",
-                 "episodes", "baseline_episodes", "counts", "seed", "results", "seconds",
-                 "runs"],
-    "properties": {
-        "schema_version": {"const": REPRODUCE},
-        "provenance": PROVENANCE_SCHEMA,
-        "earlier_provenance": {"type": "array", "items": PROVENANCE_SCHEMA},
-        "profile": {"enum": ["sgjax", "socialgym"]},
-        "seeds": {"type": "integer", "minimum": 1},
-        "total_steps": {"type": ["integer", "null"]},
-        "num_envs": {"type": "integer", "minimum": 1},
-        "episodes": {"type": "integer", "minimum": 1},
-        "baseline_episodes": {"type": "integer", "minimum": 1},
-        "counts": {"type": "array", "items": {"type": "integer", "minimum": 1}},
-        "seed": {"type": "integer"},
-        "time_limit": _NUMBER_OR_NULL,
-        "train_seconds": {"type": "object"},
-        "cell_seconds": {"type": "object", "additionalProperties": _SECONDS},
-        "seconds": _SECONDS,
-        "runs": {"type": "integer", "minimum": 1},
-        # mini-game -> baseline -> robot count -> metric -> one value per training seed
-        "results": {"type": "object", "additionalProperties": {
-            "type": "object", "additionalProperties": {
-                "type": "object", "patternProperties": {_COUNT_KEY: _PER_SEED_METRICS},
-                "additionalProperties": False}}},
-    },
-}
-
-ABLATION_SCHEMA: dict[str, Any] = {
-    "$schema": "https://json-schema.org/draft/2020-12/schema",
-    "title": "sgjax train.ablation ablation.json",
-    "type": "object",
-    "required": ["schema_version", "provenance", "config", "seeds", "episodes", "robots",
-                 "team_success", "team_success_by_robots", "variants", "seconds"],
-    "properties": {
-        "schema_version": {"const": ABLATION},
-        "provenance": PROVENANCE_SCHEMA,
-        "config": {"type": "object"},
-        "seeds": {"type": "integer", "minimum": 1},
-        "episodes": {"type": "integer", "minimum": 1},
-        "robots": {"type": "integer", "minimum": 1},
-        # variant -> one team success per training seed (at ``robots``)
-        "team_success": {"type": "object", "additionalProperties": {
-            "type": "array", "items": {"type": "number"}}},
-        "team_success_by_robots": {"type": "object", "patternProperties": {
-            _COUNT_KEY: {"type": "object"}}, "additionalProperties": False},
-        "paired": {"type": "object"},
-        "variants": {"type": "object"},
-        # group of variants -> where and how long it trained (a resumed run's groups may
-        # come from other commits or machines)
-        "groups": {"type": "object", "additionalProperties": {
-            "type": "object", "properties": {
-                "git": {"type": "object"}, "cpu": {"type": "string"}, "seconds": _SECONDS}}},
-        "seconds": _SECONDS,
-    },
-}
-
-SWEEP_SCHEMA: dict[str, Any] = {
-    "$schema": "https://json-schema.org/draft/2020-12/schema",
-    "title": "sgjax train.sweep sweep.json",
-    "type": "object",
-    "required": ["schema_version", "provenance", "study", "space", "direction", "best",
-                 "trials"],
-    "properties": {
-        "schema_version": {"const": SWEEP},
-        "provenance": PROVENANCE_SCHEMA,
-        "study": {"type": "string"},
-        "space": {"type": "object", "required": ["objective", "trial", "sweep", "params"]},
-        "direction": {"enum": ["maximize", "minimize"]},
-        "best": {"type": ["object", "null"], "required": ["number", "value", "params"]},
-        "trials": {"type": "array", "items": {
-            "type": "object",
-            "required": ["number", "state", "value", "params", "intermediate", "user_attrs"],
-            "properties": {
-                "number": {"type": "integer", "minimum": 0},
-                "state": {"enum": ["running", "waiting", "complete", "pruned", "fail"]},
-                "value": _NUMBER_OR_NULL,
-                "params": {"type": "object"},
-                # evaluation index (1, 2, ...) -> the objective at that evaluation
-                "intermediate": {"type": "object", "patternProperties": {
-                    _COUNT_KEY: {"type": "number"}}, "additionalProperties": False},
-                "user_attrs": {"type": "object"}}}},
-        "plots": {"type": "array", "items": {"type": "string"}},
-    },
-}
-
-_BOUNDED = {"type": "object", "required": ["mean", "mean_low", "mean_high", "iqm", "iqm_low",
-                                             "iqm_high", "seeds"]}
-SEED_SPREAD_SCHEMA: dict[str, Any] = {
-    "$schema": "https://json-schema.org/draft/2020-12/schema",
-    "title": "sgjax training run eval/seed_spread.json",
-    "type": "object",
-    "required": ["schema_version", "provenance", "policy", "baseline", "episodes",
-                 "scenarios"],
-    "properties": {
-        "schema_version": {"const": SEED_SPREAD},
-        "provenance": PROVENANCE_SCHEMA,
-        "policy": {"type": "string"},
-        "baseline": {"type": ["string", "null"]},
-        "episodes": {"type": "integer", "minimum": 1},
-        # scenario -> robot count -> the cell
-        "scenarios": {"type": "object", "additionalProperties": {
-            "type": "object", "patternProperties": {_COUNT_KEY: {
-                "type": "object", "required": ["team_success", "aggregate"],
-                "properties": {
-                    "team_success": {"type": "array", "items": {"type": "number"},
-                                     "minItems": 2},
-                    "aggregate": _BOUNDED,
-                    "paired": {"type": "array", "items": _SUMMARY}}}},
-            "additionalProperties": False}},
-    },
-}
-
-RESULT_SCHEMAS: dict[str, dict[str, Any]] = {
-    EVALUATE: EVALUATE_SCHEMA, REPRODUCE: REPRODUCE_SCHEMA, ABLATION: ABLATION_SCHEMA,
-    SWEEP: SWEEP_SCHEMA, SEED_SPREAD: SEED_SPREAD_SCHEMA}
+RESULT_SCHEMAS: dict[str, dict[str, Any]] = {EVALUATE: EVALUATE_SCHEMA}
 
 
-def schema_for(document: Any) -> dict[str, Any]:
-    """The schema of a result document, by its ``schema_version``."""
+def schema_for(document: Any, schemas: dict[str, dict[str, Any]] = RESULT_SCHEMAS
+               ) -> dict[str, Any]:
+    """The schema of a result document, by its ``schema_version``, among ``schemas``."""
     version = document.get("schema_version") if isinstance(document, dict) else None
-    if version not in RESULT_SCHEMAS:
+    if version not in schemas:
         raise ValueError(f"schema_version {version!r}: not a result file sgjax knows; "
-                         f"known versions are {', '.join(RESULT_SCHEMAS)}")
-    return RESULT_SCHEMAS[version]
-
-
-def all_schemas() -> dict[str, Any]:
-    """Every result file's schema and the provenance block's, as one JSON document."""
-    return {"provenance": PROVENANCE_SCHEMA, "results": RESULT_SCHEMAS}
-
-
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description="Write the result files' JSON Schemas")
-    parser.add_argument("--write", required=True, metavar="FILE")
-    args = parser.parse_args(argv)
-    Path(args.write).write_text(json.dumps(all_schemas(), indent=1) + "\n")
-    print(f"wrote {args.write}")
-
-
-if __name__ == "__main__":
-    main()
+                         f"known versions are {', '.join(schemas)}")
+    return schemas[version]

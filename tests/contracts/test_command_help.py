@@ -13,7 +13,7 @@ ROOT = Path(__file__).resolve().parents[2]
 MODULES = ["train.cli", "train.ablation", "train.reports.curves", "train.reports.marl_eval",
            "train.reproduce", "train.run.socialgym_config", "train.sweep",
            "train.reports.sweep_table", "sgjax.command",
-           "sgjax.evaluation.metrics.catalogue", "sgjax.evaluation.result_schema"]
+           "sgjax.evaluation.metrics.catalogue", "train.reports.result_schemas"]
 # bench/ and scripts/ files that read arguments (make_maps and make_pictures take none).
 FILES = sorted(str(p.relative_to(ROOT)) for folder in ("bench", "scripts")
                for p in (ROOT / folder).glob("*.py") if "argparse" in p.read_text())

@@ -76,7 +76,8 @@ def test_evaluate_writes_provenance_into_metrics_json(tmp_path):
 
 
 def test_result_schemas_reject_what_they_should_and_docs_hold_them(tmp_path):
-    from sgjax.evaluation.result_schema import EVALUATE_SCHEMA, all_schemas, schema_for
+    from sgjax.evaluation.result_schema import EVALUATE_SCHEMA
+    from train.reports.result_schemas import all_schemas, schema_for
 
     with pytest.raises(ValueError, match="schema_version 'nope/1': not a result file"):
         schema_for({"schema_version": "nope/1"})
@@ -96,7 +97,7 @@ def test_result_schemas_reject_what_they_should_and_docs_hold_them(tmp_path):
             jsonschema.validate(broken, EVALUATE_SCHEMA)
     shipped = json.loads((prov.REPOSITORY / "docs" / "results" / "schema.json").read_text())
     assert shipped == json.loads(json.dumps(all_schemas())), (
-        "docs/results/schema.json is stale: python -m sgjax.evaluation.result_schema "
+        "docs/results/schema.json is stale: python -m train.reports.result_schemas "
         "--write docs/results/schema.json")
 
 
