@@ -10,7 +10,7 @@ import pytest
 
 import sgjax
 from sgjax.command import main as cli_main
-from sgjax.evaluation import counterfactual, metrics
+from sgjax.evaluation import metrics
 from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.policies import load_policy
 from sgjax.evaluation.protocols import PAPER, load_protocol
@@ -85,7 +85,7 @@ def test_counterfactual_metrics_equal_brute_force_from_separate_episodes():
     values, robot, _ = EpisodeRunner(env, policy, EPISODES, steps,
                                      counterfactual=True).run(key, params)
     for name in metrics.METRICS.names():
-        if name not in counterfactual.COUNTERFACTUAL_NAMES:
+        if name not in metrics.counterfactuals.COUNTERFACTUAL_NAMES:
             np.testing.assert_array_equal(np.asarray(values[name]), np.asarray(plain[name]),
                                           err_msg=name)
     assert np.all(np.isnan(np.asarray(plain["hausdorff"])))

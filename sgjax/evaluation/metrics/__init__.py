@@ -16,8 +16,8 @@ registered metric; :func:`start`, :func:`update`, :func:`finalize`, :func:`per_e
 * ``proximity``: closest approach, personal spaces;
 * ``ttc``: time to collision;
 * ``mini_game``: order violations at conflict zones, makespan, flow rate;
-* and the counterfactual metrics, registered by :mod:`sgjax.evaluation.counterfactual`
-  (importing any part of ``sgjax.evaluation`` registers them).
+* and the counterfactual metrics (``counterfactuals``), filled in by the lanes of
+  :mod:`sgjax.evaluation.counterfactual`.
 
 The framework: ``base`` (:class:`Metric`, :class:`MetricInfo`), ``constants``
 (:class:`MetricConstants`), ``registration`` (:func:`register_metric`, :data:`METRICS`),
@@ -32,6 +32,7 @@ module ``catalogue``).
 from sgjax.evaluation.metrics import outcome, collisions, paths, stops  # noqa: F401
 from sgjax.evaluation.metrics import smoothness, proximity, ttc, mini_game  # noqa: F401
 from sgjax.evaluation.metrics import actions  # noqa: F401
+from sgjax.evaluation.metrics import counterfactuals  # noqa: F401
 # isort: on
 from sgjax.evaluation.metrics.accumulate import (
     MetricState,
