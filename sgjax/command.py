@@ -218,12 +218,14 @@ def run_maps_check(args: argparse.Namespace) -> None:
 
 
 def run_edit(args: argparse.Namespace) -> None:
+    from sgjax.editor.guard import LOOPBACK_HOSTS
     from sgjax.editor.server import serve
     from sgjax.editor.session import EditorError, EditorSession
 
-    if args.host not in ("127.0.0.1", "localhost", "::1"):
+    if args.host not in LOOPBACK_HOSTS:
         print(f"sgjax edit: warning: serving on {args.host}: anyone who reaches this machine "
-              "can read the map and save inside its folder")
+              "and has the printed address (its token) can read the map and save inside its "
+              "folder")
     try:
         session = EditorSession.open(args.map, new=args.new, root=args.root)
     except EditorError as err:

@@ -27,7 +27,7 @@ from sgjax.editor.session import EditorError
 
 TOKEN_HEADER = "X-Sgjax-Token"
 TOKEN_BYTES = 24  # of randomness: 32 URL-safe characters
-LOOPBACK_NAMES = ("127.0.0.1", "localhost", "[::1]")
+LOOPBACK_HOSTS = ("127.0.0.1", "localhost", "::1")  # --host values that only this machine reaches
 WILDCARD_HOSTS = ("0.0.0.0", "::", "")
 
 
@@ -39,12 +39,17 @@ def new_token() -> str:
 def host_names(bound: str) -> tuple[str, ...]:
     """The names a browser may use for a server bound to ``bound`` (without the port): the
     loopback names, ``bound`` itself, and for a wildcard bind this machine's host names."""
-    names = list(LOOPBACK_NAMES)
+    names = [*LOOPBACK_HOSTS]
     if bound in WILDCARD_HOSTS:
         names += [socket.gethostname(), socket.getfqdn()]
-    elif bound not in ("127.0.0.1", "localhost", "::1"):
-        names.append(f"[{bound}]" if ":" in bound else bound)
-    return tuple(dict.fromkeys(name.lower() for name in names if name))
+    else:
+        names.append(bound)
+    return tuple(dict.fromkeys(url_host(name).lower() for name in names if name))
+
+
+def url_host(host: str) -> str:
+    """``host`` as it stands in a URL or a ``Host`` header (an IPv6 address in brackets)."""
+    return f"[{host}]" if ":" in host else host
 
 
 class RequestGuard:

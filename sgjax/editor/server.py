@@ -19,7 +19,7 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib import resources
 from typing import Any
 
-from sgjax.editor.guard import RequestGuard, new_token
+from sgjax.editor.guard import RequestGuard, new_token, url_host
 from sgjax.editor.session import EditorError, EditorSession
 from sgjax.evaluation.policies import BASELINES
 
@@ -261,13 +261,12 @@ def make_server(session: EditorSession, host: str = "127.0.0.1", port: int = 876
         except OSError:
             if port == 0 or offset == tries - 1:
                 raise
-    else:  # pragma: no cover - the loop returns or raises
+    else:  # tries < 1
         raise OSError(f"no free port in {port}..{port + tries - 1}")
     bound = server.server_address[1]
     server.token = token or new_token()
     handler.guard = RequestGuard(host, bound, server.token)
-    name = f"[{host}]" if ":" in host else host
-    server.url = f"http://{name}:{bound}/?token={server.token}"
+    server.url = f"http://{url_host(host)}:{bound}/?token={server.token}"
     return server
 
 

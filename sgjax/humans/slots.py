@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sgjax.kernels.geometry import segments_intersect
+from sgjax.kernels.geometry import segments_intersect_pairs
 from sgjax.maps.schema import MapSpec, point_segment_distances
 
 SPAWN_JITTER = 0.05  # m: each pedestrian starts up to this far (per axis) from its slot
@@ -43,8 +43,7 @@ def spawn_slots(spec: MapSpec, radius: float) -> tuple[np.ndarray, np.ndarray]:
         a, b = pos[edges[e, 0]], pos[edges[e, 1]]
         t = np.clip(np.dot(point - a, b - a) / max(np.dot(b - a, b - a), 1e-12), 0.0, 1.0)
         foot = a + t * (b - a)
-        if any(segments_intersect(tuple(point), tuple(foot), tuple(w[:2]), tuple(w[2:]))
-               for w in spec.walls):
+        if segments_intersect_pairs(np.concatenate([point, foot])[None], spec.walls).any():
             continue
         slots.append(point)
         slot_edges.append(edges[e])

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jax import Array
 
 _TINY = 1e-12
@@ -123,27 +124,34 @@ def segments_intersect(
     q1: tuple[float, float],
     q2: tuple[float, float],
 ) -> bool:
-    """Whether closed segments p1-p2 and q1-q2 intersect (host-side helper for map validation)."""
+    """Whether closed segments p1-p2 and q1-q2 intersect (host-side helper for map validation;
+    :func:`segments_intersect_pairs` for many pairs at once)."""
+    return bool(segments_intersect_pairs(np.array([[*p1, *p2]], np.float64),
+                                         np.array([[*q1, *q2]], np.float64))[0])
 
-    def orient(a: tuple[float, float], b: tuple[float, float], c: tuple[float, float]) -> float:
-        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 
-    def on_segment(a: tuple[float, float], b: tuple[float, float], c: tuple[float, float]) -> bool:
-        return min(a[0], b[0]) - 1e-9 <= c[0] <= max(a[0], b[0]) + 1e-9 and min(
-            a[1], b[1]
-        ) - 1e-9 <= c[1] <= max(a[1], b[1]) + 1e-9
+def segments_intersect_pairs(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Whether closed segments ``p [..., 4]`` and ``q [..., 4]`` (x1, y1, x2, y2) intersect,
+    pair by pair with broadcasting: ``[...]`` bool (host-side, numpy). Touching counts."""
+    p1, p2, q1, q2 = p[..., :2], p[..., 2:], q[..., :2], q[..., 2:]
+
+    def orient(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+        return ((b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1])
+                - (b[..., 1] - a[..., 1]) * (c[..., 0] - a[..., 0]))
+
+    def on_segment(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+        low, high = np.minimum(a, b) - 1e-9, np.maximum(a, b) + 1e-9
+        return np.all((low <= c) & (c <= high), axis=-1)
 
     d1, d2 = orient(q1, q2, p1), orient(q1, q2, p2)
     d3, d4 = orient(p1, p2, q1), orient(p1, p2, q2)
-    if ((d1 > 0) != (d2 > 0)) and ((d3 > 0) != (d4 > 0)) and d1 * d2 != 0 and d3 * d4 != 0:
-        return True
+    proper = (((d1 > 0) != (d2 > 0)) & ((d3 > 0) != (d4 > 0)) & (d1 * d2 != 0)
+              & (d3 * d4 != 0))
     eps = 1e-12
-    return (
-        (abs(d1) < eps and on_segment(q1, q2, p1))
-        or (abs(d2) < eps and on_segment(q1, q2, p2))
-        or (abs(d3) < eps and on_segment(p1, p2, q1))
-        or (abs(d4) < eps and on_segment(p1, p2, q2))
-    )
+    return proper | ((np.abs(d1) < eps) & on_segment(q1, q2, p1)) | (
+        (np.abs(d2) < eps) & on_segment(q1, q2, p2)) | (
+        (np.abs(d3) < eps) & on_segment(p1, p2, q1)) | (
+        (np.abs(d4) < eps) & on_segment(p1, p2, q2))
 
 
 # atan(a) / a as a polynomial in a^2 on [0, 1] (least-squares fit on Chebyshev nodes; the

@@ -38,7 +38,7 @@ from sgjax.maps.schema import (
     MapSpec,
     parse_map_collecting,
 )
-from sgjax.maps.segment_grid import SegmentGrid
+from sgjax.maps.segment_grid import SegmentGrid, bounded_runs, points_along
 
 SEVERITIES = ("error", "warning")
 # JSON list key -> the element kind the editor highlights
@@ -188,19 +188,10 @@ def _not_enclosed(spec: MapSpec, clearance: float) -> list[MapProblem]:
     wall_cells = np.zeros(shape, bool)
     # the cells each wall passes through, sampled at cell / 2, walls in bounded batches
     counts = np.ceil(np.hypot(*(spec.walls[:, 2:] - spec.walls[:, :2]).T) / (cell / 2)) + 1
-    batch_end = np.cumsum(counts)
-    first = 0
-    while first < len(spec.walls):
-        done = batch_end[first - 1] if first else 0
-        last = max(first + 1, int(np.searchsorted(batch_end, done + RASTER_CHUNK, "right")))
-        walls, n = spec.walls[first:last], counts[first:last].astype(int)
-        owner = np.repeat(np.arange(len(walls)), n)
-        step = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)
-        t = np.where(step == n[owner] - 1, 1.0, step * (1.0 / np.maximum(n[owner] - 1, 1)))
-        points = walls[owner, :2] + t[:, None] * (walls[owner, 2:] - walls[owner, :2])
+    for first, last in bounded_runs(counts, RASTER_CHUNK):
+        _, points = points_along(spec.walls[first:last], counts[first:last])
         cells = np.round((points - low) / cell).astype(int)
         wall_cells[cells[:, 0], cells[:, 1]] = True
-        first = last
     # cells whose centre is within about 0.9 clearance of a wall (to a cell's accuracy)
     near = ndimage.distance_transform_edt(~wall_cells) * cell < 0.9 * clearance
     regions, _ = ndimage.label(~near)

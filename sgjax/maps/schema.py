@@ -34,7 +34,8 @@ from typing import Any
 
 import numpy as np
 
-from sgjax.maps.segment_grid import SegmentGrid, pairs_intersect
+from sgjax.kernels.geometry import segments_intersect_pairs
+from sgjax.maps.segment_grid import SegmentGrid, pair_distances
 from sgjax.maps.size_limits import (
     DENSITY_CELL,
     MAX_WALLS_PER_CELL,
@@ -360,11 +361,7 @@ def _parse_edges(found: _Collector, raw: Any, index: dict[int, int]) -> np.ndarr
 
 def point_segment_distances(points: np.ndarray, walls: np.ndarray) -> np.ndarray:
     """Host-side distances (m) from ``points [P, 2]`` to segments ``walls [W, 4]``: ``[P, W]``."""
-    a, b = walls[None, :, :2], walls[None, :, 2:]
-    p = points[:, None, :]
-    e = b - a
-    t = np.clip(np.sum((p - a) * e, -1) / np.maximum(np.sum(e * e, -1), 1e-12), 0.0, 1.0)
-    return np.linalg.norm(p - (a + t[..., None] * e), axis=-1)
+    return pair_distances(points[:, None, :], walls[None, :, :])
 
 
 def _check_clearance(found: _Collector, grid: SegmentGrid, ids: np.ndarray,
@@ -395,7 +392,7 @@ def _check_edges_clear_walls(found: _Collector, grid: SegmentGrid, edges: np.nda
     crossed = np.full(len(edges), len(walls), np.int64)
     if len(walls):
         for edge, wall in grid.near_segments(segments):
-            hit = pairs_intersect(segments[edge], walls[wall])
+            hit = segments_intersect_pairs(segments[edge], walls[wall])
             np.minimum.at(crossed, edge[hit], wall[hit])
     for (i, a, b), wall in zip(edges, crossed, strict=True):
         if wall < len(walls):

@@ -10,7 +10,8 @@ in chunks of at most :data:`CHUNK_PAIRS` pairs, so memory stays bounded however 
 the caller computes exact distances on them.
 
 Used by :mod:`sgjax.maps.schema` (node clearance, edges through walls, the wall density limit)
-and :mod:`sgjax.maps.check` (open wall ends).
+and :mod:`sgjax.maps.check` (open wall ends, and :func:`points_along` in bounded runs for the
+enclosure raster).
 """
 
 from __future__ import annotations
@@ -22,6 +23,30 @@ import numpy as np
 BIAS = 1 << 30  # added to cell coordinates in keys, so that cells left of the origin sort too
 CHUNK_PAIRS = 1 << 20  # candidate pairs handed out at once (about 50 MB of work arrays)
 MAX_RECORDS = 1 << 24  # (segment, cell) records at most: longer walls get larger cells
+
+
+def bounded_runs(sizes: np.ndarray, limit: int) -> Iterator[tuple[int, int]]:
+    """Consecutive ``(first, last)`` runs of items (``[first, last)``) whose ``sizes`` add up to
+    at most ``limit``; an item larger than ``limit`` is a run of its own."""
+    total = np.cumsum(sizes)
+    first = 0
+    while first < len(total):
+        done = total[first - 1] if first else 0
+        last = max(first + 1, int(np.searchsorted(total, done + limit, "right")))
+        yield first, last
+        first = last
+
+
+def points_along(segments: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``counts[s]`` (at least 2) evenly spaced points along each of ``segments [S, 4]``, both
+    ends included (``numpy.linspace``'s points): ``(owner [K], points [K, 2])``."""
+    counts = np.asarray(counts, np.int64)
+    owner = np.repeat(np.arange(len(segments)), counts)
+    step = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    last = counts[owner] - 1
+    t = np.where(step == last, 1.0, step * (1.0 / np.maximum(last, 1)))
+    a, b = segments[owner, :2], segments[owner, 2:]
+    return owner, a + t[:, None] * (b - a)
 
 
 class SegmentGrid:
@@ -56,12 +81,9 @@ class SegmentGrid:
     def sample_cells(self, segments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The cells of points sampled at most half a cell apart along each of ``segments
         [S, 4]``: ``(owner [K], cells [K, 2])``, repeats included."""
-        a, b = segments[:, :2], segments[:, 2:]
-        counts = np.ceil(np.hypot(*(b - a).T) / (self.cell / 2)).astype(np.int64) + 1
-        owner = np.repeat(np.arange(len(segments)), counts)
-        first = np.cumsum(counts) - counts
-        t = (np.arange(counts.sum()) - first[owner]) / np.maximum(counts[owner] - 1, 1)
-        return owner, self.cell_of(a[owner] + t[:, None] * (b - a)[owner])
+        lengths = np.hypot(*(segments[:, 2:] - segments[:, :2]).T)
+        owner, points = points_along(segments, np.ceil(lengths / (self.cell / 2)) + 1)
+        return owner, self.cell_of(points)
 
     def most_in_one_cell(self) -> tuple[int, np.ndarray]:
         """``(count, centre [2] m)``: the largest number of segments recorded in one cell, and
@@ -91,14 +113,9 @@ class SegmentGrid:
         block = max(1, CHUNK_PAIRS // (2 * reach + 1) ** 2)
         for lo in range(0, len(cells), block):  # the ranges themselves in bounded blocks
             start, count = self._ranges(cells[lo:lo + block], reach)
-            total = np.cumsum(count.sum(1))
-            first = 0
-            while first < len(total):
-                done = total[first - 1] if first else 0
-                last = max(first + 1, int(np.searchsorted(total, done + CHUNK_PAIRS, "right")))
+            for first, last in bounded_runs(count.sum(1), CHUNK_PAIRS):
                 yield self._expand(owner[lo + first:lo + last], start[first:last],
                                    count[first:last])
-                first = last
 
     def _expand(self, owner: np.ndarray, start: np.ndarray, count: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray]:
@@ -158,31 +175,9 @@ def unique_pairs(first: np.ndarray, second: np.ndarray) -> tuple[np.ndarray, np.
 
 
 def pair_distances(points: np.ndarray, segments: np.ndarray) -> np.ndarray:
-    """Distances (m) from ``points [K, 2]`` to ``segments [K, 4]``, pair by pair: ``[K]``."""
-    a, b = segments[:, :2], segments[:, 2:]
+    """Distances (m) from ``points [..., 2]`` to segments ``[..., 4]`` (x1, y1, x2, y2), pair by
+    pair with broadcasting: ``[...]``."""
+    a, b = segments[..., :2], segments[..., 2:]
     e = b - a
     t = np.clip(np.sum((points - a) * e, -1) / np.maximum(np.sum(e * e, -1), 1e-12), 0.0, 1.0)
-    return np.linalg.norm(points - (a + t[:, None] * e), axis=-1)
-
-
-def pairs_intersect(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Whether closed segments ``p [K, 4]`` and ``q [K, 4]`` intersect, pair by pair (``[K]``
-    bool): :func:`sgjax.kernels.geometry.segments_intersect`'s test, vectorised."""
-    p1, p2, q1, q2 = p[:, :2], p[:, 2:], q[:, :2], q[:, 2:]
-
-    def orient(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-        return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-
-    def on_segment(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-        low, high = np.minimum(a, b) - 1e-9, np.maximum(a, b) + 1e-9
-        return np.all((low <= c) & (c <= high), axis=1)
-
-    d1, d2 = orient(q1, q2, p1), orient(q1, q2, p2)
-    d3, d4 = orient(p1, p2, q1), orient(p1, p2, q2)
-    proper = (((d1 > 0) != (d2 > 0)) & ((d3 > 0) != (d4 > 0)) & (d1 * d2 != 0)
-              & (d3 * d4 != 0))
-    eps = 1e-12
-    return proper | ((np.abs(d1) < eps) & on_segment(q1, q2, p1)) | (
-        (np.abs(d2) < eps) & on_segment(q1, q2, p2)) | (
-        (np.abs(d3) < eps) & on_segment(p1, p2, q1)) | (
-        (np.abs(d4) < eps) & on_segment(p1, p2, q2))
+    return np.linalg.norm(points - (a + t[..., None] * e), axis=-1)

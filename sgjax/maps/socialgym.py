@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from sgjax.kernels.geometry import segments_intersect
+from sgjax.kernels.geometry import segments_intersect_pairs
 from sgjax.maps.routing import connected_components
 from sgjax.maps.schema import (
     DEFAULT_CLEARANCE,
@@ -196,8 +196,7 @@ def read_navigation_json(path: Path) -> tuple[list[dict[str, Any]], list[list[in
 
 
 def _visible(a: np.ndarray, b: np.ndarray, walls: np.ndarray) -> bool:
-    return not any(segments_intersect(tuple(a), tuple(b), tuple(w[:2]), tuple(w[2:]))
-                   for w in walls)
+    return not segments_intersect_pairs(np.concatenate([a, b])[None], walls).any()
 
 
 def keep_clear_of_walls(nodes: list[dict[str, Any]], walls: np.ndarray, clearance: float,

@@ -5,11 +5,11 @@ lowest index), its crossing test is the scalar one, and the map limits refuse be
 import numpy as np
 import pytest
 
-from sgjax.kernels.geometry import segments_intersect
+from sgjax.kernels.geometry import segments_intersect, segments_intersect_pairs
 from sgjax.maps import MapError, parse_map
 from sgjax.maps.check import check_map
 from sgjax.maps.schema import point_segment_distances
-from sgjax.maps.segment_grid import SegmentGrid, pairs_intersect
+from sgjax.maps.segment_grid import SegmentGrid
 from sgjax.maps.size_limits import MAX_NODES, MAX_WALLS, MAX_WALLS_PER_CELL
 
 
@@ -64,7 +64,7 @@ def test_near_segments_hold_every_crossing(seed):
         found.update(zip(query.tolist(), wall.tolist(), strict=True))
     assert crossing <= found
     q, w = np.array(sorted(found)).T
-    vectorised = pairs_intersect(queries[q], walls[w])
+    vectorised = segments_intersect_pairs(queries[q], walls[w])
     scalar = [segments_intersect(tuple(queries[i, :2]), tuple(queries[i, 2:]),
                                  tuple(walls[j, :2]), tuple(walls[j, 2:]))
               for i, j in zip(q, w, strict=True)]
