@@ -145,8 +145,11 @@ def checked_coordinate(source: str, path: str, value: float) -> float:
 
 
 def _expect_int(source: str, path: str, value: Any) -> int:
+    """An integer (a node id or a reference to one) that fits the int64 arrays ids live in."""
     if isinstance(value, bool) or not isinstance(value, int):
         raise MapError(source, path, f"expected an integer, got {_type_name(value)} {value!r}")
+    if not -2**63 <= value < 2**63:
+        raise MapError(source, path, f"{value} is beyond the 64-bit integer range of node ids")
     return int(value)
 
 
