@@ -4,7 +4,7 @@
 Its wings, lowest first (each imports only itself or lower; tests/contracts/test_architecture.py):
 
 - ``algorithm``: the training config, networks, observation statistics, the actor and PPO;
-- ``run``: checkpoints, processes, sweep spaces and SocialGym 2.0 config conversion;
+- ``run``: checkpoints, devices, processes, sweep spaces and SocialGym 2.0 config conversion;
 - ``reports``: learning curves, result tables and exports;
 - the experiment commands at the top: ``cli`` (``python -m train``, ``sgjax-train``),
   ``reproduce``, ``ablation`` and ``sweep`` (``python -m train.<command>``).

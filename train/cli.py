@@ -47,10 +47,10 @@ from train.algorithm.config import (
     load_config,
 )
 from train.algorithm.ppo import Trainer, seed_keys
-from train.algorithm.sharding import device_mesh, shard_runner
 from train.reports.curves import plot_learning_curves
 from train.reports.result_schemas import SEED_SPREAD
 from train.run import checkpoint
+from train.run.sharding import device_mesh, shard_runner
 from train.run.socialgym_config import convert, is_socialgym_config, read_socialgym_config, table
 
 COLUMNS = ("steps", "updates", "wall_s", "env_steps_per_s", "agent_steps_per_s", "num_agents",

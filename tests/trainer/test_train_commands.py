@@ -25,7 +25,7 @@ SHARDED = """
 import jax, numpy as np
 from train.algorithm.config import config_from_dict
 from train.algorithm.ppo import Trainer, seed_keys
-from train.algorithm.sharding import device_mesh, shard_runner
+from train.run.sharding import device_mesh, shard_runner
 assert jax.device_count() == 2, jax.devices()
 config = config_from_dict({"env": {"scenarios": ["open"], "curriculum": [[0, 2]]},
     "algorithm": {"num_envs": 8, "num_steps": 4, "total_steps": 32, "update_epochs": 1,

@@ -1,3 +1,2 @@
 """The algorithm: the training config, network initialisers and networks, running
-observation statistics, the trained actor, PPO (IPPO / MAPPO), and spreading environments over
-devices."""
+observation statistics, the trained actor and PPO (IPPO / MAPPO)."""
