@@ -778,7 +778,9 @@
       if (!field.text) {
         value = raw === "" ? NaN : field.integer ? Number(raw) : round6(Number(raw));
         if (!Number.isFinite(value) || (field.integer && !Number.isInteger(value))) {
-          message(`${field.label}: expected ${field.integer ? "an integer" : "a number"}, got ${JSON.stringify(input.value)}`, "error");
+          // a number field holds "" for text it cannot read: say what is expected, not ""
+          const got = raw === "" ? "" : `, got ${JSON.stringify(raw)}`;
+          message(`${field.label}: expected ${field.integer ? "an integer" : "a number"}${got}`, "error");
           input.value = String(field.value);
           return;
         }
