@@ -47,16 +47,14 @@ import jax.numpy as jnp
 import numpy as np
 from compiled import compile_measured
 
+from train.algorithm.actor import head_log_std
 from train.algorithm.config import TrainConfig, load_config
+from train.algorithm.gae import gae
+from train.algorithm.learner import compact_chunks, compact_trips
 from train.algorithm.networks import log_prob, sample
-from train.algorithm.ppo import (
-    Rollout,
-    RunnerState,
-    Trainer,
-    _critic_in,
-    compact_chunks,
-    compact_trips,
-)
+from train.algorithm.rollout import final_values
+from train.algorithm.state import Rollout, RunnerState, critic_input
+from train.algorithm.trainer import Trainer
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "train/configs/doorway.yaml"
@@ -202,14 +200,15 @@ class Phases:
                 actor_in, critic_in, starts, key, final, truncated = x
                 carry, out, value = t.network.apply(params, carry, actor_in[None],
                                                     critic_in[None], starts[None])
-                log_std = t._log_std(params)
+                log_std = head_log_std(params, discrete)
                 action = sample(key, out[0], log_std, discrete)
                 logp = log_prob(out[0], log_std, action, discrete)
-                final = t._final_values(params, carry, obs_stats, final, mask, truncated)
+                final = final_values(t.rollout_parts, params, carry, obs_stats, final, mask,
+                                     truncated)
                 return carry, (action, logp, value[0], final)
             return jax.lax.scan(body, carry, xs)
 
-        xs = (traj.actor_in, _critic_in(traj), traj.starts, keys, final, truncated)
+        xs = (traj.actor_in, critic_input(traj), traj.starts, keys, final, truncated)
         seconds, flops = timed(lane(run), self.runner.params, self.rollout.memory,
                                self.runner.obs_stats, self.runner.obs_mask, xs)
         self.add(f"policy forward (x{self.steps})", seconds, flops * self.steps)
@@ -242,8 +241,13 @@ class Phases:
         self.add(f"obs/return normalisation (x{self.steps})", seconds, flops * self.steps)
 
     def gae(self) -> None:
-        traj = self.rollout.traj
-        seconds, flops = timed(lane(self.trainer._advantages), traj, traj.value[-1])
+        traj, settings = self.rollout.traj, self.trainer.settings
+
+        def advantages(traj: Any, last_value: jax.Array) -> tuple:
+            return gae(traj, last_value, settings.read(None, "gamma"),
+                       settings.read(None, "gamma_lambda"))
+
+        seconds, flops = timed(lane(advantages), traj, traj.value[-1])
         self.add("GAE", seconds, flops * self.steps)
 
     def _row_flops(self, trainer: Trainer) -> float:
@@ -251,11 +255,11 @@ class Phases:
         (the same work for an MLP; a GRU's scan body would otherwise count once)."""
         order = jnp.arange(trainer.num_agents)
         memory, sub, adv, target = jax.tree.map(
-            lambda x: x[0], trainer._masked_batches(order, self.rollout))
+            lambda x: x[0], trainer.learner.masked_batches(order, self.rollout))
         flat = lambda x: x.reshape((1, -1) + x.shape[2:])  # noqa: E731
         rows = adv.size
         memory = jax.tree.map(lambda c: jnp.zeros((rows,) + c.shape[1:], c.dtype), memory)
-        grad = jax.value_and_grad(trainer._loss, has_aux=True)
+        grad = jax.value_and_grad(trainer.learner.loss, has_aux=True)
         _, flops = compiled_cost(lane(grad), self.runner.params, memory,
                                  jax.tree.map(flat, sub), flat(adv), flat(target))
         return flops
@@ -272,13 +276,13 @@ class Phases:
         out = {}
         for trainer, name in ((masked, "masked"), (compact, "compact")):
             if name == "masked":
-                cut, grad = trainer._masked_batches, jax.value_and_grad(trainer._loss,
+                cut, grad = trainer.learner.masked_batches, jax.value_and_grad(trainer.learner.loss,
                                                                         has_aux=True)
                 each = lambda p, b, g=grad: g(p, *b)  # noqa: E731
                 share = 1.0
             else:
-                cut = trainer._compact_batches
-                each = lambda p, b, t=trainer: t._compact_grads(p, b, self.rollout)  # noqa: E731
+                cut = trainer.learner.compact_batches
+                each = lambda p, b, t=trainer: t.learner.compact_grads(p, b, self.rollout)  # noqa: E731
             seconds, flops = timed(lane(cut), order, self.rollout, repeats=2)
             what = "shuffle + gather" if name == "masked" else "shuffle"
             self.add(f"{what}, {name} (x{self.epochs})", seconds * self.epochs,
@@ -404,7 +408,7 @@ def report(name: str, config: TrainConfig, updates: int, peaks: tuple[float, flo
     # alone, which can over- or understate a phase: the normalisation phase alone writes every
     # step's inputs to memory).
     rollout_s, _ = timed(lane(masked.collect), runner, repeats=2)
-    halves = {name: timed(lane(t._learn_lane), runner.params, runner.opt_state, runner.key,
+    halves = {name: timed(lane(t.learn_lane), runner.params, runner.opt_state, runner.key,
                           rollout, runner.hyper, repeats=2)[0]
               for t, name in ((masked, "masked"), (compact, "compact"))}
     print(f"as compiled in the update: rollout (steps, forward, normalisation, GAE) "

@@ -1,8 +1,8 @@
 """Training throughput: environment plus learning, in agent-steps per second.
 
 Times whole PPO updates (rollout with auto-reset, GAE, epochs of minibatches) of
-``train.algorithm.ppo.Trainer`` on the doorway for several batch sizes, robot counts and numbers of
-seeds, and prints agent-steps/s, env-steps/s (over all seeds), compile time, peak memory
+``train.algorithm.trainer.Trainer`` on the doorway for several batch sizes, robot counts and
+numbers of seeds, and prints agent-steps/s, env-steps/s (over all seeds), compile time, peak memory
 (XLA's memory analysis of the compiled chunk of updates) and, for several seeds, the cost of
 one seed lane against a run of one seed (``lane cost`` 1.00x: lanes of one call are as cheap
 per seed as separate runs; 2.00x: each lane costs twice a separate run), for each
@@ -30,7 +30,7 @@ import jax
 from compiled import compile_measured
 
 from train.algorithm.config import LANE_MODES, config_from_dict
-from train.algorithm.ppo import Trainer, seed_keys
+from train.algorithm.trainer import Trainer, seed_keys
 
 
 def time_updates(config: dict, seeds: int, updates: int) -> tuple[float, float, float]:

@@ -7,8 +7,8 @@ this module only chooses the folder and the thresholds:
 
 - the folder: ``$SGJAX_COMPILATION_CACHE`` if set, else ``$XDG_CACHE_HOME/sgjax/jax`` (by
   default ``~/.cache/sgjax/jax``); delete it to clear the cache;
-- every program is kept (no minimum compile time or size: the CPU compiles of a mini-game's
-  pieces take 0.1 to 15 s each and all add up);
+- every program is kept (no minimum compile time or size: a mini-game's many small compiles
+  add up);
 - a cache folder configured for JAX already (``JAX_COMPILATION_CACHE_DIR`` or
   ``jax.config.update``) is kept as it is.
 
@@ -16,18 +16,16 @@ Turn it off with ``--no-compilation-cache`` on any command, or ``SGJAX_NO_COMPIL
 
 The commands also compile XLA:CPU programs with its elemental emitters
 (``--xla_cpu_use_fusion_emitters=false`` appended to ``XLA_FLAGS`` before JAX starts its
-backends): the same arithmetic and the same speed once compiled (doorway training on the 2-core
-CPU: 42,700 vs 41,500 agent-steps/s), in about half the compile time (the doorway main job at
-262k steps: 115 s instead of 138 s end to end). It changes nothing on a GPU. Keep XLA's default
-with ``SGJAX_XLA_DEFAULT_EMITTERS=1`` or by putting ``--xla_cpu_use_fusion_emitters`` in
+backends): the same arithmetic and about the same speed once compiled, in less compile time
+(``bench/compile_time.py`` and docs/benchmark.md measure both). It changes nothing on a GPU.
+Keep XLA's default with ``SGJAX_XLA_DEFAULT_EMITTERS=1`` or by putting ``--xla_cpu_use_fusion_emitters`` in
 ``XLA_FLAGS`` yourself. Only jaxlib 0.10 gets the flag: 0.11 dropped it (XLA aborts on a flag
 it does not know).
 
 The trainer's update is the exception (:func:`learner_compiler_options`): where the commands
 chose the elemental emitters, it compiles with XLA's default ones (``jax.jit(...,
-compiler_options=...)``), which run its matmul-heavy learning phase faster (the paper's
-CADRL(L) cell, 2 seeds x 200k steps on the 2-core CPU: 39 s -> 31 s of training; CADRL 15 s ->
-13 s) for about 1 s more compile; every other program keeps the fast compile.
+compiler_options=...)``), which run its matmul-heavy learning phase faster for a little more
+compile (``bench/learner_roofline.py``); every other program keeps the fast compile.
 """
 
 from __future__ import annotations

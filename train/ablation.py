@@ -36,7 +36,6 @@ import dataclasses
 import functools
 import hashlib
 import json
-import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -47,14 +46,14 @@ import numpy as np
 from flax import serialization
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
-from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.provenance import cpu_model, git_state, provenance
 from sgjax.evaluation.report import format_points, format_summary, markdown_table
 from sgjax.evaluation.statistics import paired_difference, probability_of_improvement, summarize
+from sgjax.evaluation.trained import TrainedEvaluation
 from sgjax.files import write_atomic
 from sgjax.terms.base import ConfigError
 from sgjax.validation import check_keys, freeze, thaw
-from train.algorithm.actor import ActorWeights, lane_evaluator
+from train.algorithm.actor import ActorWeights
 from train.algorithm.config import (
     EVALUATION_SEED_OFFSET,
     TrainConfig,
@@ -63,14 +62,13 @@ from train.algorithm.config import (
     load_config,
     read_yaml,
 )
-from train.algorithm.ppo import Trainer, divisor_up_to, observation_mask
+from train.algorithm.env_batch import observation_mask
+from train.algorithm.trainer import Trainer
 from train.reports.result_schemas import ABLATION
-from train.run import checkpoint
+from train.run.loop import Call, equal_calls, train_in_calls
 from train.run.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
-
-# With --out, a group's lanes are checkpointed about this many times while they train
-# (<out>/ablation.partial/), which --resume continues.
-CALLS_PER_GROUP = 10
+from train.run.partial import SAVES_PER_RUN, PartialFile
+from train.run.phases import Phases
 
 
 @dataclasses.dataclass(frozen=True)
@@ -116,20 +114,18 @@ def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
                    partial: Path | None = None, resume: bool = False
                    ) -> tuple[Any, dict, list[tuple[str, int]]]:
     """Train every variant x seed as lanes of one jitted function
-    (``Trainer.update_chunk_lanes``): all lanes in one call, or ``lanes_per_run`` lanes at a
-    time (the same compiled function for every group, the last group padded; for memory).
-    ``lanes`` picks some of the lanes (indices into the variant x seed order; this process's
-    share of a multi-process sweep). Returns the lane-batched runner, the per-update logs
-    ``[lanes, updates]`` and the lane labels ``(variant, seed)``. Wide vmaps used to hang on
-    XLA:CPU; the cause is fixed (docs/xla-cpu-deadlock.md).
+    (:func:`train.run.loop.train_in_calls`): all lanes in one call, or ``lanes_per_run`` lanes
+    at a time (the same compiled function for every group, the last group padded; for
+    memory). ``lanes`` picks some of the lanes (indices into the variant x seed order; this
+    process's share of a multi-process sweep). Returns the lane-batched runner, the per-update
+    logs ``[lanes, updates]`` and the lane labels ``(variant, seed)``.
 
     Each call of lanes trains in calls of equal numbers of updates, and with ``partial`` (a
-    file path) is checkpointed there about :data:`CALLS_PER_GROUP` times
-    (:func:`train.run.checkpoint.checkpoint_due`; atomically: the runners and logs of the lane
-    calls so far); a ``resume`` run finding the file continues from it (the same trainer
-    config and lanes, or an error naming the file), so a group killed midway loses at most a
-    tenth of a lane call's work; a run without ``resume`` deletes a file it finds, and the
-    caller deletes it once the group's scores are kept."""
+    file path, :class:`train.run.partial.PartialFile`) is saved there about ten times (the
+    runners and logs of the lane calls so far); a ``resume`` run finding the file continues
+    from it (the same trainer config and lanes, or an error naming the file); a run without
+    ``resume`` deletes a file it finds, and the caller deletes it once the group's scores are
+    kept."""
     keys, weights, masks, labels = variant_inputs(trainer, variants, seeds)
     if lanes is not None:
         index = np.asarray(lanes, int)
@@ -141,22 +137,20 @@ def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
     updates = trainer.config.algorithm.num_updates
     count = len(labels)
     width = count if lanes_per_run is None else max(1, min(lanes_per_run, count))
-    per_call = divisor_up_to(updates, max(1, -(-updates // CALLS_PER_GROUP)))
+    per_call = equal_calls(updates, SAVES_PER_RUN)
     start = jax.jit(jax.vmap(trainer.init))
-    advance = trainer.jitted_chunk_lanes(per_call)
     runs = [np.minimum(np.arange(first, first + width), count - 1)
             for first in range(0, count, width)]  # the last run padded
     inputs = [jax.tree.map(lambda x, index=index: x[index], (keys, weights, masks))
               for index in runs]
-    meta = {"labels": [list(label) for label in labels], "width": width,
-            "per_call": per_call, "of": updates}
+    file = PartialFile(partial, trainer.config, "group", resume=resume, saves=SAVES_PER_RUN, meta={
+        "labels": [list(label) for label in labels], "width": width, "per_call": per_call,
+        "of": updates})
     trained: list[tuple[Any, dict]] = []  # (runner, logs [width, updates done]) per run
     done = 0  # updates done in the last of ``trained``
-    if partial is not None and partial.is_file() and not resume:
-        partial.unlink()
-    if partial is not None and partial.is_file():
-        template = jax.eval_shape(start, *inputs[0])
-        trained, done = _read_group_partial(partial, trainer, meta, template)
+    loaded = file.load(functools.partial(_lane_calls, jax.eval_shape(start, *inputs[0])))
+    if loaded is not None:
+        trained, done = loaded
         print(f"    resuming {partial} at update {done} of {updates} of lane call "
               f"{len(trained)} of {len(runs)}", flush=True)
     for number, args in enumerate(inputs):
@@ -165,60 +159,41 @@ def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
             done = 0
         elif number < len(trained) - 1 or done == updates:
             continue
-        runner, logs = trained[number]
-        while done < updates:
-            runner, new = advance(runner)
-            logs = new if not logs else jax.tree.map(
-                lambda a, b: jnp.concatenate([a, b], axis=1), logs, new)
-            done += per_call
-            trained[number] = (runner, logs)
-            if partial is not None and checkpoint.checkpoint_due(done, per_call, updates,
-                                                                 CALLS_PER_GROUP):
-                checkpoint.save(partial, trainer.config,
-                                {str(i): {"runner": r, "logs": g}
-                                 for i, (r, g) in enumerate(trained)},
-                                {**meta, "updates": done})
+
+        def keep(call: Call, number: int = number) -> None:
+            logs = trained[number][1]
+            trained[number] = (call.runner, call.logs if not logs else jax.tree.map(
+                lambda a, b: jnp.concatenate([a, b], axis=1), logs, call.logs))
+            file.save_if_due({str(i): {"runner": r, "logs": g}
+                              for i, (r, g) in enumerate(trained)}, call.done, per_call, updates)
+
+        train_in_calls(trainer, trained[number][0], per_call, updates, done=done,
+                       after_call=keep)
     runner, logs = jax.tree.map(lambda *xs: jnp.concatenate(xs)[:count], *trained)
     return runner, logs, labels
 
 
-def _read_group_partial(path: Path, trainer: Trainer, meta: dict, template: Any
-                        ) -> tuple[list[tuple[Any, dict]], int]:
-    """The lane calls saved in a group's partial checkpoint (:func:`train_variants`): their
-    runners (``template``'s shapes) and logs, and the updates done in the last; an error naming
-    the file when it was written for another trainer config or other lanes."""
-    config, saved, raw = checkpoint.read(path)
-    same = {key: saved.get(key) for key in meta} == meta
-    if not same or as_trained(config.to_dict()) != as_trained(trainer.config.to_dict()):
-        raise ValueError(f"{path}: a partly trained group of other lanes or another "
-                         f"configuration; delete it to train this group afresh")
+def _lane_calls(template: Any, raw: dict) -> list[tuple[Any, dict]]:
+    """The lane calls of a group's partial file (:func:`train_variants`): their runners
+    (``template``'s shapes) and logs."""
     trained = []
-    try:
-        for number in range(len(raw)):
-            entry = raw[str(number)]
-            runner = serialization.from_state_dict(template, entry["runner"])
-            logs = {name: jnp.asarray(value) for name, value in entry["logs"].items()}
-            trained.append((jax.tree.map(jnp.asarray, runner), logs))
-    except (KeyError, ValueError, TypeError) as err:
-        raise ValueError(f"{path}: does not fit this group's lanes ({err}); delete it to "
-                         f"train this group afresh") from err
-    return trained, int(saved["updates"])
+    for number in range(len(raw)):
+        entry = raw[str(number)]
+        runner = serialization.from_state_dict(template, entry["runner"])
+        logs = {name: jnp.asarray(value) for name, value in entry["logs"].items()}
+        trained.append((jax.tree.map(jnp.asarray, runner), logs))
+    return trained
 
 
-def evaluate_lanes(trainer: Trainer, runner: Any, env: Any, env_params: Any, episodes: int,
-                   key: jax.Array) -> np.ndarray:
-    """Team success of every lane over ``episodes`` episodes of ``env``. Returns ``[lanes]``."""
-    values = lane_metrics(trainer, runner, env, env_params, episodes, key)
-    return np.mean(values["team_success"], axis=1)
-
-
-def lane_metrics(trainer: Trainer, runner: Any, env: Any, env_params: Any, episodes: int,
-                 key: jax.Array) -> dict[str, np.ndarray]:
-    """Every metric's per-episode values for every lane, ``{name: [lanes, episodes]}``: one
-    compiled evaluation, ``vmap``-ed over the lanes (seeds or variants), actions sampled."""
-    evaluator = lane_evaluator(trainer.config.network, trainer.actor, env, env_params, episodes)
-    values, _ = evaluator(ActorWeights.of(runner), key)
-    return {name: np.asarray(v) for name, v in values.items()}
+def score_lanes(trainer: Trainer, runner: Any, scenario: str, counts: Sequence[int],
+                episodes: int, key: jax.Array) -> np.ndarray:
+    """Team success of every lane over ``episodes`` episodes of ``scenario`` at each robot
+    count, actions sampled: ``[counts, lanes]`` (one compiled evaluation,
+    :class:`sgjax.evaluation.trained.TrainedEvaluation`)."""
+    evaluation = TrainedEvaluation(trainer.trained_actor, scenario, counts, episodes,
+                                   trainer.config.env.options,
+                                   max_agents=max(*counts, trainer.slots))
+    return evaluation.scores(ActorWeights.of(runner), key, "team_success")
 
 
 # The paper's Table 5 (intersection, 4 robots): a change from its PPO baseline, and the
@@ -342,74 +317,83 @@ def run_ablation(config: TrainConfig, variants: Mapping[str, Variant], seeds: in
     done = dict(done or {})
     counts = [robots] if isinstance(robots, int) else [int(n) for n in robots]
     groups = variant_groups(variants, variants_per_group)
-    # Every group's config, environment and network first (terms, weights, shapes; nothing is
-    # compiled): a bad variant fails before any training.
-    firsts = [next(iter(group.values())) for group in groups]
-    by_kind: dict[tuple, Trainer] = {}
-    for first in firsts:
-        if (first.network, first.settings) not in by_kind:
-            by_kind[first.network, first.settings] = Trainer(
-                _variant_config(config, first, seeds))
-    trainers = [by_kind[first.network, first.settings] for first in firsts]
+    trainers = group_trainers(config, groups, seeds)
     scores: dict[int, dict[str, list[float]]] = {n: {} for n in counts}
-    seconds = {"compile and train": 0.0, "evaluate": 0.0}
-    scenario = config.env.scenarios[0]
-    key = jax.random.PRNGKey(config.seed + EVALUATION_SEED_OFFSET)
+    phases = Phases("compile and train", "evaluate")
     for index, (group, trainer) in enumerate(zip(groups, trainers, strict=True)):
         name_of_group = group_name(group)
+        where = f"group {index + 1} of {len(groups)} ({', '.join(group)}"
         if name_of_group in done:
             record = done[name_of_group]
-            for n in counts:
-                for name in group:
-                    scores[n][name] = [float(v) for v in record["scores"][str(n)][name]]
-            for phase, value in record["seconds"].items():
-                seconds[phase] += float(value)
-            log(f"group {index + 1} of {len(groups)} ({', '.join(group)}): kept from the "
-                f"partial run")
-            continue
-        labels = [(name, seed) for name in group for seed in range(seeds)]
-        log(f"group {index + 1} of {len(groups)} ({', '.join(group)}; network "
-            f"{trainer.config.network.kind}): training {len(labels)} lanes of "
-            f"{trainer.config.algorithm.total_steps:,} environment steps")
-        share = lane_share(len(labels), processes)
-        t0 = t1 = time.perf_counter()
-        team = np.zeros((len(counts), 0))
-        if len(share):
+            log(f"{where}): kept from the partial run")
+        else:
+            log(f"{where}; network {trainer.config.network.kind}): training "
+                f"{len(group) * seeds} lanes of {trainer.config.algorithm.total_steps:,} "
+                "environment steps")
             lane_file = None if partial_dir is None else partial_dir / f"group-{index + 1}.msgpack"
+            record = train_group(trainer, group, seeds, lanes_per_run, episodes, counts,
+                                 processes, lane_file, resume, log)
+            if on_group is not None:
+                on_group(name_of_group, record)
+            if lane_file is not None:
+                lane_file.unlink(missing_ok=True)
+        for n in counts:
+            for name in group:
+                scores[n][name] = [float(v) for v in record["scores"][str(n)][name]]
+        for phase, value in record["seconds"].items():
+            phases.add(phase, value)
+    by_robots = {n: {name: scores[n][name] for name in variants} for n in counts}
+    return {"scores": by_robots[counts[0]], "scores_by_robots": by_robots,
+            "seconds": phases.seconds}
+
+
+def group_trainers(config: TrainConfig, groups: Sequence[Mapping[str, Variant]], seeds: int
+                   ) -> list[Trainer]:
+    """Every group's trainer, one per network and settings (config, environment and network
+    built, nothing compiled): a bad variant fails before any training."""
+    by_kind: dict[tuple, Trainer] = {}
+    trainers = []
+    for group in groups:
+        first = next(iter(group.values()))
+        kind = (first.network, first.settings)
+        if kind not in by_kind:
+            by_kind[kind] = Trainer(_variant_config(config, first, seeds))
+        trainers.append(by_kind[kind])
+    return trainers
+
+
+def train_group(trainer: Trainer, group: Mapping[str, Variant], seeds: int,
+                lanes_per_run: int | None, episodes: int, counts: Sequence[int],
+                processes: Processes, lane_file: Path | None, resume: bool, log
+                ) -> dict[str, Any]:
+    """Train and evaluate one group's lanes (this process's share of them; the scores
+    gathered from every process): its record, ``{"scores": {count: {variant: [seeds]}},
+    "seconds": {phase: s}, "git", "cpu"}``."""
+    config = trainer.config
+    labels = [(name, seed) for name in group for seed in range(seeds)]
+    share = lane_share(len(labels), processes)
+    phases = Phases("compile and train", "evaluate")
+    team = np.zeros((len(counts), 0))
+    if len(share):
+        with phases.timing("compile and train"):
             runner, _, _ = train_variants(trainer, group, seeds, lanes_per_run, share,
                                           partial=lane_file, resume=resume)
-            jax.block_until_ready(runner.params)
-            t1 = time.perf_counter()
-            env, by_count = params_by_count(scenario, counts,
-                                            max_agents=max(*counts, trainer.slots),
-                                            options=trainer.config.env.options)
-            evaluator = lane_evaluator(trainer.config.network, trainer.actor, env,
-                                       by_count[counts[0]], episodes)
-            team = np.stack([np.mean(np.asarray(evaluator(ActorWeights.of(runner), key,
-                                                          by_count[n])[0]["team_success"]),
-                                     axis=1) for n in counts])
-        t2 = time.perf_counter()
-        seconds["compile and train"] += t1 - t0
-        seconds["evaluate"] += t2 - t1
-        for n, row in zip(counts, team, strict=True):
-            for (name, _), value in zip(labels, gather_lanes(row, len(labels), processes),
-                                        strict=True):
-                scores[n].setdefault(name, []).append(float(value))
-        if on_group is not None:
-            on_group(name_of_group, {
-                "scores": {str(n): {name: scores[n][name] for name in group} for n in counts},
-                "seconds": {"compile and train": t1 - t0, "evaluate": t2 - t1},
-                # a resumed run's groups may come from other commits or machines
-                "git": git_state(), "cpu": cpu_model()})
-        if partial_dir is not None:
-            (partial_dir / f"group-{index + 1}.msgpack").unlink(missing_ok=True)
-        where = "" if processes.count == 1 else (
-            f" (process {processes.index} of {processes.count}: lanes {share.tolist()})")
-        log(f"trained and evaluated {len(share)} of {len(labels)} lanes ({', '.join(group)}; "
-            f"network {trainer.config.network.kind}) in {t1 - t0:.0f} s + {t2 - t1:.0f} s"
-            f"{where}")
-    by_robots = {n: {name: scores[n][name] for name in variants} for n in counts}
-    return {"scores": by_robots[counts[0]], "scores_by_robots": by_robots, "seconds": seconds}
+        with phases.timing("evaluate"):
+            team = score_lanes(trainer, runner, config.env.scenarios[0], counts, episodes,
+                               jax.random.PRNGKey(config.seed + EVALUATION_SEED_OFFSET))
+    scores: dict[str, dict[str, list[float]]] = {str(n): {} for n in counts}
+    for n, row in zip(counts, team, strict=True):
+        for (name, _), value in zip(labels, gather_lanes(row, len(labels), processes),
+                                    strict=True):
+            scores[str(n)].setdefault(name, []).append(float(value))
+    seconds = phases.seconds
+    where = "" if processes.count == 1 else (
+        f" (process {processes.index} of {processes.count}: lanes {share.tolist()})")
+    log(f"trained and evaluated {len(share)} of {len(labels)} lanes ({', '.join(group)}; "
+        f"network {config.network.kind}) in {seconds['compile and train']:.0f} s + "
+        f"{seconds['evaluate']:.0f} s{where}")
+    # a resumed run's groups may come from other commits or machines
+    return {"scores": scores, "seconds": seconds, "git": git_state(), "cpu": cpu_model()}
 
 
 PARTIAL = "ablation.partial.json"
@@ -495,7 +479,8 @@ def format_table(scores: Mapping[str, list[float]], paper: Mapping[str, int | No
     return "\n".join(lines) + "\n"
 
 
-def main(argv: list[str] | None = None) -> None:
+def parser() -> argparse.ArgumentParser:
+    """The command line of ``python -m train.ablation``."""
     parser = argparse.ArgumentParser(
         prog="python -m train.ablation",
         description="Train reward and observation ablations as vmap lanes and print the "
@@ -532,14 +517,55 @@ def main(argv: list[str] | None = None) -> None:
                              "of several processes restarts such a group)")
     add_cache_arguments(parser)
     add_arguments(parser)
-    args = parser.parse_args(argv)
+    return parser
+
+
+def check_arguments(args: argparse.Namespace, processes: Processes) -> None:
+    """Errors for arguments that cannot run (counts below 1, a resume without a folder or
+    over several processes)."""
+    if args.seeds < 1 or any(value is not None and value < 1 for value in (
+            args.lanes_per_run, args.variants_per_group)):
+        raise ConfigError("--seeds, --lanes-per-run and --variants-per-group must be at "
+                          "least 1")
+    if args.robots is not None and min(args.robots) < 1:
+        raise ConfigError(f"--robots: counts must be at least 1, got {args.robots}")
+    if args.resume and args.out is None:
+        raise ConfigError("--resume needs --out (the folder of the run to continue)")
+    if args.resume and processes.count > 1:
+        raise ConfigError("--resume runs in one process (the partial result is process "
+                          "0's); continue without --coordinator")
+
+
+def write_outputs(out: Path, config: TrainConfig, variants: Mapping[str, Variant],
+                  table: str, result: dict, done: Mapping[str, Any], seeds: int,
+                  episodes: int, counts: Sequence[int]) -> None:
+    """``ablation.md`` and ``ablation.json`` (schema :data:`ABLATION`, with provenance) in
+    ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "ablation.md").write_text(table)
+    made = provenance(config.to_dict(), seeds={
+        "training": [config.seed + i for i in range(seeds)],
+        "evaluation": [config.seed + EVALUATION_SEED_OFFSET]},
+        episodes_per_cell=episodes, seconds=result["seconds"])
+    write_atomic(out / "ablation.json", json.dumps(
+        {"schema_version": ABLATION, "provenance": made, "config": config.to_dict(),
+         "seeds": seeds, "episodes": episodes, "robots": counts[0],
+         "team_success": result["scores"],
+         "team_success_by_robots": {str(n): v for n, v in result["scores_by_robots"].items()},
+         "paired": {str(n): paired_against_baseline(v) for n, v in
+                    result["scores_by_robots"].items()},
+         "variants": {name: dataclasses.asdict(v) for name, v in variants.items()},
+         "groups": {name: {key: record[key] for key in ("git", "cpu", "seconds")
+                           if key in record} for name, record in done.items()},
+         "seconds": result["seconds"]}, indent=1))
+
+
+def main(argv: list[str] | None = None) -> None:
+    args = parser().parse_args(argv)
     try:
-        if args.seeds < 1 or any(value is not None and value < 1 for value in (
-                args.lanes_per_run, args.variants_per_group)):
-            raise ConfigError("--seeds, --lanes-per-run and --variants-per-group must be at "
-                              "least 1")
         cache_from_arguments(args)
         processes = initialize(args.coordinator, args.num_processes, args.process_id)
+        check_arguments(args, processes)
         config = load_config(args.config, args.set)
         if args.variants is None:
             variants = {name: v for name, (v, _) in PAPER_VARIANTS.items()}
@@ -548,16 +574,10 @@ def main(argv: list[str] | None = None) -> None:
             variants, paper = load_variants(args.variants), {}
         episodes = args.episodes or config.evaluation.episodes
         counts = args.robots or [config.env.curriculum[-1][1]]
-        if min(counts) < 1:
-            raise ConfigError(f"--robots: counts must be at least 1, got {counts}")
-        if args.resume and args.out is None:
-            raise ConfigError("--resume needs --out (the folder of the run to continue)")
-        if args.resume and processes.count > 1:
-            raise ConfigError("--resume runs in one process (the partial result is process "
-                              "0's); continue without --coordinator")
-        start = time.perf_counter()
+        phases = Phases()
         log = functools.partial(print, flush=True)
-        partial = None if args.out is None else Path(args.out) / PARTIAL
+        out = None if args.out is None else Path(args.out)
+        partial = None if out is None else out / PARTIAL
         fingerprint = run_fingerprint(config, variants, args.seeds, episodes, counts,
                                       args.variants_per_group)
         done = read_partial(partial, fingerprint) if args.resume else {}
@@ -572,47 +592,28 @@ def main(argv: list[str] | None = None) -> None:
             write_atomic(partial, json.dumps({"fingerprint": fingerprint, "groups": done},
                                              indent=1))
 
-        lane_files = None if partial is None or processes.count > 1 else (
-            Path(args.out) / LANE_PARTIALS)
+        lane_files = None if out is None or processes.count > 1 else out / LANE_PARTIALS
         result = run_ablation(config, variants, args.seeds, args.lanes_per_run, episodes,
                               counts, log=log, processes=processes, done=done, on_group=keep,
                               partial_dir=lane_files, resume=args.resume,
                               variants_per_group=args.variants_per_group)
         table = "\n".join(format_table(scores, paper, config.env.scenarios[0], n, episodes)
                           for n, scores in result["scores_by_robots"].items())
-        t_write = time.perf_counter()
         if not processes.is_main:
             print(f"process {processes.index}: done; process 0 writes the table")
             return
-        if args.out is not None:
-            out = Path(args.out)
-            out.mkdir(parents=True, exist_ok=True)
-            (out / "ablation.md").write_text(table)
-            made = provenance(config.to_dict(), seeds={
-                "training": [config.seed + i for i in range(args.seeds)],
-                "evaluation": [config.seed + EVALUATION_SEED_OFFSET]},
-                episodes_per_cell=episodes, seconds=result["seconds"])
-            write_atomic(out / "ablation.json", json.dumps(
-                {"schema_version": ABLATION, "provenance": made, "config": config.to_dict(),
-                 "seeds": args.seeds,
-                 "episodes": episodes,
-                 "robots": counts[0], "team_success": result["scores"],
-                 "team_success_by_robots": {str(n): v for n, v in
-                                            result["scores_by_robots"].items()},
-                 "paired": {str(n): paired_against_baseline(v) for n, v in
-                            result["scores_by_robots"].items()},
-                 "variants": {name: dataclasses.asdict(v) for name, v in variants.items()},
-                 "groups": {name: {key: record[key] for key in ("git", "cpu", "seconds")
-                                   if key in record} for name, record in done.items()},
-                 "seconds": result["seconds"]}, indent=1))
-            if partial.is_file():
-                partial.unlink()
-            if lane_files is not None and lane_files.is_dir() and not any(lane_files.iterdir()):
-                lane_files.rmdir()
+        for phase, value in result["seconds"].items():
+            phases.add(phase, value)
+        with phases.timing("write"):
+            if out is not None:
+                write_outputs(out, config, variants, table, result, done, args.seeds,
+                              episodes, counts)
+                partial.unlink(missing_ok=True)
+                if lane_files is not None and lane_files.is_dir() and not any(
+                        lane_files.iterdir()):
+                    lane_files.rmdir()
         print("\n" + table)
-        times = {**result["seconds"], "write": time.perf_counter() - t_write}
-        print("time: " + ", ".join(f"{k} {v:.0f} s" for k, v in times.items())
-              + f"; total {time.perf_counter() - start:.0f} s")
+        print(phases.line())
     except (ConfigError, ValueError) as err:
         raise SystemExit(f"ablation: {err}") from err
 

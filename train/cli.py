@@ -25,18 +25,19 @@ import numpy as np
 import yaml
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
-from sgjax.evaluation.evaluate import evaluate, lane_results, params_by_count, policy_environment
+from sgjax.evaluation.evaluate import evaluate, lane_results
 from sgjax.evaluation.metrics import DEFAULT_CONSTANTS
 from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.render import episode_frames, save_gif
 from sgjax.evaluation.report import markdown_table, summary_tables, write_all
 from sgjax.evaluation.runner import Episodes
 from sgjax.evaluation.statistics import Summary, paired_difference, seed_aggregate
+from sgjax.evaluation.trained import TrainedEvaluation
 from sgjax.files import write_atomic
 from sgjax.maps.io import load as load_map
 from sgjax.terms.base import ConfigError
 from sgjax.version import __version__
-from train.algorithm.actor import ActorLayout, ActorWeights, lane_evaluator, table_evaluator
+from train.algorithm.actor import ActorLayout, ActorWeights, TrainedActor
 from train.algorithm.config import (
     EVALUATION_SEED_OFFSET,
     VALIDATION_SEED,
@@ -46,10 +47,12 @@ from train.algorithm.config import (
     config_from_dict,
     load_config,
 )
-from train.algorithm.ppo import Trainer, seed_keys
+from train.algorithm.trainer import Trainer, seed_keys
 from train.reports.curves import plot_learning_curves
 from train.reports.result_schemas import SEED_SPREAD
 from train.run import checkpoint
+from train.run.loop import Call, train_in_calls
+from train.run.phases import Phases
 from train.run.sharding import device_mesh, shard_runner
 from train.run.socialgym_config import convert, is_socialgym_config, read_socialgym_config, table
 
@@ -133,39 +136,81 @@ def _updates_per_chunk(config: TrainConfig) -> int:
     return max(1, min(a.num_updates, interval // a.steps_per_update))
 
 
-def make_evaluator(trainer: Trainer, scenario: str, episodes: int):
-    """``(seed-batched ActorWeights, key, num_agents) -> (values, robot)`` evaluating every seed
-    at once (:func:`train.algorithm.actor.lane_evaluator`), compiled once for every robot count
-    of the curriculum (the environment at the trainer's slots; counts are params) and, in one
-    process, for every evaluator of the same setting (a resumed run's, say). It is not the
-    final evaluation's program: that one plays at ``max(evaluation.num_agents)`` slots and
-    every count and policy at once (:func:`final_evaluation`), other shapes."""
-    counts = sorted({n for _, n in trainer.config.env.curriculum})
-    env, by_count = params_by_count(scenario, counts, max_agents=trainer.slots,
-                                    options=trainer.config.env.options)
-    evaluator = lane_evaluator(trainer.config.network, trainer.actor, env, by_count[counts[0]],
-                               episodes, trainer.config.evaluation.deterministic)
-    return lambda weights, key, n: evaluator(weights, key, by_count[n])
+class PeriodicWork:
+    """What ``python -m train`` does between training calls: the progress row and bar, the
+    periodic evaluation on the validation episodes (every seed at once,
+    :class:`sgjax.evaluation.trained.TrainedEvaluation` compiled once for every robot count of
+    the curriculum) with the best checkpoint, and the latest checkpoint."""
+
+    def __init__(self, config: TrainConfig, trainer: Trainer, out: Path, meta: dict,
+                 resume: bool, phases: Phases):
+        self.config, self.trainer, self.meta, self.phases = config, trainer, meta, phases
+        self.latest = out / "checkpoints" / "latest.msgpack"
+        self.best = out / "checkpoints" / "best.msgpack"
+        a, e, lg = config.algorithm, config.evaluation, config.logging
+        self.logger = Logger(out, lg.tensorboard, append=resume)
+        self.progress = Progress(a.num_updates * a.steps_per_update, meta["steps"],
+                                 lg.progress)
+        self.next_eval = (meta["steps"] // e.every + 1) * e.every
+        self.next_save = (meta["steps"] // lg.checkpoint_every + 1) * lg.checkpoint_every
+        self.wall = meta["wall_s"]
+        self._evaluation: TrainedEvaluation | None = None
+
+    def __call__(self, call: Call) -> None:
+        config, meta, a = self.config, self.meta, self.config.algorithm
+        logs = jax.device_get(call.logs)
+        self.wall += call.seconds
+        meta["updates"] = call.done
+        advanced = call.count * a.steps_per_update * config.num_seeds
+        meta["steps"] = int(np.max(logs["steps"]))
+        row = _row(logs, meta, self.wall, advanced / call.seconds, self.trainer)
+        last = meta["updates"] >= a.num_updates
+        if meta["steps"] >= self.next_eval or last:
+            self.next_eval += config.evaluation.every
+            with self.phases.timing("periodic evaluation"):
+                self.evaluate(call.runner, int(np.max(logs["num_agents"])), row)
+        self.logger.log(row)
+        self.progress.update(meta["steps"], advanced // config.num_seeds,
+                             f"{row['env_steps_per_s']:,.0f} env-steps/s, "
+                             f"{row['agent_steps_per_s']:,.0f} agent-steps/s, success "
+                             f"{row['team_success']:.2f} team / {row['robot_success']:.2f} robot")
+        if meta["steps"] >= self.next_save or last:
+            self.next_save += config.logging.checkpoint_every
+            meta["wall_s"] = self.wall
+            checkpoint.save(self.latest, config, call.runner, meta, self.trainer.actor)
+
+    def evaluate(self, runner: Any, count: int, row: dict) -> None:
+        """Every seed on the validation episodes with ``count`` robots; the row's evaluation
+        columns, and the best checkpoint when the mean team success is the best yet."""
+        config, meta = self.config, self.meta
+        e, scenario = config.evaluation, config.env.scenarios[0]
+        if self._evaluation is None:
+            counts = sorted({n for _, n in config.env.curriculum})
+            self._evaluation = TrainedEvaluation(
+                self.trainer.trained_actor, scenario, counts, e.episodes, config.env.options,
+                max_agents=self.trainer.slots, modes=e.deterministic)
+        values, _ = jax.device_get(self._evaluation.lanes(
+            ActorWeights.of(runner), jax.random.PRNGKey(VALIDATION_SEED), count))
+        team = np.mean(values["team_success"], axis=1)
+        robot = np.nanmean(values["success"], axis=1)
+        row["eval_team_success"], row["eval_robot_success"] = float(np.mean(team)), float(
+            np.mean(robot))
+        self.progress.write(f"step {meta['steps']:,}: evaluation ({e.episodes} episodes, "
+                            f"{count} robots, {scenario}) team success {np.mean(team):.3f}, "
+                            f"robot success {np.mean(robot):.3f}")
+        if np.mean(team) > meta["best_success"]:
+            meta["best_success"], meta["best_seed"] = float(np.mean(team)), int(np.argmax(team))
+            meta["wall_s"] = self.wall
+            checkpoint.save(self.best, config, runner, meta, self.trainer.actor)
+
+    def close(self) -> None:
+        self.progress.close()
+        self.logger.close()
 
 
-def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any]:
-    """Run the whole command; returns the final summary (also printed), with where its time
-    went under ``"seconds"`` (also printed last)."""
-    start = time.perf_counter()
-    a = config.algorithm
-    out.mkdir(parents=True, exist_ok=True)
-    devices = jax.devices()
-    trainer = Trainer(config)
-    print(f"sgjax {__version__}, jax {jax.__version__} on {len(devices)} "
-          f"{devices[0].platform} device(s): {a.name.upper()} on {', '.join(config.env.scenarios)},"
-          f" robots {config.env.curriculum} in {trainer.slots} slots, {trainer.num_envs} envs, "
-          f"{a.total_steps:,} env steps, {config.num_seeds} seed(s), network "
-          f"{config.network.kind}/{config.network.others_encoder}, "
-          f"{config.env.action_mode} actions")
-    (out / "config.yaml").write_text(yaml.safe_dump(config.to_dict(), sort_keys=False))
-    latest, best_path = out / "checkpoints" / "latest.msgpack", out / "checkpoints" / "best.msgpack"
-
-    keys = seed_keys(config)
+def _start(trainer: Trainer, latest: Path, resume: bool) -> tuple[Any, dict[str, Any]]:
+    """Fresh lanes of every seed, or the run in ``latest`` with ``resume``; spread over the
+    devices when there are several."""
     meta = {"updates": 0, "steps": 0, "best_success": -1.0, "best_seed": 0, "wall_s": 0.0}
     if resume:
         if not latest.is_file():
@@ -173,87 +218,57 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
         runner, meta = checkpoint.restore(latest, trainer)
         print(f"resumed from {latest} at step {meta['steps']:,} (update {meta['updates']})")
     else:
-        runner = jax.jit(jax.vmap(trainer.init))(keys)
+        runner = jax.jit(jax.vmap(trainer.init))(seed_keys(trainer.config))
+    devices = jax.devices()
     if len(devices) > 1:
         runner = shard_runner(runner, device_mesh(devices), trainer.num_envs)
+    return runner, meta
 
-    per_chunk = _updates_per_chunk(config)
-    chunk = trainer.jitted_chunk_lanes(per_chunk, donate=True)
-    t0 = time.perf_counter()
-    compiled = chunk.lower(runner).compile()
-    compile_s = time.perf_counter() - t0
-    print(f"compiled {per_chunk} updates ({per_chunk * a.steps_per_update:,} env steps) per "
-          f"call in {time.perf_counter() - t0:.1f} s")
 
-    scenario = config.env.scenarios[0]
-    evaluator = None
-    logger = Logger(out, config.logging.tensorboard, append=resume)
-    progress = Progress(a.num_updates * a.steps_per_update, meta["steps"],
-                        config.logging.progress)
-    next_eval = (meta["steps"] // config.evaluation.every + 1) * config.evaluation.every
-    next_save = (meta["steps"] // config.logging.checkpoint_every + 1) * \
-        config.logging.checkpoint_every
-    wall = meta["wall_s"]
-    wall_at_start, eval_s = wall, 0.0
-    while meta["updates"] < a.num_updates:
-        if meta["updates"] + per_chunk > a.num_updates:  # the last, shorter chunk
-            per_chunk = a.num_updates - meta["updates"]
-            compiled = trainer.jitted_chunk_lanes(per_chunk)
-        t0 = time.perf_counter()
-        runner, logs = compiled(runner)
-        logs = jax.device_get(logs)
-        elapsed = time.perf_counter() - t0
-        wall += elapsed
-        meta["updates"] += per_chunk
-        advanced = per_chunk * a.steps_per_update * config.num_seeds
-        meta["steps"] = int(np.max(logs["steps"]))
-        row = _row(logs, meta, wall, advanced / elapsed, trainer)
-        if meta["steps"] >= next_eval or meta["updates"] >= a.num_updates:
-            next_eval += config.evaluation.every
-            n = int(np.max(logs["num_agents"]))
-            t_eval = time.perf_counter()
-            if evaluator is None:
-                evaluator = make_evaluator(trainer, scenario, config.evaluation.episodes)
-            team, robot = _evaluate_seeds(evaluator, runner, n)
-            eval_s += time.perf_counter() - t_eval
-            row["eval_team_success"], row["eval_robot_success"] = float(np.mean(team)), float(
-                np.mean(robot))
-            progress.write(f"step {meta['steps']:,}: evaluation ({config.evaluation.episodes} "
-                           f"episodes, {n} robots, {scenario}) team success "
-                           f"{np.mean(team):.3f}, robot success {np.mean(robot):.3f}")
-            if np.mean(team) > meta["best_success"]:
-                meta["best_success"], meta["best_seed"] = float(np.mean(team)), int(
-                    np.argmax(team))
-                meta["wall_s"] = wall
-                checkpoint.save(best_path, config, runner, meta, trainer.actor)
-        logger.log(row)
-        progress.update(meta["steps"], advanced // config.num_seeds,
-                        f"{row['env_steps_per_s']:,.0f} env-steps/s, "
-                        f"{row['agent_steps_per_s']:,.0f} agent-steps/s, success "
-                        f"{row['team_success']:.2f} team / {row['robot_success']:.2f} robot")
-        if meta["steps"] >= next_save or meta["updates"] >= a.num_updates:
-            next_save += config.logging.checkpoint_every
-            meta["wall_s"] = wall
-            checkpoint.save(latest, config, runner, meta, trainer.actor)
-    progress.close()
-    logger.close()
+def _announce(config: TrainConfig, trainer: Trainer) -> None:
+    a, devices = config.algorithm, jax.devices()
+    print(f"sgjax {__version__}, jax {jax.__version__} on {len(devices)} "
+          f"{devices[0].platform} device(s): {a.name.upper()} on {', '.join(config.env.scenarios)},"
+          f" robots {config.env.curriculum} in {trainer.slots} slots, {trainer.num_envs} envs, "
+          f"{a.total_steps:,} env steps, {config.num_seeds} seed(s), network "
+          f"{config.network.kind}/{config.network.others_encoder}, "
+          f"{config.env.action_mode} actions")
+
+
+def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any]:
+    """Run the whole command; returns the final summary (also printed), with where its time
+    went under ``"seconds"`` (also printed last)."""
+    phases = Phases("compile", "train", "periodic evaluation")
+    a = config.algorithm
+    out.mkdir(parents=True, exist_ok=True)
+    trainer = Trainer(config)
+    _announce(config, trainer)
+    (out / "config.yaml").write_text(yaml.safe_dump(config.to_dict(), sort_keys=False))
+    runner, meta = _start(trainer, out / "checkpoints" / "latest.msgpack", resume)
+    per_call = _updates_per_chunk(config)
+    _, compile_s = trainer.compiled_chunk_lanes(per_call, runner, donate=True)
+    phases.add("compile", compile_s)
+    print(f"compiled {per_call} updates ({per_call * a.steps_per_update:,} env steps) per "
+          f"call in {compile_s:.1f} s")
+    work = PeriodicWork(config, trainer, out, meta, resume, phases)
+    train_in_calls(trainer, runner, per_call, a.num_updates, done=meta["updates"],
+                   donate=True, phases=phases, after_call=work)
+    work.close()
     print(f"wrote {plot_learning_curves([out], out / 'learning_curve.png')}")
-    print(f"trained {meta['steps']:,} env steps in {wall:.0f} s "
-          f"({meta['steps'] * trainer.slots / max(wall, 1e-9):,.0f} agent-steps/s, "
+    print(f"trained {meta['steps']:,} env steps in {work.wall:.0f} s "
+          f"({meta['steps'] * trainer.slots / max(work.wall, 1e-9):,.0f} agent-steps/s, "
           f"periodic evaluation apart); best evaluation team success "
-          f"{meta['best_success']:.3f} -> {best_path}")
-    train_s = wall - wall_at_start
-    other_s = time.perf_counter() - start - compile_s - train_s - eval_s
-    summary = final_evaluation(config, out, best_path if best_path.is_file() else latest)
-    seconds = {"compile": compile_s, "train": train_s, "periodic evaluation": eval_s,
-               "start-up, logs and checkpoints": other_s, **summary["seconds"]}
-    print("time: " + ", ".join(f"{k} {v:.0f} s" for k, v in seconds.items())
-          + f"; total {time.perf_counter() - start:.0f} s (each phase includes its compiles)")
+          f"{meta['best_success']:.3f} -> {work.best}")
+    phases.add("start-up, logs and checkpoints", phases.elapsed() - sum(phases.seconds.values()))
+    summary = final_evaluation(config, out, work.best if work.best.is_file() else work.latest)
+    for name, value in summary["seconds"].items():
+        phases.add(name, value)
+    print(phases.line(" (each phase includes its compiles)"))
     made = provenance(config.to_dict(), seeds=run_seeds(config),
                       episodes_per_cell=config.evaluation.episodes,
-                      seconds={**seconds, "total": time.perf_counter() - start})
+                      seconds={**phases.seconds, "total": phases.elapsed()})
     write_atomic(out / "provenance.json", json.dumps(made, indent=1) + "\n")
-    return {**summary, "seconds": seconds}
+    return {**summary, "seconds": phases.seconds}
 
 
 def _row(logs: dict, meta: dict, wall: float, env_rate: float, trainer: Trainer) -> dict:
@@ -270,14 +285,6 @@ def _row(logs: dict, meta: dict, wall: float, env_rate: float, trainer: Trainer)
         **{k: float(np.mean(logs[k])) for k in ("policy_loss", "value_loss", "entropy",
                                                 "approx_kl")},
     }
-
-
-def _evaluate_seeds(evaluator, runner, num_agents: int) -> tuple[np.ndarray, np.ndarray]:
-    """Team and robot success of every seed with ``num_agents`` robots, ``[num_seeds]`` each."""
-    values, _ = jax.device_get(evaluator(ActorWeights.of(runner),
-                                         jax.random.PRNGKey(VALIDATION_SEED), num_agents))
-    return (np.mean(values["team_success"], axis=1),
-            np.nanmean(values["success"], axis=1))
 
 
 def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, Any]:
@@ -459,9 +466,9 @@ def _evaluate_scenario(config: TrainConfig, actor: tuple, scenario: str,
                        seeds: list[tuple[int, ActorWeights, bool]] | None = None
                        ) -> tuple[list, list, Any, dict, dict]:
     """The trained policy's and the baseline's results on one scenario at every evaluation
-    count: one program, both policies its lanes, called once per count (on the 2-core CPU
-    faster than every count as lanes of one call, whose loop waits for the slowest episode of
-    all). With ``record_count`` (a robot count) also the trained policy's episode 0 at that
+    count: one program, both policies its lanes, called once per count (each count stops with
+    its own slowest episode, where every count as lanes of one call would wait for the slowest
+    of all). With ``record_count`` (a robot count) also the trained policy's episode 0 at that
     count as ``(states [T + 1, ...], length in steps, params)`` (else None). Last, ``{count:
     Summary}``: the paired difference trained - baseline in team success over the episodes
     both played (:func:`sgjax.evaluation.statistics.paired_difference`; empty without a
@@ -475,21 +482,20 @@ def _evaluate_scenario(config: TrainConfig, actor: tuple, scenario: str,
     seed)."""
     e, (network, layout, weights) = config.evaluation, actor
     counts, seed = list(e.num_agents), config.seed + EVALUATION_SEED_OFFSET
-    env, by_count = policy_environment(scenario, counts, None, config.env.options)
-    if env.observation_size != layout.obs_size:
-        raise ValueError(f"{scenario}: the trained policy reads observations of size "
-                         f"{layout.obs_size}, this environment gives {env.observation_size}")
-    go_stop = config.env.options.replace(action_mode="go_stop")
-    together = e.baseline is not None and go_stop == config.env.options  # one environment
+    options = config.env.options
+    go_stop = options.replace(action_mode="go_stop")
+    together = e.baseline is not None and go_stop == options  # one environment
     names = [_trained_name(config)] + ([e.baseline] if together else [])
-    params = by_count[counts[0]]
-    evaluator = table_evaluator(network, layout, env, params, names[1:], 1, e.episodes,
-                                e.deterministic, None if record_count is None else [(0, 0)])
+    evaluation = TrainedEvaluation(
+        TrainedActor(network, layout), scenario, counts, e.episodes, options,
+        max_agents=options.robots.max_agents or None, modes=e.deterministic,
+        baselines=names[1:], record=record_count is not None)
+    params = evaluation.params[counts[0]]
     mine, theirs, recorded, paired, spread = [], [], None, {}, {}
     many = seeds is not None and len(seeds) > 1
     for n in counts:
         t0 = time.perf_counter()
-        (values, _, states), compile_s = evaluator(weights, jax.random.key(seed), [n])
+        (values, _, states), compile_s = evaluation.paired(weights, jax.random.key(seed), n)
         values, states = jax.device_get((values, states))
         batch = Episodes(values={k: np.asarray(v) for k, v in values.items()}, robot={},
                          compile_seconds=compile_s,
@@ -499,22 +505,21 @@ def _evaluate_scenario(config: TrainConfig, actor: tuple, scenario: str,
         if together:  # [policy, episode]: the same episodes, common random numbers
             paired[n] = paired_difference(*batch.values["team_success"][:2])
         if many:
-            spread[n] = _seed_cell(evaluator, seeds, seed, n, scenario, names, params,
+            spread[n] = _seed_cell(evaluation, seeds, seed, n, scenario, names, params,
                                    batch if together else None, batch)
             spread.setdefault("results", [])
             spread["results"] += spread[n].pop("results")
         if n == record_count:
             recorded = (jax.tree.map(lambda leaf: leaf[:, 0], states),
-                        int(batch.values["episode_length"][0, 0]), by_count[n])
+                        int(batch.values["episode_length"][0, 0]), evaluation.params[n])
     if e.baseline is not None and not together:
         theirs = evaluate([scenario], [e.baseline], num_agents=counts, episodes=e.episodes,
                           seed=seed, options=go_stop, log=None)
     return mine, theirs, recorded, paired, spread
 
 
-def _seed_cell(evaluator: Any, seeds: list[tuple[int, ActorWeights, bool]], key_seed: int,
-               count: int,
-               scenario: str, names: list[str], params: Any,
+def _seed_cell(evaluation: TrainedEvaluation, seeds: list[tuple[int, ActorWeights, bool]],
+               key_seed: int, count: int, scenario: str, names: list[str], params: Any,
                together: Episodes | None, first: Episodes) -> dict[str, Any]:
     """One robot count of :func:`_evaluate_scenario`'s seed spread: every seed's episodes
     (key ``key_seed``, so the same episodes as the best seed's and the baseline's; the best
@@ -529,7 +534,8 @@ def _seed_cell(evaluator: Any, seeds: list[tuple[int, ActorWeights, bool]], key_
                              run_seconds=first.run_seconds)
         else:
             t0 = time.perf_counter()
-            (values, _, _), compile_s = evaluator(weights, jax.random.key(key_seed), [count])
+            (values, _, _), compile_s = evaluation.paired(weights, jax.random.key(key_seed),
+                                                          count)
             values = {k: np.asarray(v)[:1] for k, v in jax.device_get(values).items()}
             batch = Episodes(values=values, robot={}, compile_seconds=compile_s,
                              run_seconds=time.perf_counter() - t0 - compile_s)

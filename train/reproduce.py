@@ -47,7 +47,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -70,14 +69,17 @@ from sgjax.evaluation.statistics import (
     seed_aggregate,
     summarize,
 )
+from sgjax.evaluation.trained import TrainedEvaluation
 from sgjax.files import write_atomic
-from train.algorithm.actor import ActorWeights, play_modes_evaluator
-from train.algorithm.config import EVALUATION_SEED_OFFSET, TrainConfig, as_trained, config_from_dict
-from train.algorithm.ppo import Trainer, divisor_up_to, seed_keys
+from train.algorithm.actor import ActorWeights
+from train.algorithm.config import EVALUATION_SEED_OFFSET, TrainConfig, config_from_dict
+from train.algorithm.trainer import Trainer, seed_keys
 from train.reports.marl_eval import to_marl_eval
 from train.reports.result_schemas import REPRODUCE
-from train.run import checkpoint
+from train.run.loop import equal_calls, train_in_calls
 from train.run.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
+from train.run.partial import SAVES_PER_RUN, PartialFile, shaped_like
+from train.run.phases import Phases
 
 BASELINES = {
     "cadrl": {"env": {"preset": "cadrl"}, "network": {}},
@@ -174,48 +176,36 @@ def only_local_options(profile: str, time_limit: float | None) -> MakeOptions:
         robots=trained.robots.robots, arrived=trained.robots.arrived, enders=enders)
 
 
-CALLS_PER_CELL = 10  # a cell's training checkpointed about this many times (in equal calls)
-
-
 def train_baseline(config: Any, partial: Path | None = None, resume: bool = False
                    ) -> tuple[Trainer, Any, float, float]:
-    """Train every seed of ``config`` at once, as lanes (``Trainer.update_chunk_lanes``), in
-    calls of equal numbers of updates (about :data:`CALLS_PER_CELL` of them where the update
-    count has a divisor near a tenth of it, more otherwise); returns the trainer, the
-    seed-batched runner, the seconds spent compiling and the seconds spent training.
+    """Train every seed of ``config`` at once, as lanes
+    (:func:`train.run.loop.train_in_calls`), in about ten calls of equal numbers of updates;
+    returns the trainer, the seed-batched runner, the seconds spent compiling and the seconds
+    spent training.
 
-    With ``partial`` (a checkpoint path) the runner is saved there about
-    :data:`CALLS_PER_CELL` times (:func:`train.run.checkpoint.checkpoint_due`; atomically, with the
-    updates done) and a ``resume`` run finding the file continues from it (the same config, or
-    an error naming the file), so a cell killed midway loses at most a tenth of its work (a run
-    without ``resume`` deletes a file it finds); the caller deletes the file once the cell is
-    written."""
+    With ``partial`` (a checkpoint path, :class:`train.run.partial.PartialFile`) the runner is
+    saved there about ten times and a ``resume`` run finding the file continues from it (the
+    same config, or an error naming the file), so a cell killed midway loses at most a tenth
+    of its work (a run without ``resume`` deletes a file it finds); the caller deletes the file
+    once the cell is written."""
     trainer = Trainer(config)
     updates = config.algorithm.num_updates
-    per_call = divisor_up_to(updates, max(1, -(-updates // CALLS_PER_CELL)))
-    t0 = time.perf_counter()
-    runner = jax.jit(jax.vmap(trainer.init))(seed_keys(config))
-    step = trainer.jitted_chunk_lanes(per_call).lower(runner).compile()
-    t1 = time.perf_counter()
+    phases = Phases("compile", "train")
+    start = jax.jit(jax.vmap(trainer.init))
+    keys = seed_keys(config)
+    with phases.timing("compile"):
+        runner = start(keys)
+    file = PartialFile(partial, config, "cell", resume=resume, saves=SAVES_PER_RUN)
+    loaded = file.load(shaped_like(jax.eval_shape(start, keys)))
     done = 0
-    if partial is not None and partial.is_file() and not resume:
-        partial.unlink()
-    if partial is not None and partial.is_file():
-        contents = checkpoint.read(partial)
-        if as_trained(contents[0].to_dict()) != as_trained(config.to_dict()):
-            raise ValueError(f"{partial}: a partly trained cell of another configuration; "
-                             f"delete it to train this cell afresh")
-        runner, meta = checkpoint.restore(partial, trainer, contents)
-        done = int(meta["updates"])
+    if loaded is not None:
+        runner, done = loaded
         print(f"    resuming {partial} at update {done} of {updates}", flush=True)
-    while done < updates:
-        runner, _ = step(runner)
-        done += per_call
-        if partial is not None and checkpoint.checkpoint_due(done, per_call, updates,
-                                                             CALLS_PER_CELL):
-            checkpoint.save(partial, config, runner, {"updates": done, "of": updates})
-    jax.block_until_ready(runner.params)
-    return trainer, runner, t1 - t0, time.perf_counter() - t1
+    per_call = equal_calls(updates, SAVES_PER_RUN)
+    runner, _ = train_in_calls(
+        trainer, runner, per_call, updates, done=done, phases=phases,
+        after_call=lambda call: file.save_if_due(call.runner, call.done, per_call, updates))
+    return trainer, runner, phases.seconds["compile"], phases.seconds["train"]
 
 
 def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: int,
@@ -225,33 +215,38 @@ def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: in
     ``policy``, used when ``trainer`` is None) in the ``sgjax.make`` ``options`` (for an
     untrained policy, with what it needs on top: continuous actions for the velocity
     controllers). One compilation serves every count: the environment has ``max(counts)``
-    slots and each count is a params value; the seeds are ``vmap`` lanes of it."""
-    out: dict[int, dict[str, list[float]]] = {}
+    slots and each count is a params value; the seeds are lanes of it
+    (:class:`sgjax.evaluation.trained.TrainedEvaluation`), playing greedily and sampling in one
+    program (the profile's mode first: its values fill the tables)."""
     key = jax.random.PRNGKey(seed + EVALUATION_SEED_OFFSET)
     if trainer is None:
         options = options.replace(**policy_options(policy).keywords(changed_only=True))
-    env, by_count = params_by_count(scenario, counts, options=options)
-    first = by_count[counts[0]]
-    if trainer is None:
+        env, by_count = params_by_count(scenario, counts, options=options)
+        first = by_count[counts[0]]
         run = EpisodeRunner(env, load_policy(policy, env), episodes, int(first.max_steps)).run
-    else:  # the profile's play mode, and the other one for PLAY_MODE_KEYS
-        greedy = trainer.config.evaluation.deterministic
-        evaluator = play_modes_evaluator(trainer.config.network, trainer.actor, env, first,
-                                         episodes, (greedy, not greedy))
+        return {n: seed_values({name: v[None] for name, v in
+                                jax.device_get(run(key, by_count[n])[0]).items()})
+                for n in counts}
+    greedy = trainer.config.evaluation.deterministic
+    evaluation = TrainedEvaluation(trainer.trained_actor, scenario, counts, episodes, options,
+                                   modes=(greedy, not greedy))
+    out: dict[int, dict[str, list[float]]] = {}
     for n in counts:
-        params = by_count[n]
-        if trainer is None:
-            values = {name: v[None] for name, v in jax.device_get(run(key, params)[0]).items()}
-        else:  # both play modes in one program: the profile's first
-            both, _ = jax.device_get(evaluator(ActorWeights.of(runner), key, params))
-            values = {name: v[0] for name, v in both.items()}
-        out[n] = {name: [float(np.nanmean(row)) if np.isfinite(row).any() else math.nan
-                         for row in v] for name, v in values.items()}
-        out[n][EPISODES_KEY] = np.asarray(values["team_success"], float).tolist()  # [S, E]
-        if trainer is not None:
-            modes = dict(zip((greedy, not greedy), both["team_success"], strict=True))
-            for mode, key_name in ((True, PLAY_MODE_KEYS[0]), (False, PLAY_MODE_KEYS[1])):
-                out[n][key_name] = np.nanmean(np.asarray(modes[mode], float), axis=1).tolist()
+        both, _ = jax.device_get(evaluation.lanes(ActorWeights.of(runner), key, n))
+        out[n] = seed_values({name: v[0] for name, v in both.items()})
+        modes = dict(zip((greedy, not greedy), both["team_success"], strict=True))
+        for mode, key_name in ((True, PLAY_MODE_KEYS[0]), (False, PLAY_MODE_KEYS[1])):
+            out[n][key_name] = np.nanmean(np.asarray(modes[mode], float), axis=1).tolist()
+    return out
+
+
+def seed_values(values: dict[str, np.ndarray]) -> dict[str, list[float]]:
+    """Every metric's mean over the episodes of each seed (``values {metric: [S, E]}``; NaN
+    where a seed has no finite value), and the per-episode team success (:data:`EPISODES_KEY`,
+    ``[S, E]``)."""
+    out = {name: [float(np.nanmean(row)) if np.isfinite(row).any() else math.nan
+                  for row in v] for name, v in values.items()}
+    out[EPISODES_KEY] = np.asarray(values["team_success"], float).tolist()
     return out
 
 
@@ -529,6 +524,112 @@ def stored_run(path: Path, settings: dict[str, Any]) -> dict[str, Any]:
     return document
 
 
+def check_settings(profile: str, baselines: Sequence[str], seeds: int, episodes: int,
+                   baseline_episodes: int, processes: Processes) -> None:
+    """Errors for settings that cannot run, naming the argument."""
+    if baseline_episodes < episodes:
+        raise ValueError(f"--baseline-episodes ({baseline_episodes}) must be at least "
+                         f"--episodes ({episodes}): the trained baselines' episodes are the "
+                         "first of the untrained ones'")
+    if profile not in PROFILES:
+        raise ValueError(f"unknown profile {profile!r}; choose from {list(PROFILES)}")
+    unknown = [b for b in baselines if b not in BASELINES]
+    if unknown:
+        raise ValueError(f"unknown baseline(s) {unknown}; choose from {list(BASELINES)}")
+    if seeds < processes.count:
+        raise ValueError(f"--seeds ({seeds}) must be at least --num-processes "
+                         f"({processes.count}): the processes share the seeds")
+
+
+class Run:
+    """The cells of one reproduction (kept from an earlier run of the same settings, or run
+    here) and the ``results.json`` document that holds them."""
+
+    def __init__(self, settings: dict[str, Any], path: Path, resume: bool):
+        self.settings, self.path = settings, path
+        self.stored: dict[str, Any] = {"results": {}, "train_seconds": {}, "cell_seconds": {}}
+        if resume and path.exists():
+            self.stored = stored_run(path, settings)
+        self.results: dict[str, dict[str, dict[int, dict[str, list[float]]]]] = {
+            s: {b: {int(n): m for n, m in c.items()} for b, c in r.items()}
+            for s, r in self.stored["results"].items()}
+        self.timing: dict[str, float] = dict(self.stored["train_seconds"])
+        self.cells: dict[str, dict[str, float]] = dict(self.stored.get("cell_seconds", {}))
+        self.phases = Phases("compile training", "train", "evaluate", "write")
+
+    def keep(self, scenario: str, name: str, by_count: dict, cell: dict[str, float]) -> None:
+        """A finished cell and its phase seconds."""
+        self.results.setdefault(scenario, {})[name] = by_count
+        self.cells[f"{scenario}/{name}"] = cell
+        for phase, key in (("compile training", "compile"), ("train", "train"),
+                           ("evaluate", "evaluate")):
+            self.phases.add(phase, cell[key])
+
+    def seconds(self) -> dict[str, float]:
+        """Every phase's seconds, the earlier runs' included."""
+        earlier = self.stored.get("seconds", {})
+        return {k: v + earlier.get(k, 0.0) for k, v in self.phases.seconds.items()}
+
+    def document(self, scenarios: Sequence[str]) -> dict[str, Any]:
+        """The ``results.json`` document (schema :data:`REPRODUCE`)."""
+        results, settings, stored = self.results, self.settings, self.stored
+        ordered = {s: {b: results[s][b] for b in BASELINES if b in results[s]}
+                   for s in (*scenarios, *(s for s in results if s not in scenarios))
+                   if s in results}
+        seed = settings["seed"]
+        made = provenance(settings, seeds={
+            "training": [seed + i for i in range(settings["seeds"])],
+            "evaluation": [seed + EVALUATION_SEED_OFFSET]},
+            episodes_per_cell=settings["episodes"], seconds=self.seconds())
+        # A resumed run: the cells kept were made by the earlier runs, whose blocks stay.
+        earlier_runs = [*stored.get("earlier_provenance", []),
+                        *([stored["provenance"]] if "provenance" in stored else [])]
+        return {"schema_version": REPRODUCE, "provenance": made,
+                "earlier_provenance": earlier_runs, **settings,
+                "train_seconds": self.timing, "cell_seconds": self.cells,
+                "seconds": self.seconds(),
+                "runs": stored.get("runs", 1 if stored["results"] else 0) + 1,
+                "results": {s: {b: {str(n): m for n, m in c.items()} for b, c in r.items()}
+                            for s, r in ordered.items()}}
+
+
+def run_cell(scenario: str, name: str, settings: dict[str, Any], out: Path,
+             processes: Processes, resume: bool) -> tuple[dict, dict[str, float]]:
+    """One (scenario, baseline) cell: trained (this process's share of the seeds, gathered)
+    and evaluated, or evaluated only for an untrained baseline. Returns ``{robots: {metric:
+    [per seed]}}`` and the cell's seconds (``compile``, ``train``, ``evaluate``)."""
+    profile, seed, counts = settings["profile"], settings["seed"], settings["counts"]
+    time_limit, total_steps = settings["time_limit"], settings["total_steps"]
+    phases = Phases("compile", "train", "evaluate")
+    if BASELINES[name] is None:
+        with phases.timing("evaluate"):
+            by_count = evaluate_seeds(scenario, counts, settings["baseline_episodes"], seed,
+                                      None, None, only_local_options(profile, time_limit), name)
+        print(f"{scenario:>12} {name:>15}: not trained", flush=True)
+        return by_count, phases.seconds
+    share = lane_share(settings["seeds"], processes)
+    if profile == "socialgym":
+        config = socialgym_baseline_config(name, scenario, len(share), total_steps,
+                                           seed + int(share[0]), counts,
+                                           settings["episodes"], time_limit)
+    else:
+        config = baseline_config(name, scenario, len(share), total_steps,
+                                 settings["num_envs"], seed + int(share[0]),
+                                 75.0 if time_limit is None else time_limit)
+    partial = (out / "partial" / f"{scenario}-{name}.msgpack" if processes.count == 1
+               else None)
+    trainer, runner, compile_s, train_s = train_baseline(config, partial, resume)
+    phases.add("compile", compile_s)
+    phases.add("train", train_s)
+    with phases.timing("evaluate"):
+        by_count = evaluate_seeds(scenario, counts, settings["episodes"], seed, trainer,
+                                  runner, config.env.options)
+        by_count = gather_seeds(by_count, settings["seeds"], processes)
+    print(f"{scenario:>12} {name:>15}: trained {len(share)} seeds x {total_steps:,} steps in "
+          f"{train_s:.0f} s (compiled in {compile_s:.0f} s)", flush=True)
+    return by_count, phases.seconds
+
+
 def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
               total_steps: int, num_envs: int, counts: Sequence[int], episodes: int,
               table_robots: int, out: Path, seed: int = 0, time_limit: float | None = None,
@@ -550,126 +651,56 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
     are kept, not run again, and the tables hold them beside the new ones."""
     processes = processes or Processes()
     baseline_episodes = episodes if baseline_episodes is None else int(baseline_episodes)
-    if baseline_episodes < episodes:
-        raise ValueError(f"--baseline-episodes ({baseline_episodes}) must be at least "
-                         f"--episodes ({episodes}): the trained baselines' episodes are the "
-                         "first of the untrained ones'")
-    if profile not in PROFILES:
-        raise ValueError(f"unknown profile {profile!r}; choose from {list(PROFILES)}")
-    unknown = [b for b in baselines if b not in BASELINES]
-    if unknown:
-        raise ValueError(f"unknown baseline(s) {unknown}; choose from {list(BASELINES)}")
-    if seeds < processes.count:
-        raise ValueError(f"--seeds ({seeds}) must be at least --num-processes "
-                         f"({processes.count}): the processes share the seeds")
-    share = lane_share(seeds, processes)
+    check_settings(profile, baselines, seeds, episodes, baseline_episodes, processes)
     settings = {"profile": profile, "seeds": seeds, "total_steps": total_steps,
                 "num_envs": num_envs if profile == "sgjax" else "the profile's",
                 "episodes": episodes, "baseline_episodes": baseline_episodes,
-                "counts": list(counts), "seed": seed,
-                "time_limit": time_limit}
+                "counts": list(counts), "seed": seed, "time_limit": time_limit}
     path = out / "results.json"
-    stored: dict[str, Any] = {"results": {}, "train_seconds": {}, "cell_seconds": {}}
-    if resume and path.exists():
-        stored = stored_run(path, settings)
-    results: dict[str, dict[str, dict[int, dict[str, list[float]]]]] = {
-        s: {b: {int(n): m for n, m in c.items()} for b, c in r.items()}
-        for s, r in stored["results"].items()}
-    timing: dict[str, float] = dict(stored["train_seconds"])
-    cells: dict[str, dict[str, float]] = dict(stored.get("cell_seconds", {}))
-    seconds = dict.fromkeys(("compile training", "train", "evaluate", "write"), 0.0)
-    start = time.perf_counter()
-
-    def document() -> dict[str, Any]:
-        ordered = {s: {b: results[s][b] for b in BASELINES if b in results[s]}
-                   for s in (*scenarios, *(s for s in results if s not in scenarios))
-                   if s in results}
-        earlier = stored.get("seconds", {})
-        made = provenance(settings, seeds={
-            "training": [seed + i for i in range(seeds)],
-            "evaluation": [seed + EVALUATION_SEED_OFFSET]}, episodes_per_cell=episodes,
-            seconds={k: v + earlier.get(k, 0.0) for k, v in seconds.items()})
-        # A resumed run: the cells kept were made by the earlier runs, whose blocks stay.
-        earlier_runs = [*stored.get("earlier_provenance", []),
-                        *([stored["provenance"]] if "provenance" in stored else [])]
-        return {"schema_version": REPRODUCE, "provenance": made,
-                "earlier_provenance": earlier_runs, **settings,
-                "train_seconds": timing, "cell_seconds": cells,
-                "seconds": {k: v + earlier.get(k, 0.0) for k, v in seconds.items()},
-                "runs": stored.get("runs", 1 if stored["results"] else 0) + 1,
-                "results": {s: {b: {str(n): m for n, m in c.items()} for b, c in r.items()}
-                            for s, r in ordered.items()}}
-
+    run = Run(settings, path, resume)
     for scenario in scenarios:
-        results.setdefault(scenario, {})
         for name in baselines:
-            if name in results[scenario]:
+            if name in run.results.get(scenario, {}):
                 print(f"{scenario:>12} {name:>15}: kept from {path}", flush=True)
                 continue
-            cell = {"compile": 0.0, "train": 0.0}
-            if BASELINES[name] is None:
-                t0 = time.perf_counter()
-                by_count = evaluate_seeds(scenario, counts, baseline_episodes, seed, None, None,
-                                          only_local_options(profile, time_limit), name)
-                cell["evaluate"] = time.perf_counter() - t0
-                print(f"{scenario:>12} {name:>15}: not trained", flush=True)
-            else:
-                if profile == "socialgym":
-                    config = socialgym_baseline_config(
-                        name, scenario, len(share), total_steps, seed + int(share[0]), counts,
-                        episodes, time_limit)
-                else:
-                    config = baseline_config(name, scenario, len(share), total_steps, num_envs,
-                                             seed + int(share[0]),
-                                             75.0 if time_limit is None else time_limit)
-                partial = (out / "partial" / f"{scenario}-{name}.msgpack"
-                           if processes.count == 1 else None)
-                trainer, runner, compile_s, train_s = train_baseline(config, partial, resume)
-                timing[f"{scenario}/{name}"] = train_s
-                cell.update(compile=compile_s, train=train_s)
-                t0 = time.perf_counter()
-                by_count = evaluate_seeds(scenario, counts, episodes, seed, trainer, runner,
-                                          config.env.options)
-                cell["evaluate"] = time.perf_counter() - t0
-                by_count = gather_seeds(by_count, seeds, processes)
-                print(f"{scenario:>12} {name:>15}: trained {len(share)} seeds x "
-                      f"{total_steps:,} steps in {train_s:.0f} s (compiled in {compile_s:.0f} s)",
-                      flush=True)
-            results[scenario][name] = by_count
-            cells[f"{scenario}/{name}"] = cell
-            seconds["compile training"] += cell["compile"]
-            seconds["train"] += cell["train"]
-            seconds["evaluate"] += cell["evaluate"]
+            by_count, cell = run_cell(scenario, name, settings, out, processes, resume)
+            if BASELINES[name] is not None:
+                run.timing[f"{scenario}/{name}"] = cell["train"]
+            run.keep(scenario, name, by_count, cell)
             team = {n: np.nanmean(v["team_success"]) for n, v in by_count.items()}
             print("    team success by robots: " + ", ".join(f"{n}: {t:.2f}"
                                                           for n, t in team.items()))
             if processes.is_main:  # a killed run keeps every finished cell
                 out.mkdir(parents=True, exist_ok=True)
-                write_atomic(path, json.dumps(document(), indent=1))
-                finished = out / "partial" / f"{scenario}-{name}.msgpack"
-                if finished.is_file():
-                    finished.unlink()
+                write_atomic(path, json.dumps(run.document(scenarios), indent=1))
+                (out / "partial" / f"{scenario}-{name}.msgpack").unlink(missing_ok=True)
     if not processes.is_main:
         print(f"process {processes.index}: done; process 0 writes the tables")
-        return results
-    t0 = time.perf_counter()
-    final = document()
-    final_results = {s: {b: {int(n): m for n, m in c.items()} for b, c in r.items()}
-                     for s, r in final["results"].items()}
-    tables = format_tables(final_results, counts, table_robots, seeds)
-    out.mkdir(parents=True, exist_ok=True)
-    for name, text in tables.items():
-        (out / name).write_text(text)
-    seconds["write"] = time.perf_counter() - t0
-    write_atomic(path, json.dumps(document(), indent=1))
-    write_atomic(out / "marl_eval.json", json.dumps(to_marl_eval(document()), indent=1))
+        return run.results
+    write_results(run, scenarios, counts, table_robots, seeds, out)
+    return run.results
+
+
+def write_results(run: Run, scenarios: Sequence[str], counts: Sequence[int],
+                  table_robots: int, seeds: int, out: Path) -> None:
+    """The tables, ``results.json`` and ``marl_eval.json`` into ``out``; the tables and the
+    phase times printed."""
+    with run.phases.timing("write"):
+        final = run.document(scenarios)
+        final_results = {s: {b: {int(n): m for n, m in c.items()} for b, c in r.items()}
+                         for s, r in final["results"].items()}
+        tables = format_tables(final_results, counts, table_robots, seeds)
+        out.mkdir(parents=True, exist_ok=True)
+        for name, text in tables.items():
+            (out / name).write_text(text)
+    document = run.document(scenarios)
+    write_atomic(run.path, json.dumps(document, indent=1))
+    write_atomic(out / "marl_eval.json", json.dumps(to_marl_eval(document), indent=1))
     for text in tables.values():
         print(f"\n{text}")
-    print("time: " + ", ".join(f"{k} {v:.0f} s" for k, v in seconds.items())
-          + f" (evaluation includes its compiles); total {time.perf_counter() - start:.0f} s"
-          + (f"; {len(stored['train_seconds'])} trained cells kept from {path}"
-             if stored["results"] else ""))
-    return results
+    kept = len(run.stored["train_seconds"])
+    print(run.phases.line(" (evaluation includes its compiles)")
+          + (f"; {kept} trained cells kept from {run.path}" if run.stored["results"] else ""))
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -16,11 +16,12 @@ group compiles once. A trial with ``trial.seeds`` seeds takes that many lanes (t
 validation episodes).
 
 Every ``1 / trial.evaluations`` of a trial's updates, each lane is evaluated by the project's
-evaluator (``train.algorithm.actor.lane_evaluator``, one compiled evaluation per group) on the
-validation episodes (``train.algorithm.config.VALIDATION_SEED``, never the final evaluation's), the
-trial's mean is reported to Optuna, and the pruner may stop it. A finished or pruned trial's
-lanes are refilled with the next trial at once (a lane in a fixed-width ``vmap`` costs the
-same whether it works or idles, so stopping a lane saves nothing; refilling it is the gain).
+evaluation (``sgjax.evaluation.trained.TrainedEvaluation``, one compiled program per group)
+on the validation episodes (``train.algorithm.config.VALIDATION_SEED``, never the final
+evaluation's), the trial's mean is reported to Optuna, and the pruner may stop it. A finished
+or pruned trial's lanes are refilled with the next trial at once (a lane in a fixed-width
+``vmap`` costs the same whether it works or idles, so stopping a lane saves nothing; refilling
+it is the gain).
 
 Storage: an SQLite file in the run folder by default; any SQLAlchemy URL (PostgreSQL) lets
 several processes or hosts share one study: start the same command on each with its own
@@ -60,16 +61,20 @@ import numpy as np
 import yaml
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
-from sgjax.evaluation.evaluate import params_by_count
 from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import markdown_table
+from sgjax.evaluation.trained import TrainedEvaluation
 from sgjax.files import write_atomic
 from sgjax.terms.base import ConfigError
 from sgjax.validation import freeze, thaw
-from train.algorithm.actor import ActorWeights, lane_evaluator
+from train.algorithm.actor import ActorWeights
 from train.algorithm.config import VALIDATION_SEED, TrainConfig, config_from_dict, load_config
-from train.algorithm.ppo import LANE_SETTINGS, Trainer, observation_mask
+from train.algorithm.env_batch import observation_mask
+from train.algorithm.lane_settings import LANE_SETTINGS
+from train.algorithm.trainer import Trainer
 from train.reports.result_schemas import SWEEP
+from train.run.loop import Call, train_in_calls
+from train.run.phases import Phases
 from train.run.search_space import (
     PRUNERS,
     SearchSpace,
@@ -155,12 +160,10 @@ class Group:
         self.updates = self.per_chunk * space.evaluations
         self.steps = self.updates * a.steps_per_update  # environment steps per trial
         trainer = self.trainer
-        self._chunk = trainer.jitted_chunk_lanes(self.per_chunk, donate=True)
         self._init = jax.jit(jax.vmap(trainer.init))
         self._place = jax.jit(lambda runners, index, fresh: jax.tree.map(
             lambda a, b: a.at[index].set(b), runners, fresh), donate_argnums=0)
-        self._evaluate: Callable | None = None
-        self.compile_s = 0.0
+        self._evaluation: TrainedEvaluation | None = None
 
     # ------------------------------------------------------------------ lanes
     def lane_inputs(self, values: Sequence[Mapping[str, Any]]) -> tuple:
@@ -214,34 +217,19 @@ class Group:
                                               for i in range(len(lanes))]))
         return self._place(runners, jnp.asarray(lanes), fresh)
 
-    def advance(self, runners: Any) -> tuple[Any, dict]:
-        """``per_chunk`` updates of every lane (compiled on the first call; its time is
-        ``compile_s``)."""
-        if not self.compile_s:
-            t0 = time.perf_counter()
-            self._chunk = self._chunk.lower(runners).compile()
-            self.compile_s = time.perf_counter() - t0
-        return self._chunk(runners)
-
     def score(self, runners: Any) -> np.ndarray:
         """The objective of every lane ``[lanes]``: the metric's mean over the validation
-        episodes, averaged over the objective's robot counts."""
+        episodes, averaged over the objective's robot counts (one compiled evaluation,
+        :class:`sgjax.evaluation.trained.TrainedEvaluation`)."""
         o = self.space.objective
-        if self._evaluate is None:
+        if self._evaluation is None:
             counts = list(o.num_agents)
-            env, by_count = params_by_count(self.config.env.scenarios[0], counts,
-                                            max_agents=max(*counts, self.trainer.slots),
-                                            options=self.config.env.options)
-            evaluator = lane_evaluator(self.config.network, self.trainer.actor, env,
-                                       by_count[counts[0]], o.episodes)
-            self._evaluate = lambda weights, key, n: evaluator(weights, key, by_count[n])
-        weights = ActorWeights.of(runners)
-        key = jax.random.PRNGKey(VALIDATION_SEED)
-        rows = []
-        for n in o.num_agents:
-            values, _ = self._evaluate(weights, key, n)
-            rows.append(np.nanmean(np.asarray(values[o.metric], np.float64), axis=1))
-        return np.mean(rows, axis=0)
+            self._evaluation = TrainedEvaluation(
+                self.trainer.trained_actor, self.config.env.scenarios[0], counts, o.episodes,
+                self.config.env.options, max_agents=max(*counts, self.trainer.slots))
+        scores = self._evaluation.scores(ActorWeights.of(runners),
+                                         jax.random.PRNGKey(VALIDATION_SEED), o.metric)
+        return np.mean(scores, axis=0)
 
     # ------------------------------------------------------------------ checkpoints
     def template(self) -> Any:
@@ -333,8 +321,8 @@ class Sweep:
         self.groups: dict[tuple, Group] = {}
         self.pending: dict[tuple, list[tuple[Any, dict]]] = {}
         self.reported: dict[int, frozenset[int]] = {}
-        self.seconds = {"compile": 0.0, "start lanes": 0.0, "train": 0.0, "evaluate": 0.0,
-                        "storage": 0.0, "checkpoint": 0.0}
+        self.phases = Phases("compile", "start lanes", "train", "evaluate", "storage",
+                             "checkpoint")
         self.checkpoint = out / "workers" / f"{worker}.msgpack"
         # what a worker's checkpoint must agree with (the study's size may change between
         # runs: more trials continue it)
@@ -355,8 +343,7 @@ class Sweep:
     def ask(self) -> tuple[Any, dict] | None:
         """A new trial and its values, or None when the study has all its trials."""
         optuna = _optuna()
-        t0 = time.perf_counter()
-        try:
+        with self.phases.timing("storage"):
             if self._left() <= 0:
                 return None
             trial = self.study.ask()
@@ -370,8 +357,6 @@ class Sweep:
                 tell(self.study, trial, state=optuna.trial.TrialState.FAIL)
                 return None
             return trial, values
-        finally:
-            self.seconds["storage"] += time.perf_counter() - t0
 
     def group(self, key: tuple) -> Group:
         if key not in self.groups:
@@ -433,59 +418,58 @@ class Sweep:
 
     def _run_group(self, key: tuple, runners: Any = None,
                    slots: list[Running | None] | None = None) -> None:
-        """Train group ``key``'s trials in its lanes until none is left to run: after each
-        call every trial is evaluated and reported; finished and pruned trials' lanes take
-        the next trials."""
-        optuna = _optuna()
+        """Train group ``key``'s trials in its lanes until none is left to run
+        (:func:`train.run.loop.train_in_calls`): after each call every trial is evaluated and
+        reported; finished and pruned trials' lanes take the next trials."""
         group = self.group(key)
         if runners is None or slots is None:
-            t0 = time.perf_counter()
-            runners = group.start()
+            with self.phases.timing("start lanes"):
+                runners = group.start()
             slots = [None] * (self.space.lanes // self.space.seeds)
-            self.seconds["start lanes"] += time.perf_counter() - t0
         runners = self._fill(group, key, runners, slots)
-        while any(slots):
-            first = not group.compile_s
-            t0 = time.perf_counter()
-            runners, _ = group.advance(runners)
-            jax.block_until_ready(runners.steps)
-            elapsed = time.perf_counter() - t0
-            if first:
-                self.seconds["compile"] += group.compile_s
-                elapsed -= group.compile_s
-            self.seconds["train"] += elapsed
-            t0 = time.perf_counter()
-            scores = group.score(runners)
-            self.seconds["evaluate"] += time.perf_counter() - t0
-            t0 = time.perf_counter()
-            steps_per_evaluation = group.per_chunk * group.config.algorithm.steps_per_update
-            for i, slot in enumerate(slots):
-                if slot is None:
-                    continue
-                slot.evaluations += 1
-                value = float(np.mean(scores[list(slot.lanes)]))
-                slot.scores.append(value)
-                if slot.evaluations not in slot.reported:  # a trial run again reports anew
-                    slot.trial.report(value, slot.evaluations)
-                slot.trial.set_user_attr("steps", slot.evaluations * steps_per_evaluation)
-                # each seed's score at the latest evaluation (intervals over seeds)
-                slot.trial.set_user_attr("seed_scores", [float(scores[j]) for j in slot.lanes])
-                if slot.evaluations >= self.space.evaluations:
-                    if math.isfinite(value):
-                        tell(self.study, slot.trial, value)
-                    else:
-                        slot.trial.set_user_attr("error", f"objective {value}")
-                        tell(self.study, slot.trial, state=optuna.trial.TrialState.FAIL)
-                    slots[i] = None
-                elif not math.isfinite(value) or slot.trial.should_prune():
-                    tell(self.study, slot.trial, state=optuna.trial.TrialState.PRUNED)
-                    slots[i] = None
-            self.seconds["storage"] += time.perf_counter() - t0
-            runners = self._fill(group, key, runners, slots)
-            t0 = time.perf_counter()
-            self._save(key, runners, slots)
-            self.seconds["checkpoint"] += time.perf_counter() - t0
+        if not any(slots):
+            return
+
+        def between(call: Call) -> None:
+            with self.phases.timing("evaluate"):
+                scores = group.score(call.runner)
+            with self.phases.timing("storage"):
+                self._report(group, slots, scores)
+            call.runner = self._fill(group, key, call.runner, slots)
+            with self.phases.timing("checkpoint"):
+                self._save(key, call.runner, slots)
             self._progress()
+            call.stop = not any(slots)
+
+        train_in_calls(group.trainer, runners, group.per_chunk, None, donate=True,
+                       phases=self.phases, after_call=between)
+
+    def _report(self, group: Group, slots: list[Running | None], scores: np.ndarray) -> None:
+        """Every running trial's evaluation (``scores [lanes]``) reported to the study; a
+        trial that has all its evaluations is told, a pruned one stopped (its slot freed)."""
+        optuna = _optuna()
+        steps_per_evaluation = group.per_chunk * group.config.algorithm.steps_per_update
+        for i, slot in enumerate(slots):
+            if slot is None:
+                continue
+            slot.evaluations += 1
+            value = float(np.mean(scores[list(slot.lanes)]))
+            slot.scores.append(value)
+            if slot.evaluations not in slot.reported:  # a trial run again reports anew
+                slot.trial.report(value, slot.evaluations)
+            slot.trial.set_user_attr("steps", slot.evaluations * steps_per_evaluation)
+            # each seed's score at the latest evaluation (intervals over seeds)
+            slot.trial.set_user_attr("seed_scores", [float(scores[j]) for j in slot.lanes])
+            if slot.evaluations >= self.space.evaluations:
+                if math.isfinite(value):
+                    tell(self.study, slot.trial, value)
+                else:
+                    slot.trial.set_user_attr("error", f"objective {value}")
+                    tell(self.study, slot.trial, state=optuna.trial.TrialState.FAIL)
+                slots[i] = None
+            elif not math.isfinite(value) or slot.trial.should_prune():
+                tell(self.study, slot.trial, state=optuna.trial.TrialState.PRUNED)
+                slots[i] = None
 
     def _fill(self, group: Group, key: tuple, runners: Any, slots: list[Running | None]
               ) -> Any:
@@ -502,9 +486,8 @@ class Sweep:
             lanes = tuple(range(i * seeds, (i + 1) * seeds))
             trial.set_user_attr("lanes", list(lanes))
             trial.set_user_attr("program", thaw(group.program))
-            t0 = time.perf_counter()
-            runners = group.fill(runners, lanes, values)
-            self.seconds["start lanes"] += time.perf_counter() - t0
+            with self.phases.timing("start lanes"):
+                runners = group.fill(runners, lanes, values)
             slots[i] = Running(trial, values, lanes,
                                reported=self.reported.pop(trial.number, frozenset()))
         return runners
@@ -797,7 +780,6 @@ def main(argv: list[str] | None = None) -> None:
     add_cache_arguments(parser)
     args = parser.parse_args(argv)
     try:
-        start = time.perf_counter()
         cache_from_arguments(args)
         space = load_space(args.space)
         changes = {}
@@ -831,12 +813,11 @@ def main(argv: list[str] | None = None) -> None:
         sweep = Sweep(space, data, source, study, out, args.worker,
                       progress=not args.no_progress)
         sweep.run()
-        t0 = time.perf_counter()
-        seconds = {**sweep.seconds, "total": time.perf_counter() - start}
-        document = write_outputs(study, space, data, source, out, seconds)
-        seconds["write"] = time.perf_counter() - t0
+        with sweep.phases.timing("write"):
+            document = write_outputs(study, space, data, source, out,
+                                     {**sweep.phases.seconds, "total": sweep.phases.elapsed()})
         print_summary(document, space, out, redacted(storage))
-        print("time: " + ", ".join(f"{k} {v:.0f} s" for k, v in seconds.items()))
+        print(sweep.phases.line())
     except (ConfigError, ValueError) as err:
         raise SystemExit(f"sweep: {err}") from err
 

@@ -6,7 +6,7 @@ run's final evaluation, a training run's ``provenance.json``, ``train.reproduce`
 
     {"schema": "sgjax.provenance/1", "created": "2026-11-25T16:20:00+00:00",
      "git": {"commit": "b73e1b4...", "dirty": false},
-     "versions": {"sgjax": "0.1.0", "python": "3.11.2", "jax": "0.10.2", "jaxlib": ...},
+     "versions": {"sgjax": "0.4.0", "python": "3.11.2", "jax": "0.10.2", "jaxlib": ...},
      "machine": {"platform": "Linux-...", "cpu": "Intel(R) Xeon(R) ...", "cpu_count": 2,
                  "jax_backend": "cpu", "devices": ["TFRT_CPU_0"]},
      "command": "python -m train --config train/configs/doorway.yaml",

@@ -63,6 +63,22 @@ def argument_signature(args: Any) -> tuple:
                         bool(getattr(x, "weak_type", False))) for x in leaves)
 
 
+_COMPILED: dict[Any, Callable] = {}
+
+
+def compiled_once(program: Callable, *args: Any) -> tuple[Callable, float]:
+    """``program`` (a ``jax.jit`` function) compiled ahead of time for the shapes of ``args``,
+    once per process: ``(executable, seconds this call spent compiling)`` (0 when it was
+    compiled before; a program found in the persistent compilation cache counts its
+    loading)."""
+    key = (program, argument_signature(args))
+    if key in _COMPILED:
+        return _COMPILED[key], 0.0
+    t0 = time.perf_counter()
+    _COMPILED[key] = program.lower(*args).compile()
+    return _COMPILED[key], time.perf_counter() - t0
+
+
 def lanes_first(tree: Any, episodes: int, lanes: int) -> Any:
     """Rows ``[E * L, ...]`` (episode-major, as the runner's loop holds them) -> ``[L, E,
     ...]``, every leaf of ``tree``."""
@@ -411,10 +427,8 @@ class ParamLaneRunner(EpisodeRunner):
     This is what ``vmap`` of an ``EpisodeRunner`` over the lanes computes, without batching the
     episode loop: under ``vmap`` the loop's stop test becomes per lane, and JAX turns every
     carried leaf into a select and traces the loop body again for each batching pass; here
-    only the policy is ``vmap``-ed (over the lanes, once per step), so tracing, lowering and
-    compiling take less (``train.algorithm.actor``'s evaluator of a tiny MLP's 2 seeds x 2 play
-    modes: trace 2.0 -> 0.5 s, lower 0.7 -> 0.3 s, XLA compile 2.5 -> 1.6 s with the tests'
-    flags).
+    only the policy is ``vmap``-ed (over the lanes, once per step), so there is less to trace,
+    lower and compile (``bench/compile_time.py`` measures it).
 
     ``episodes(key, params) -> (values, robot, None)``: every metric per lane and episode
     ``{name: [L, E]}`` and per robot ``{name: [L, E, R]}``. Build it where ``lane_params`` are

@@ -9,7 +9,7 @@ from scenes import go_run_counting_traces
 
 import sgjax
 from train.algorithm.config import config_from_dict
-from train.algorithm.ppo import Trainer
+from train.algorithm.trainer import Trainer
 
 STOP = 1
 
@@ -88,7 +88,7 @@ def _loss_terms(trainer, runner, flip):
     if flip:
         between = (jnp.arange(traj.action.shape[0]) % 4 != 0)[:, None]
         traj = traj.replace(action=jnp.where(between, 1 - traj.action, traj.action))
-    _, aux = trainer._loss(runner.params, rollout.memory, traj, rollout.advantages,
+    _, aux = trainer.learner.loss(runner.params, rollout.memory, traj, rollout.advantages,
                            rollout.targets)
     return traj, aux
 

@@ -68,7 +68,7 @@ def saved_checkpoint(tmp_path_factory) -> bytes:
     """A real checkpoint file's bytes (a tiny config's fresh runner)."""
     import jax
 
-    from train.algorithm.ppo import Trainer, seed_keys
+    from train.algorithm.trainer import Trainer, seed_keys
 
     config = config_from_dict({
         "env": {"scenarios": ["open"], "curriculum": [[0, 2]], "observations": "default"},

@@ -9,7 +9,7 @@ import pytest
 
 from sgjax.terms.base import ConfigError
 from train.algorithm.config import apply_overrides, config_from_dict
-from train.algorithm.ppo import Trainer
+from train.algorithm.trainer import Trainer
 from train.run.socialgym_config import DEFAULTS, convert, read_socialgym_config
 
 LISTING = Path(__file__).resolve().parents[1] / "data" / "socialgym_listing1.json"

@@ -21,7 +21,9 @@ from provenance_checks import check_document
 
 from sgjax.terms.base import ConfigError
 from train.algorithm.config import config_from_dict, load_config
-from train.algorithm.ppo import LANE_SETTINGS, Trainer, observation_mask
+from train.algorithm.env_batch import observation_mask
+from train.algorithm.lane_settings import LANE_SETTINGS
+from train.algorithm.trainer import Trainer
 from train.run.search_space import is_lane_key, load_space
 from train.sweep import Sweep, open_study, with_values, write_outputs
 
@@ -160,9 +162,10 @@ def test_trials_run_as_lanes_and_groups_and_write_the_results(tmp_path):
     assert len({tuple(sorted(t.params.items())) for t in trials}) == 5
     assert all(sorted(t.intermediate_values) == [1, 2] for t in trials)
     programs = {str(t.user_attrs["program"]) for t in trials}
-    compiled = [g for g in sweep.groups.values() if g.compile_s]
+    compiled = [g for g in sweep.groups.values() if g.trainer._compiled_chunks]
     assert len(compiled) == len(programs) == 2  # one compiled program per network width
-    document = write_outputs(sweep.study, space, TINY, "tiny", sweep.out, sweep.seconds,
+    assert all(len(g.trainer._compiled_chunks) == 1 for g in compiled)
+    document = write_outputs(sweep.study, space, TINY, "tiny", sweep.out, sweep.phases.seconds,
                              log=lambda _: None)
     check_document(document)
     assert document["best"]["number"] in range(5)

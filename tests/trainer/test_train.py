@@ -17,11 +17,14 @@ from jaxprs import equations
 from sgjax.environment.options import MakeOptions
 from sgjax.evaluation.policies import load_policy, policy_options
 from sgjax.terms.base import ConfigError
-from train.algorithm import ppo
+from train.algorithm import learner as learning
+from train.algorithm import losses, rollout
+from train.algorithm import trainer as trainer_module
 from train.algorithm.actor import ActorWeights
 from train.algorithm.config import config_from_dict, load_config
 from train.algorithm.networks import ResetGRU
-from train.algorithm.ppo import Trainer, seed_keys
+from train.algorithm.state import Rollout
+from train.algorithm.trainer import Trainer, seed_keys
 from train.run import checkpoint
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -314,7 +317,7 @@ def test_a_checkpoint_policy_loads_from_the_file_alone(two_seeds, tmp_path, monk
 
     made = []
     real_make = checkpoint.make
-    monkeypatch.setattr(ppo.Trainer, "__init__", no_trainer)
+    monkeypatch.setattr(trainer_module.Trainer, "__init__", no_trainer)
     monkeypatch.setattr(checkpoint, "make", lambda *a, **k: made.append(a) or real_make(*a, **k))
     loaded = checkpoint.load_checkpoint_policy(path, env, deterministic=True)
     through_sgjax = load_policy(str(path), env)  # through the registered loader
@@ -387,7 +390,8 @@ def test_lstm_encoder_skips_the_slots_that_are_always_empty_in_training():
     every = ActorCritic(trainer.config.network, trainer.actor.action_dim, trainer.actor.discrete,
                         trainer.actor.others)
     runner = trainer.init(jax.random.PRNGKey(3))
-    runner, _ = jax.jit(lambda r: jax.lax.scan(trainer._env_step, r, None, 5))(runner)
+    runner, _ = jax.jit(lambda r: jax.lax.scan(
+        lambda r, x: rollout.env_step(trainer.rollout_parts, r, x), r, None, 5))(runner)
     actor, critic = trainer.inputs(runner.obs_stats, runner.obs)
     assert float(jnp.abs(actor).sum()) > 0
     carry = initial_carry(trainer.config.network, trainer.num_agents)
@@ -409,8 +413,8 @@ def test_masks_and_the_others_encoder_read_the_observation_column_layout():
     observation's published column layout (no term internals): ``pose.heading``,
     ``others.<feature>``, or any ``term.feature`` the layout names."""
     import sgjax
+    from train.algorithm.env_batch import observation_mask
     from train.algorithm.networks import OthersLayout, most_seen, others_layout
-    from train.algorithm.ppo import observation_mask
 
     env, _ = sgjax.make("open", num_agents=2, max_agents=3, observations="socialgym")
     columns = env.config.observer.columns(env.config.layout)
@@ -447,7 +451,7 @@ def test_gru_state_resets_at_episode_starts():
 
 
 def test_team_reward_shares_the_mean_of_the_robots_that_acted():
-    from train.algorithm.ppo import share_rewards
+    from train.algorithm.env_batch import share_rewards
 
     reward = jnp.array([[1.0, 3.0, 100.0], [2.0, 0.0, 0.0]])
     acted = jnp.array([[True, True, False], [True, False, False]])
@@ -473,14 +477,14 @@ def test_compact_auto_is_on_for_a_cpu_and_off_elsewhere(monkeypatch):
     assert tiny().algorithm.compact == "auto"
     assert Trainer(tiny()).compact is True
     assert Trainer(tiny(algorithm={"compact": False})).compact is False
-    monkeypatch.setattr(ppo.jax, "default_backend", lambda: "gpu")
+    monkeypatch.setattr(trainer_module.jax, "default_backend", lambda: "gpu")
     assert Trainer(tiny()).compact is False
     assert Trainer(tiny(algorithm={"compact": True})).compact is True
     with pytest.raises(ConfigError, match="compact must be true, false or 'auto', got 'yes'"):
         tiny(algorithm={"compact": "yes"})
 
 
-def _compact_trainers(network: dict, **algorithm) -> tuple[Trainer, Trainer, ppo.Rollout]:
+def _compact_trainers(network: dict, **algorithm) -> tuple[Trainer, Trainer, Rollout]:
     """A masked and a compacted trainer of the same tiny run (two robots in three slots: one
     slot is always absent), and a rollout of the first update."""
     trainers = [Trainer(tiny(env={"observations": "navigation", "max_agents": 3},
@@ -498,31 +502,31 @@ def test_compact_minibatch_gradient_equals_the_masked_one(name):
     units only (transitions; agent sequences for a GRU), are the masked minibatch's, for the
     same minibatch (the same agents); the chunks that hold no active unit are not run."""
     masked, compact, rollout = _compact_trainers(COMPACT_NETWORKS[name])
-    assert compact._recurrent == (name == "gru")
+    assert compact.learner.recurrent == (name == "gru")
     # a third of the rest inactive too, at random (as settled or parked robots)
     drop = jax.random.bernoulli(jax.random.PRNGKey(5), 0.33, rollout.traj.active.shape)
     rollout = rollout.replace(traj=rollout.traj.replace(active=rollout.traj.active & ~drop))
     params = compact.init(jax.random.PRNGKey(4)).params
     order = jax.random.permutation(jax.random.PRNGKey(6), compact.num_agents)
-    dense = masked._masked_batches(order, rollout)
-    units, counts = jax.jit(compact._compact_batches)(order, rollout)
+    dense = masked.learner.masked_batches(order, rollout)
+    units, counts = jax.jit(compact.learner.compact_batches)(order, rollout)
     counts = np.asarray(counts)
     assert counts.min() > 0 and counts.max() < units.shape[1]  # some skipped in every minibatch
-    chunk, _ = ppo.compact_chunks(units.shape[1])
+    chunk, _ = learning.compact_chunks(units.shape[1])
     if name == "mlp":  # transitions: some minibatch ends in half chunks
         assert any(count % chunk for count in counts)
-    dense_grad = jax.jit(jax.grad(masked._loss, has_aux=True))
-    compact_grad = jax.jit(compact._compact_grads)
+    dense_grad = jax.jit(jax.grad(masked.learner.loss, has_aux=True))
+    compact_grad = jax.jit(compact.learner.compact_grads)
     for j in range(len(counts)):
         grads, aux = dense_grad(params, *jax.tree.map(lambda x, j=j: x[j], dense))
         c_grads, c_aux = compact_grad(params, (units[j], counts[j]), rollout)
         assert leaves_close(c_grads, grads, rtol=1e-4, atol=1e-6), j
-        for term in ppo.LOSS_TERMS:
+        for term in losses.LOSS_TERMS:
             np.testing.assert_allclose(c_aux[term], aux[term], rtol=1e-4, atol=1e-6)
     # the units that can learn come first, and they are the minibatch's active ones
     size = compact.num_agents // compact.config.algorithm.num_minibatches
     for j, count in enumerate(counts):
-        first = np.asarray(compact._unit_data(rollout, units[j])[1].active).any(axis=0)
+        first = np.asarray(compact.learner.unit_data(rollout, units[j])[1].active).any(axis=0)
         assert first[:count].all() and not first[count:].any()
         dense_active = np.asarray(dense[1].active[j])  # [T, U]
         assert count == (dense_active.any(axis=0).sum() if name == "gru" else dense_active.sum())
@@ -545,13 +549,13 @@ def test_compact_learning_phase_matches_the_masked_one(name, all_active):
     key = jax.random.PRNGKey(7)
     out = {}
     for trainer in (masked, compact):
-        out[trainer.config.algorithm.compact] = jax.jit(trainer._learn_lane)(
+        out[trainer.config.algorithm.compact] = jax.jit(trainer.learn_lane)(
             runner.params, runner.opt_state, key, rollout)
     (m_params, _, m_key, m_aux), (c_params, _, c_key, c_aux) = out[False], out[True]
     np.testing.assert_array_equal(m_key, c_key)
     assert leaves_close(c_params, m_params, rtol=1e-4, atol=3e-5)
     assert not leaves_close(c_params, runner.params)
-    for term in ppo.LOSS_TERMS:
+    for term in losses.LOSS_TERMS:
         np.testing.assert_allclose(c_aux[term], m_aux[term], rtol=1e-3, atol=1e-6)
     if name == "lstm":
         # Separate others encoders learn: the others' 0/1 mask reaches them unnormalised in
@@ -616,8 +620,8 @@ def test_critic_alone_gives_the_values_of_the_whole_network(network):
 @pytest.mark.parametrize("network, algorithm", [(COMPACT_NETWORKS["mlp"], "ippo"),
                                                 (COMPACT_NETWORKS["gru"], "mappo")])
 def test_final_values_come_from_the_truncating_environments_alone(network, algorithm):
-    """The rollout's bootstrap values (``Trainer._final_values``): on every robot of an
-    environment with a truncated robot, the critic's value of its final observation from the
+    """The rollout's bootstrap values (``train.algorithm.rollout.final_values``): on every robot
+    of an environment with a truncated robot, the critic's value of its final observation from the
     step's memory, as one pass over the whole batch gives it (up to float rounding: the
     products are smaller); 0 elsewhere. 40 environments, about half truncating: three chunks
     of 8 (``sgjax.kernels.row_chunks.chunk_size``), the last partly filled. (Under MAPPO the
@@ -639,8 +643,11 @@ def test_final_values_come_from_the_truncating_environments_alone(network, algor
     params = trainer.network.init(keys[6], carry, actor[None], critic[None],
                                   jnp.zeros((1, envs * slots), bool))
     mask = jnp.ones(size)
-    values = jax.jit(trainer._final_values)(params, carry, stats, final, mask, truncated)
-    every = jax.jit(trainer._value)(params, carry, actor, critic, jnp.zeros(envs * slots, bool))
+    parts = trainer.rollout_parts
+    values = jax.jit(functools.partial(rollout.final_values, parts))(
+        params, carry, stats, final, mask, truncated)
+    every = jax.jit(functools.partial(rollout.critic_value, parts))(
+        params, carry, actor, critic, jnp.zeros(envs * slots, bool))
     ending_envs = np.asarray(jnp.any(truncated, axis=1))
     assert 16 < ending_envs.sum() < 24, ending_envs.sum()  # 3 chunks of 8, the last partly
     ending = np.repeat(ending_envs, slots)
@@ -682,7 +689,7 @@ def test_a_tiny_compacted_run_learns_with_absent_slots():
 def test_active_first_is_a_stable_partition():
     mask = jax.random.bernoulli(jax.random.PRNGKey(0), 0.4, (3, 50))
     mask = mask.at[0].set(True).at[1].set(False)
-    np.testing.assert_array_equal(ppo._active_first(mask),
+    np.testing.assert_array_equal(learning.active_first(mask),
                                   jnp.argsort(~mask, axis=-1, stable=True))
 
 
@@ -702,19 +709,21 @@ def test_the_play_modes_program_plays_each_mode_as_its_own_evaluator():
     """train.reproduce's one program for both play modes (the modes as lanes beside the seeds)
     gives ``[modes, seeds, episodes]`` values, each mode's those of the evaluator compiled for
     that mode alone."""
-    from train.algorithm.actor import lane_evaluator, play_modes_evaluator
+    from sgjax.evaluation.trained import TrainedEvaluation
 
     config = tiny(num_seeds=2, env={"time_limit": 6.0})
     trainer = Trainer(config)
     weights = ActorWeights.of(jax.vmap(trainer.init)(seed_keys(config)))
-    env, params = trainer.batch.envs[0], trainer.batch.params[0]
     key, modes = jax.random.key(4), (True, False)
-    both, both_robot = play_modes_evaluator(config.network, trainer.actor, env, params, 3,
-                                            modes)(weights, key)
+
+    def evaluation(modes):
+        return TrainedEvaluation(trainer.trained_actor, "open", [2], 3, config.env.options,
+                                 max_agents=trainer.slots, modes=modes)
+
+    both, both_robot = evaluation(modes).lanes(weights, key, 2)
     assert both["success"].shape == (2, 2, 3)
     for index, mode in enumerate(modes):
-        alone, alone_robot = lane_evaluator(config.network, trainer.actor, env, params, 3,
-                                            mode)(weights, key)
+        alone, alone_robot = evaluation(mode).lanes(weights, key, 2)
         for ours, theirs in ((both, alone), (both_robot, alone_robot)):
             assert ours.keys() == theirs.keys()
             for name in theirs:
@@ -723,7 +732,7 @@ def test_the_play_modes_program_plays_each_mode_as_its_own_evaluator():
 
 
 def test_a_traced_play_mode_acts_as_the_static_one_under_vmap():
-    """train.reproduce's evaluator (train.algorithm.actor.play_modes_evaluator) plays greedy and
+    """train.reproduce's evaluation (sgjax.evaluation.trained.TrainedEvaluation) plays greedy and
     sampled as a vmap over a traced flag, one compilation: under that vmap each mode's actions equal
     the static mode's, bit for bit (MLP and GRU; GO/STOP and continuous)."""
     from train.algorithm.actor import acting_policy

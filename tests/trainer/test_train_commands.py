@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parents[2]
 SHARDED = """
 import jax, numpy as np
 from train.algorithm.config import config_from_dict
-from train.algorithm.ppo import Trainer, seed_keys
+from train.algorithm.trainer import Trainer, seed_keys
 from train.run.sharding import device_mesh, shard_runner
 assert jax.device_count() == 2, jax.devices()
 config = config_from_dict({"env": {"scenarios": ["open"], "curriculum": [[0, 2]]},
@@ -106,7 +106,7 @@ def test_final_evaluation_evaluates_like_separate_evaluate_calls_and_records_its
     from test_train import tiny
 
     from sgjax.evaluation.evaluate import evaluate, policy_environment, run_episodes
-    from train.algorithm.ppo import Trainer, seed_keys
+    from train.algorithm.trainer import Trainer, seed_keys
     from train.cli import _checkpoint_actor, _evaluate_scenario, final_evaluation
     from train.run.checkpoint import load_checkpoint_policy, save
 
@@ -152,7 +152,7 @@ def test_final_evaluation_reports_every_training_seed(tmp_path, capsys):
     from test_train import tiny
 
     from sgjax.evaluation.evaluate import policy_environment, run_episodes
-    from train.algorithm.ppo import Trainer, seed_keys
+    from train.algorithm.trainer import Trainer, seed_keys
     from train.cli import final_evaluation
     from train.run.checkpoint import load_checkpoint_policy, save
 
@@ -225,7 +225,8 @@ def test_a_reproduce_cell_killed_midway_resumes_from_its_last_call(tmp_path, mon
     # another cell's config; its seed is an argument of the compiled programs (a learning
     # rate is baked into them: two more compiles)
     other = tiny(num_seeds=2, seed=1, algorithm={"total_steps": 4 * 8 * 8})
-    with pytest.raises(ValueError, match="open-cadrl.msgpack: a partly trained cell of another"):
+    with pytest.raises(ValueError,
+                       match="open-cadrl.msgpack: a partly trained cell of other lanes"):
         reproduce.train_baseline(other, partial, resume=True)
     reproduce.train_baseline(other, partial)  # no resume: the stale file is not read
 
@@ -417,10 +418,10 @@ def test_an_ablation_group_killed_midway_resumes_from_its_last_call(tmp_path, mo
     from test_train import tiny
 
     import train.ablation as ablation
-    from train.algorithm.ppo import Trainer
+    from train.algorithm.trainer import Trainer
     from train.run import checkpoint
 
-    monkeypatch.setattr(ablation, "CALLS_PER_GROUP", 4)  # one update per call
+    monkeypatch.setattr(ablation, "SAVES_PER_RUN", 4)  # one update per call
     trainer = Trainer(tiny(algorithm={"total_steps": 4 * 8 * 8}))  # 4 updates
     variants = {"baseline": ablation.Variant(),
                 "no collision": ablation.Variant(rewards_off=("collision",))}

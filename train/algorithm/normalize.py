@@ -32,10 +32,8 @@ class RunningStats:
         """Fold in the rows of ``x [N, F]`` where ``mask [N]``.
 
         The masked sums over the rows are matrix-vector products ``w @ x``: XLA:CPU reduces
-        a ``[N, F]`` array over its major axis slowly (the trainer's observation statistics,
-        ``[1280, 57]`` per rollout step, took about 1.4 ms a step as ``jnp.sum(x * w,
-        axis=0)``, a third of the doorway rollout; as products about 0.3 ms,
-        ``bench/learner_roofline.py``)."""
+        a ``[N, F]`` array over its major axis slowly, and the observation statistics run on
+        every rollout step (``bench/learner_roofline.py`` times them)."""
         w = mask.astype(jnp.float32)
         n = jnp.sum(w)
         safe_n = jnp.maximum(n, 1.0)

@@ -88,7 +88,7 @@ def restore(path: str | Path, trainer: Any, contents: tuple | None = None
             ) -> tuple[Any, dict[str, Any]]:
     """The seed-batched ``RunnerState`` and meta of a checkpoint, for ``trainer``
     (``contents``: what :func:`read` already returned for ``path``)."""
-    from train.algorithm.ppo import seed_keys
+    from train.algorithm.trainer import seed_keys
 
     _, meta, raw = contents if contents is not None else read(path)
     template = jax.eval_shape(jax.vmap(trainer.init), seed_keys(trainer.config))

@@ -34,10 +34,10 @@ form), ``term_weights.<reward term>`` (a multiplier on that term of ``info["rewa
 trials where each named earlier parameter has the given value (or one of a list).
 
 Parameters are of two kinds (:func:`is_lane_key`): **lane values** (``algorithm.`` +
-``train.algorithm.ppo.LANE_SETTINGS``, reward-term weights, hidden features) are numbers in the
-runner state, so trials that differ only in them train as lanes of one compiled call; every
-other key changes the compiled program (network sizes, minibatch count, environments) and trials are
-grouped by those values, one compilation per group.
+``train.algorithm.lane_settings.LANE_SETTINGS``, reward-term weights, hidden features) are
+numbers in the runner state, so trials that differ only in them train as lanes of one compiled
+call; every other key changes the compiled program (network sizes, minibatch count,
+environments) and trials are grouped by those values, one compilation per group.
 """
 
 from __future__ import annotations
@@ -54,7 +54,7 @@ import yaml
 from sgjax.terms.base import ConfigError
 from sgjax.validation import check_choice, check_keys, freeze, suggest, thaw
 from train.algorithm.config import SECTIONS, read_yaml
-from train.algorithm.ppo import LANE_SETTINGS
+from train.algorithm.lane_settings import LANE_SETTINGS
 
 SAMPLERS = ("tpe", "random", "grid")
 PRUNERS = ("none", "median", "hyperband")

@@ -190,179 +190,214 @@ def _curriculum(value: Any, steps_per_episode: int, where: str) -> list[list[int
                       f"got {value!r}")
 
 
+class _Conversion:
+    """One SocialGym experiment config being converted: its values (``c``, defaults filled
+    in), the keys it gave, and the ``(key, value, what it became)`` rows so far."""
+
+    def __init__(self, data: Mapping[str, Any], source: str):
+        self.given: dict[str, Any] = {}
+        for key, value in data.items():
+            name = ALIASES.get(key, key)
+            if name not in DEFAULTS:
+                raise ConfigError(f"{source}: {key}: not a SocialGym 2.0 config key"
+                                  f"{suggest(str(key), list(DEFAULTS))}")
+            self.given[name] = value
+        self.c = {**DEFAULTS, **self.given}
+        self.where = source
+        self.rows: list[tuple[str, str, str]] = []
+
+    def row(self, key: str, became: str) -> None:
+        shown = json.dumps(self.c[key]) + ("" if key in self.given else " (default)")
+        self.rows.append((key, shown, became))
+
+    def refuse(self, key: str, why: str) -> None:
+        raise ConfigError(f"{self.where}: {key}: {json.dumps(self.c[key])} cannot be "
+                          f"honoured: {why}")
+
+    def world(self) -> tuple[list[str], int, list, list[int], int]:
+        """Where and how long: ``(scenarios, time limit in steps, curriculum, evaluation
+        counts, total environment steps)``."""
+        c, row, refuse = self.c, self.row, self.refuse
+        # Where and how long.
+        names = c["experiment_names"]
+        names = [names] if isinstance(names, str) else list(names)
+        scenarios = []
+        for name in names:
+            if name not in SCENARIOS:
+                refuse("experiment_names", f"{name!r} is not a shipped mini-game "
+                       f"({', '.join(SCENARIOS)}); import its map with "
+                       "sgjax.maps.import_socialgym and train on the saved .json")
+            scenarios.append(SCENARIOS[name])
+        row("experiment_names", f"env.scenarios {scenarios} (several: each on an equal share of "
+            "the environments at once, where SocialGym cycled them episode by episode)")
+        if c["timelimit"]:
+            limit_steps = int(c["timelimit_threshold"])
+            row("timelimit", f"the time_limit ender ({limit_steps} steps = "
+                f"{limit_steps * SOCIALGYM_DT:g} s)")
+        else:
+            limit_steps = SOCIALGYM_MAX_STEPS
+            row("timelimit", f"off: SocialGym had no time limit then (UTMRS's max_steps fed a done "
+                f"nobody read); sgjax always has one, so {limit_steps} steps = "
+                f"{limit_steps * SOCIALGYM_DT:g} s stands in")
+        row("timelimit_threshold", f"env.time_limit {limit_steps * SOCIALGYM_DT:g} s"
+            if c["timelimit"] else "unused (timelimit off)")
+        curriculum = _curriculum(c["num_agents"], limit_steps, self.where)
+        row("num_agents", f"env.curriculum {curriculum} (episode e -> environment step e x "
+            f"{limit_steps}: every episode counted at the full time limit)")
+        slots = max(n for _, n in curriculum)
+        evaluation_counts = c["eval_num_agents"] or [n for _, n in curriculum][-1:]
+        row("eval_num_agents", f"evaluation.num_agents {list(evaluation_counts)}")
+        total = int(c["train_length"])
+        row("train_length", f"algorithm.total_steps {total} (environment steps; SocialGym's "
+            f"total_timesteps was this x {slots} robots)")
+        return scenarios, limit_steps, curriculum, list(evaluation_counts), total
+
+    def algorithm(self, total: int, slots: int) -> tuple[dict, dict]:
+        """The algorithm and network sections (SB3 PPO, VecNormalize, config_run's LSTM over
+        the others)."""
+        c, row, refuse = self.c, self.row, self.refuse
+        # Algorithm and network (SB3 PPO, VecNormalize, config_run's LSTM over the others).
+        algo_name, policy_name = c["policy_algo_name"], c["policy_name"]
+        recurrent = bool(c["policy_algo_sb3_contrib"])
+        if (algo_name, policy_name, recurrent) not in (("PPO", "MlpPolicy", False),
+                                                       ("RecurrentPPO", "MlpLstmPolicy", True)):
+            refuse("policy_algo_name", f"{algo_name} with {policy_name} (sb3_contrib "
+                   f"{recurrent}): sgjax trains PPO (MlpPolicy, or RecurrentPPO's MlpLstmPolicy)")
+        kwargs = dict(c["policy_algo_kwargs"] or {})
+        unknown = [k for k in kwargs if k not in SB3_PPO]
+        if unknown:
+            refuse("policy_algo_kwargs", f"no sgjax equivalent for {unknown}; known: "
+                   f"{', '.join(SB3_PPO)}")
+        ppo = {**SB3_PPO, **kwargs}
+        n_steps = int(ppo["n_steps"]) if "n_steps" in kwargs else 512 * slots
+        num_steps = max(1, n_steps // NUM_ENVS)
+        batch = NUM_ENVS * num_steps * slots  # agent transitions per update
+        # sgjax's minibatches are whole agent sequences (NUM_ENVS x slots of them): as many as SB3's
+        # batch_size asks for, or the nearest count that splits the sequences evenly below it.
+        wanted = max(1, batch // int(ppo["batch_size"]))
+        sequences = NUM_ENVS * slots
+        minibatches = max(m for m in range(1, min(wanted, sequences) + 1) if sequences % m == 0)
+        algorithm: dict[str, Any] = {
+            "name": "ippo", "total_steps": total, "num_envs": NUM_ENVS, "num_steps": num_steps,
+            "num_minibatches": minibatches,
+            "anneal_lr": False, "normalize_observations": True, "normalize_rewards": True,
+            "reward_clip": 10.0, **{SB3_TO_ALGORITHM[k]: ppo[k] for k in SB3_TO_ALGORITHM}}
+        row("policy_algo_name", "algorithm.name ippo (PPO, one policy shared by the robots as "
+            "SocialGym's agents shared one SB3 model)")
+        row("policy_algo_sb3_contrib", "network.kind gru (a GRU where sb3_contrib had an LSTM)"
+            if recurrent else "network.kind mlp")
+        row("policy_name", "network: hidden [64, 64] tanh (SB3's MlpPolicy) over an LSTM encoder "
+            "of the others (64 units, config_run's LSTMAgentObs), one encoder for the actor and "
+            "the critic (SB3's features extractor, shared by default)")
+        row("policy_algo_kwargs", f"PPO {json.dumps(ppo)} -> algorithm num_envs {NUM_ENVS} x "
+            f"num_steps {num_steps} (= n_steps {n_steps} environment steps per update), "
+            f"num_minibatches {minibatches} (batch_size {ppo['batch_size']} asks for {wanted} "
+            f"of {batch} transitions; sgjax's minibatches are whole sequences, {sequences} per "
+            f"update{'' if minibatches == wanted else ', so fewer and larger ones'}), "
+            f"update_epochs {ppo['n_epochs']}; VecNormalize -> normalized observations and "
+            "rewards, clip 10")
+        network: dict[str, Any] = {"kind": "gru" if recurrent else "mlp", "hidden": [64, 64],
+                                   "activation": "tanh", "others_encoder": "lstm",
+                                   "encoder_size": 64, "shared_encoder": True}
+        if recurrent:
+            network["recurrent_size"] = 256
+        return algorithm, network
+
+    def terms(self, slots: int, evaluation_counts: list[int], limit_steps: int
+              ) -> tuple[Any, Any, Any]:
+        """The observation, reward and ender terms."""
+        c, row, refuse = self.c, self.row, self.refuse
+        # Terms.
+        if c["run_type"] not in RUN_TYPES:
+            refuse("run_type", f"expected one of {', '.join(RUN_TYPES)}")
+        most = max([slots, *evaluation_counts])
+        observations, rewards = _observations(c, most), _rewards(c, limit_steps)
+        enders = _enders(c, self.where)
+        row("run_type", {"SACADRL": "no zone terms (as config_run; sgjax's cadrl preset adds the "
+                                    "paper's CADRL proximity term, this conversion does not)",
+                         "AO": "zone_order reward, any order, and the 7 zone observations",
+                         "EO": "zone_order reward, enforced order, and the 7 zone observations"}[
+            c["run_type"]])
+        for key in ("collision_obs", "agent_goal_distance_obs", "agent_pose_obs",
+                    "agent_velocity_obs", "other_poses_obs", "agent_pose_ignore_theta",
+                    "agent_velocity_ignore_theta", "other_poses_ignore_theta", "socialnavAPI",
+                    "partially_observable"):
+            row(key, "env.observations (below)")
+        row("other_velocities_obs", f"env.observations: others' velocity relative to the robot, "
+            f"for the {max(1, most - 1)} others the most robots ({most}) can have")
+        row("other_velocities_ignore_theta", "no effect: an other's velocity is its 2-vector in "
+            "sgjax (no separate turn rate)")
+        row("collision_penalty", "env.rewards.collision, paid on every step in contact as "
+            "SocialGym's Collisions term")
+        row("collision_penalty_scale_duration", "a linear weight schedule over duration x the time "
+            f"limit / {NUM_ENVS} steps of each environment (SocialGym's ramp was hyperbolic, in "
+            "episodes)" if c["collision_penalty_scale_duration"] else "0: a constant weight")
+        for key in ("existence_penalty", "success_reward", "starting_collision_penalty",
+                    "goal_distance_reward", "goal_distance_reward_clip", "enforced_order_reward",
+                    "enforced_order_penalty_for_incorrect_order",
+                    "enforced_order_weak_signal_out_of_zone",
+                    "penalty_for_multiple_agents_entering"):
+            row(key, "env.rewards (below)")
+        for key in ("entropy_ender", "entropy_max_distance", "entropy_max_timesteps",
+                    "entropy_reward", "entropy_constant_penalty",
+                    "entropy_constant_penalty_only_those_that_did_not_finish", "collision_ender"):
+            row(key, "env.enders (below)")
+        unused = ("unused (a constant penalty is set)" if c["entropy_reward"]
+                  else "unused (entropy_reward off)")
+        row("entropy_reward_multiplier", unused)
+        row("entropy_multiply_negative_rewards_only", unused)
+        row("reward_stripper", "always: a finished robot's reward is 0")
+        row("enforced_order_track_exit", "nothing (SocialGym ignored it too)")
+        row("other_poses_actual_positions", "nothing (SocialGym accepted but never used it)")
+        return observations, rewards, enders
+
+    def evaluation(self, total: int, evaluation_counts: list[int]) -> tuple[dict, str]:
+        """The evaluation section and the run name; refuses what the train command cannot
+        honour."""
+        c, row, refuse = self.c, self.row, self.refuse
+        # Evaluation, logging, the rest.
+        if not c["train"]:
+            refuse("train", "python -m train trains; evaluate a saved policy with sgjax evaluate")
+        if not c["eval"]:
+            refuse("eval", "the train command always ends with an evaluation")
+        if not c["ending_eval_with_best"]:
+            refuse("ending_eval_with_best", "the final evaluation always uses the best checkpoint")
+        if c["debug"]:
+            refuse("debug", "the always-GO debug run is the only_local baseline: sgjax evaluate "
+                   "--policy only_local")
+        if c["continue_from"]:
+            refuse("continue_from", "an SB3 checkpoint cannot be resumed; python -m train "
+                   "--resume continues an sgjax run")
+        every = int(c["eval_frequency"]) or total
+        episodes = int(c["ending_eval_trials"])
+        evaluation = {"every": every, "episodes": episodes, "num_agents": list(evaluation_counts),
+                      "baseline": "only_local", "deterministic": True}
+        row("eval_frequency", f"evaluation.every {every} environment steps"
+            + (" (0: only at the end)" if not c["eval_frequency"] else ""))
+        row("intermediate_eval_trials", f"periodic evaluations use evaluation.episodes {episodes} "
+            "too" if c["eval_frequency"] else "unused (no periodic evaluation)")
+        row("ending_eval_trials", f"evaluation.episodes {episodes} (greedy actions, as SB3's "
+            "evaluate_policy; beside the only_local baseline)")
+        for key in ("ending_eval_with_best", "train", "eval", "debug", "continue_from"):
+            row(key, "as SocialGym: train, then evaluate the best checkpoint")
+        run = c["run_name"] or "socialgym"
+        row("run_name", f"logging.out runs/{run}")
+        row("device", "nothing: JAX uses its default device (GPU when installed)")
+        row("monitor", "nothing (no ROS, no RViz); the run ends with a GIF")
+        row("local", "nothing (no ROS)")
+        return evaluation, run
+
+
 def convert(data: Mapping[str, Any], source: str = "config") -> tuple[dict[str, Any],
                                                                       list[tuple[str, str, str]]]:
     """``(train config dict, rows)``: the sgjax train config for a SocialGym experiment config
     and one ``(key, value, what it became)`` row per SocialGym key (defaults included)."""
-    given: dict[str, Any] = {}
-    for key, value in data.items():
-        name = ALIASES.get(key, key)
-        if name not in DEFAULTS:
-            raise ConfigError(f"{source}: {key}: not a SocialGym 2.0 config key"
-                              f"{suggest(str(key), list(DEFAULTS))}")
-        given[name] = value
-    c = {**DEFAULTS, **given}
-    where = source
-    rows: list[tuple[str, str, str]] = []
-
-    def row(key: str, became: str) -> None:
-        shown = json.dumps(c[key]) + ("" if key in given else " (default)")
-        rows.append((key, shown, became))
-
-    def refuse(key: str, why: str) -> None:
-        raise ConfigError(f"{where}: {key}: {json.dumps(c[key])} cannot be honoured: {why}")
-
-    # Where and how long.
-    names = c["experiment_names"]
-    names = [names] if isinstance(names, str) else list(names)
-    scenarios = []
-    for name in names:
-        if name not in SCENARIOS:
-            refuse("experiment_names", f"{name!r} is not a shipped mini-game "
-                   f"({', '.join(SCENARIOS)}); import its map with "
-                   "sgjax.maps.import_socialgym and train on the saved .json")
-        scenarios.append(SCENARIOS[name])
-    row("experiment_names", f"env.scenarios {scenarios} (several: each on an equal share of "
-        "the environments at once, where SocialGym cycled them episode by episode)")
-    if c["timelimit"]:
-        limit_steps = int(c["timelimit_threshold"])
-        row("timelimit", f"the time_limit ender ({limit_steps} steps = "
-            f"{limit_steps * SOCIALGYM_DT:g} s)")
-    else:
-        limit_steps = SOCIALGYM_MAX_STEPS
-        row("timelimit", f"off: SocialGym had no time limit then (UTMRS's max_steps fed a done "
-            f"nobody read); sgjax always has one, so {limit_steps} steps = "
-            f"{limit_steps * SOCIALGYM_DT:g} s stands in")
-    row("timelimit_threshold", f"env.time_limit {limit_steps * SOCIALGYM_DT:g} s" if c["timelimit"]
-        else "unused (timelimit off)")
-    curriculum = _curriculum(c["num_agents"], limit_steps, where)
-    row("num_agents", f"env.curriculum {curriculum} (episode e -> environment step e x "
-        f"{limit_steps}: every episode counted at the full time limit)")
+    conversion = _Conversion(data, source)
+    scenarios, limit_steps, curriculum, evaluation_counts, total = conversion.world()
     slots = max(n for _, n in curriculum)
-    evaluation_counts = c["eval_num_agents"] or [n for _, n in curriculum][-1:]
-    row("eval_num_agents", f"evaluation.num_agents {list(evaluation_counts)}")
-    total = int(c["train_length"])
-    row("train_length", f"algorithm.total_steps {total} (environment steps; SocialGym's "
-        f"total_timesteps was this x {slots} robots)")
-
-    # Algorithm and network (SB3 PPO, VecNormalize, config_run's LSTM over the others).
-    algo_name, policy_name = c["policy_algo_name"], c["policy_name"]
-    recurrent = bool(c["policy_algo_sb3_contrib"])
-    if (algo_name, policy_name, recurrent) not in (("PPO", "MlpPolicy", False),
-                                                   ("RecurrentPPO", "MlpLstmPolicy", True)):
-        refuse("policy_algo_name", f"{algo_name} with {policy_name} (sb3_contrib "
-               f"{recurrent}): sgjax trains PPO (MlpPolicy, or RecurrentPPO's MlpLstmPolicy)")
-    kwargs = dict(c["policy_algo_kwargs"] or {})
-    unknown = [k for k in kwargs if k not in SB3_PPO]
-    if unknown:
-        refuse("policy_algo_kwargs", f"no sgjax equivalent for {unknown}; known: "
-               f"{', '.join(SB3_PPO)}")
-    ppo = {**SB3_PPO, **kwargs}
-    n_steps = int(ppo["n_steps"]) if "n_steps" in kwargs else 512 * slots
-    num_steps = max(1, n_steps // NUM_ENVS)
-    batch = NUM_ENVS * num_steps * slots  # agent transitions per update
-    # sgjax's minibatches are whole agent sequences (NUM_ENVS x slots of them): as many as SB3's
-    # batch_size asks for, or the nearest count that splits the sequences evenly below it.
-    wanted = max(1, batch // int(ppo["batch_size"]))
-    sequences = NUM_ENVS * slots
-    minibatches = max(m for m in range(1, min(wanted, sequences) + 1) if sequences % m == 0)
-    algorithm: dict[str, Any] = {
-        "name": "ippo", "total_steps": total, "num_envs": NUM_ENVS, "num_steps": num_steps,
-        "num_minibatches": minibatches,
-        "anneal_lr": False, "normalize_observations": True, "normalize_rewards": True,
-        "reward_clip": 10.0, **{SB3_TO_ALGORITHM[k]: ppo[k] for k in SB3_TO_ALGORITHM}}
-    row("policy_algo_name", "algorithm.name ippo (PPO, one policy shared by the robots as "
-        "SocialGym's agents shared one SB3 model)")
-    row("policy_algo_sb3_contrib", "network.kind gru (a GRU where sb3_contrib had an LSTM)"
-        if recurrent else "network.kind mlp")
-    row("policy_name", "network: hidden [64, 64] tanh (SB3's MlpPolicy) over an LSTM encoder "
-        "of the others (64 units, config_run's LSTMAgentObs), one encoder for the actor and "
-        "the critic (SB3's features extractor, shared by default)")
-    row("policy_algo_kwargs", f"PPO {json.dumps(ppo)} -> algorithm num_envs {NUM_ENVS} x "
-        f"num_steps {num_steps} (= n_steps {n_steps} environment steps per update), "
-        f"num_minibatches {minibatches} (batch_size {ppo['batch_size']} asks for {wanted} "
-        f"of {batch} transitions; sgjax's minibatches are whole sequences, {sequences} per "
-        f"update{'' if minibatches == wanted else ', so fewer and larger ones'}), "
-        f"update_epochs {ppo['n_epochs']}; VecNormalize -> normalized observations and "
-        "rewards, clip 10")
-    network: dict[str, Any] = {"kind": "gru" if recurrent else "mlp", "hidden": [64, 64],
-                               "activation": "tanh", "others_encoder": "lstm",
-                               "encoder_size": 64, "shared_encoder": True}
-    if recurrent:
-        network["recurrent_size"] = 256
-
-    # Terms.
-    if c["run_type"] not in RUN_TYPES:
-        refuse("run_type", f"expected one of {', '.join(RUN_TYPES)}")
-    most = max([slots, *evaluation_counts])
-    observations, rewards = _observations(c, most), _rewards(c, limit_steps)
-    enders = _enders(c, where)
-    row("run_type", {"SACADRL": "no zone terms (as config_run; sgjax's cadrl preset adds the "
-                                "paper's CADRL proximity term, this conversion does not)",
-                     "AO": "zone_order reward, any order, and the 7 zone observations",
-                     "EO": "zone_order reward, enforced order, and the 7 zone observations"}[
-        c["run_type"]])
-    for key in ("collision_obs", "agent_goal_distance_obs", "agent_pose_obs",
-                "agent_velocity_obs", "other_poses_obs", "agent_pose_ignore_theta",
-                "agent_velocity_ignore_theta", "other_poses_ignore_theta", "socialnavAPI",
-                "partially_observable"):
-        row(key, "env.observations (below)")
-    row("other_velocities_obs", f"env.observations: others' velocity relative to the robot, "
-        f"for the {max(1, most - 1)} others the most robots ({most}) can have")
-    row("other_velocities_ignore_theta", "no effect: an other's velocity is its 2-vector in "
-        "sgjax (no separate turn rate)")
-    row("collision_penalty", "env.rewards.collision, paid on every step in contact as "
-        "SocialGym's Collisions term")
-    row("collision_penalty_scale_duration", "a linear weight schedule over duration x the time "
-        f"limit / {NUM_ENVS} steps of each environment (SocialGym's ramp was hyperbolic, in "
-        "episodes)" if c["collision_penalty_scale_duration"] else "0: a constant weight")
-    for key in ("existence_penalty", "success_reward", "starting_collision_penalty",
-                "goal_distance_reward", "goal_distance_reward_clip", "enforced_order_reward",
-                "enforced_order_penalty_for_incorrect_order",
-                "enforced_order_weak_signal_out_of_zone", "penalty_for_multiple_agents_entering"):
-        row(key, "env.rewards (below)")
-    for key in ("entropy_ender", "entropy_max_distance", "entropy_max_timesteps",
-                "entropy_reward", "entropy_constant_penalty",
-                "entropy_constant_penalty_only_those_that_did_not_finish", "collision_ender"):
-        row(key, "env.enders (below)")
-    unused = ("unused (a constant penalty is set)" if c["entropy_reward"]
-              else "unused (entropy_reward off)")
-    row("entropy_reward_multiplier", unused)
-    row("entropy_multiply_negative_rewards_only", unused)
-    row("reward_stripper", "always: a finished robot's reward is 0")
-    row("enforced_order_track_exit", "nothing (SocialGym ignored it too)")
-    row("other_poses_actual_positions", "nothing (SocialGym accepted but never used it)")
-
-    # Evaluation, logging, the rest.
-    if not c["train"]:
-        refuse("train", "python -m train trains; evaluate a saved policy with sgjax evaluate")
-    if not c["eval"]:
-        refuse("eval", "the train command always ends with an evaluation")
-    if not c["ending_eval_with_best"]:
-        refuse("ending_eval_with_best", "the final evaluation always uses the best checkpoint")
-    if c["debug"]:
-        refuse("debug", "the always-GO debug run is the only_local baseline: sgjax evaluate "
-               "--policy only_local")
-    if c["continue_from"]:
-        refuse("continue_from", "an SB3 checkpoint cannot be resumed; python -m train "
-               "--resume continues an sgjax run")
-    every = int(c["eval_frequency"]) or total
-    episodes = int(c["ending_eval_trials"])
-    evaluation = {"every": every, "episodes": episodes, "num_agents": list(evaluation_counts),
-                  "baseline": "only_local", "deterministic": True}
-    row("eval_frequency", f"evaluation.every {every} environment steps"
-        + (" (0: only at the end)" if not c["eval_frequency"] else ""))
-    row("intermediate_eval_trials", f"periodic evaluations use evaluation.episodes {episodes} "
-        "too" if c["eval_frequency"] else "unused (no periodic evaluation)")
-    row("ending_eval_trials", f"evaluation.episodes {episodes} (greedy actions, as SB3's "
-        "evaluate_policy; beside the only_local baseline)")
-    for key in ("ending_eval_with_best", "train", "eval", "debug", "continue_from"):
-        row(key, "as SocialGym: train, then evaluate the best checkpoint")
-    run = c["run_name"] or "socialgym"
-    row("run_name", f"logging.out runs/{run}")
-    row("device", "nothing: JAX uses its default device (GPU when installed)")
-    row("monitor", "nothing (no ROS, no RViz); the run ends with a GIF")
-    row("local", "nothing (no ROS)")
+    algorithm, network = conversion.algorithm(total, slots)
+    observations, rewards, enders = conversion.terms(slots, evaluation_counts, limit_steps)
+    evaluation, run = conversion.evaluation(total, evaluation_counts)
     config = {
         "env": {"scenarios": scenarios, "curriculum": curriculum, "dt": SOCIALGYM_DT,
                 "time_limit": limit_steps * SOCIALGYM_DT, "robots": "socialgym",
@@ -373,6 +408,7 @@ def convert(data: Mapping[str, Any], source: str = "config") -> tuple[dict[str, 
     }
     config_from_dict(config, f"{source} (converted)")  # the result must validate
     order = {key: i for i, key in enumerate(DEFAULTS)}
+    rows = conversion.rows
     rows.sort(key=lambda r: order[r[0]])
     return config, rows
 
