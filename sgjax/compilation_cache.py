@@ -18,9 +18,9 @@ The commands also compile XLA:CPU programs with its elemental emitters
 (``--xla_cpu_use_fusion_emitters=false`` appended to ``XLA_FLAGS`` before JAX starts its
 backends): the same arithmetic and about the same speed once compiled, in less compile time
 (``bench/compile_time.py`` and docs/benchmark.md measure both). It changes nothing on a GPU.
-Keep XLA's default with ``SGJAX_XLA_DEFAULT_EMITTERS=1`` or by putting ``--xla_cpu_use_fusion_emitters`` in
-``XLA_FLAGS`` yourself. Only jaxlib 0.10 gets the flag: 0.11 dropped it (XLA aborts on a flag
-it does not know).
+Keep XLA's default with ``SGJAX_XLA_DEFAULT_EMITTERS=1`` or by putting
+``--xla_cpu_use_fusion_emitters`` in ``XLA_FLAGS`` yourself. Only jaxlib 0.10 gets the flag:
+0.11 dropped it (XLA aborts on a flag it does not know).
 
 The trainer's update is the exception (:func:`learner_compiler_options`): where the commands
 chose the elemental emitters, it compiles with XLA's default ones (``jax.jit(...,
