@@ -1,5 +1,5 @@
 """The ``sgjax`` command: ``sgjax evaluate ...``, ``sgjax render ...``, ``sgjax maps show ...``,
-``sgjax maps check ...`` and ``sgjax edit ...``.
+``sgjax maps check ...``, ``sgjax maps generate ...`` and ``sgjax edit ...``.
 
 Examples::
 
@@ -26,6 +26,7 @@ from sgjax.environment.registry import registered
 from sgjax.evaluation.evaluate import evaluate, policy_environment, run_episodes
 from sgjax.evaluation.policies import BASELINES, load_policy, policy_options
 from sgjax.evaluation.protocols import PAPER, PROTOCOLS, load_protocol
+from sgjax.maps.generated.families import FAMILIES
 from sgjax.maps.io import load as load_map
 from sgjax.types import ACTION_MODES, ARRIVED_SEMANTICS
 from sgjax.version import __version__
@@ -217,6 +218,36 @@ def run_maps_check(args: argparse.Namespace) -> None:
         raise SystemExit(1)
 
 
+def run_maps_generate(args: argparse.Namespace) -> None:
+    import json
+
+    from sgjax.environment.worlds import sample_maps, source_for
+    from sgjax.files import write_atomic
+
+    ranges = {}
+    for item in args.set:
+        name, _, text = item.partition("=")
+        try:
+            pair = [float(v) for v in text.split(",")]
+        except ValueError:
+            pair = []
+        if not name or len(pair) not in (1, 2):
+            raise ValueError(f"--set {item!r}: expected NAME=LOW,HIGH or NAME=VALUE")
+        ranges[name] = tuple(pair) if len(pair) == 2 else pair[0]
+    source = source_for(args.family, ranges, robot_radius=args.clearance)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    written = 0
+    for data, valid in sample_maps(source, args.count, args.seed):
+        if not valid:
+            print(f"{data['name']}: no valid world in {source.proposals} proposals; not written")
+            continue
+        path = write_atomic(out / f"{data['name']}.json", json.dumps(data, indent=1) + "\n")
+        written += 1
+        print(f"wrote {path}")
+    print(f"{written} of {args.count} world(s) of family {args.family!r} in {out}")
+
+
 def run_edit(args: argparse.Namespace) -> None:
     from sgjax.editor.guard import LOOPBACK_HOSTS
     from sgjax.editor.server import serve
@@ -265,6 +296,21 @@ def _add_maps_commands(commands: Any) -> None:
                        help="the largest robot radius every node must keep from walls (m)")
     add_cache_arguments(check)
     check.set_defaults(run=run_maps_check)
+    generate = maps.add_parser(
+        "generate", help="worlds of a generated family as map files",
+        description="Draw worlds of a family (docs/generated.md) and write each as a map .json "
+                    "file that sgjax maps check, sgjax evaluate --scenario, the trainer and "
+                    "the editor load")
+    generate.add_argument("--family", required=True, choices=list(FAMILIES))
+    generate.add_argument("--count", type=int, default=8)
+    generate.add_argument("--seed", type=int, default=0)
+    generate.add_argument("--out", required=True, help="folder for the .json files")
+    generate.add_argument("--set", action="append", default=[], metavar="NAME=LOW,HIGH",
+                          help="a parameter's range (or NAME=VALUE), repeatable")
+    generate.add_argument("--clearance", type=float, default=0.25,
+                          help="the largest robot radius passages and nodes must fit (m)")
+    add_cache_arguments(generate)
+    generate.set_defaults(run=run_maps_generate)
 
 
 

@@ -211,6 +211,9 @@ class EnvState:
     # [R] int32 GO/STOP or [R, A] float32: each robot's action in force (the last one read;
     # EnvConfig.decision_period)
     held_action: Array
+    # the generated world this episode plays in (sgjax.environment.worlds.WorldDraw), or None on
+    # a fixed map (no leaves: nothing traced)
+    world: Any = None
 
     @property
     def goal_distance(self) -> Array:
@@ -242,3 +245,10 @@ class EnvParams:
     # int32 scalar: 0 (off): every episode has num_agents robots; n >= 1: each episode draws
     # its robot count uniformly from [min(n, num_agents), num_agents]
     min_agents: Array
+
+
+def episode_params(state: EnvState, params: EnvParams) -> EnvParams:
+    """The params an episode plays under: ``params`` with the episode's generated world as its
+    map (``state.world``, ``sgjax.environment.worlds``), or ``params`` itself on a fixed map.
+    Anything that reads the map beside the step (a controller, a metric) reads it from these."""
+    return params if state.world is None else params.replace(map=state.world.map)

@@ -54,6 +54,7 @@ from sgjax.dynamics.planner import PlannerConfig, approach, carrot_point, plan, 
 from sgjax.environment import physics
 from sgjax.environment.physics import Commands
 from sgjax.environment.presets import OBSERVATION_PRESETS, REWARD_PRESETS
+from sgjax.environment.worlds import WorldDraw, WorldSource
 from sgjax.humans.pedestrians import HumanConfig, HumanState, advance_waypoints, spawn_humans
 from sgjax.kernels.geometry import safe_norm
 from sgjax.kernels.row_chunks import chunk_size, update_flagged_rows
@@ -72,6 +73,7 @@ from sgjax.types import (
     History,
     Layout,
     RobotState,
+    episode_params,
 )
 
 # Distance (m) from its goal point at which a settling robot parks: SocialGym 2.0's planner
@@ -113,6 +115,9 @@ class EnvConfig:
     arrived: str = "settle"  # an arrived robot settles on its goal, parks where it is, or leaves
     ended: str = "leave"  # the same for a robot an ender terminates (e.g. a fatal collision)
     decision_period: int = 1  # steps each action is held (robots read actions every that many)
+    # a family of generated worlds: every reset draws a new world into the state (None: the
+    # map of params, fixed)
+    world: WorldSource | None = None
 
     @property
     def layout(self) -> Layout:
@@ -239,8 +244,17 @@ class SocialNavEnv:
         self.check_params(params)
         return self._reset_compiled(key, params)
 
+    def params_in(self, state: EnvState, params: EnvParams) -> EnvParams:
+        """The params an episode plays under (:func:`sgjax.types.episode_params`)."""
+        return episode_params(state, params)
+
     def _reset(self, key: Array, params: EnvParams, keep: Array | None = None
                ) -> tuple[Array, EnvState]:
+        world = None
+        if self.config.world is not None:  # a new world first, from its own key
+            key, key_world = jax.random.split(key)
+            world = self.config.world.draw(key_world)
+            params = params.replace(map=world.map)
         key_robots, key_humans = jax.random.split(key)
         fewest = jnp.where(params.min_agents > 0,
                            jnp.minimum(params.min_agents, params.num_agents), params.num_agents)
@@ -249,7 +263,8 @@ class SocialNavEnv:
         start, goal, placed = sample_starts_goals(key_robots, params.map, params.robots.radius,
                                                   wanted)
         present = placed if keep is None else placed & jnp.asarray(keep, bool)
-        return self._reset_to(start, goal, present, params, key_humans, spawn_present=placed)
+        return self._reset_to(start, goal, present, params, key_humans, spawn_present=placed,
+                              world=world)
 
     def reset_subset(self, key: Array, params: EnvParams, keep: Array) -> tuple[Array, EnvState]:
         """The episode ``reset(key, params)`` starts, with only the robots in ``keep [R]`` (bool)
@@ -277,9 +292,12 @@ class SocialNavEnv:
 
     def _reset_to(
         self, start: Array, goal: Array, present: Array, params: EnvParams, key: Array,
-        spawn_present: Array | None = None,
+        spawn_present: Array | None = None, world: WorldDraw | None = None,
     ) -> tuple[Array, EnvState]:
         num_robots = self.max_agents
+        if self.config.world is not None and world is None:  # reset_to: the params' map
+            world = WorldDraw(map=params.map, valid=jnp.asarray(True), values={
+                name: jnp.float32(jnp.nan) for name in self.config.world.family.parameters})
         # Split only what is used: reset runs inside every auto-reset step.
         key_humans, key_zones, key_obs = key, key, key
         if self.config.uses_zones or self.config.observer.needs_key:
@@ -319,6 +337,7 @@ class SocialNavEnv:
             held_action=(jnp.zeros((num_robots, self.config.action_dim), jnp.float32)
                          if self.config.action_mode == "continuous"
                          else jnp.full(num_robots, GO, jnp.int32)),
+            world=world,
         )
         return self.observe(state, params, key_obs), state
 
@@ -438,6 +457,7 @@ class SocialNavEnv:
         self, key: Array, state: EnvState, actions: Array, params: EnvParams
     ) -> tuple[Array, EnvState, Array, Array, Array, dict]:
         cfg, layout = self.config, self.config.layout
+        params = self.params_in(state, params)
         key_humans, key_obs = jax.random.split(key) if cfg.observer.needs_key else (key, key)
         with jax.named_scope("decode_actions"):
             # at a decision step the new actions, else each robot's held one
@@ -525,6 +545,7 @@ class SocialNavEnv:
             moved=moved,
             total_steps=state.total_steps + 1,
             held_action=state.held_action,
+            world=state.world,
         )
 
     @staticmethod
@@ -625,6 +646,7 @@ class SocialNavEnv:
         """Observations ``[R, D]`` from the configured terms (zeros for robots not in the
         episode); ``key`` feeds noisy terms (lidar noise), default ``jax.random.key(0)``."""
         key = jax.random.key(0) if key is None else key
+        params = self.params_in(state, params)
         return self.config.observer(TermInput.observing(state, params, self.config.layout, key))
 
     # Compiled entry points: an eager call runs one compiled program instead of dispatching (and

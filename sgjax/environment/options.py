@@ -10,9 +10,11 @@ each belongs to one group:
 * :class:`TermOptions`: ``observations``, ``rewards``, ``enders``, ``terms``,
   ``observation_preset``, ``reward_preset`` (``docs/terms.md``);
 * :class:`PhysicsOptions`: ``dt``, ``substeps``, ``time_limit``, ``num_arcs``,
-  ``contact_passes``.
+  ``contact_passes``;
+* :class:`WorldOptions`: ``world_ranges``, ``world_proposals`` (generated worlds:
+  ``make("generated:<family>")``, ``docs/generated.md``).
 
-:class:`MakeOptions` holds the four groups; ``MakeOptions.from_keywords(**kw)`` builds it from
+:class:`MakeOptions` holds the five groups; ``MakeOptions.from_keywords(**kw)`` builds it from
 flat keywords (an unknown one names the nearest valid keyword), ``options.keywords()`` gives them
 back, ``options.to_dict()`` / ``MakeOptions.from_dict`` write and read the nested form (what a
 training checkpoint stores), and ``make(scenario, options=...)`` takes it whole. The trainer's
@@ -190,8 +192,52 @@ class PhysicsOptions:
         return math.ceil(self.time_limit / self.dt - 1e-9)
 
 
+@dataclasses.dataclass(frozen=True)
+class WorldOptions:
+    """Generated worlds (a scenario ``"generated:<family>"``): the ranges the family's
+    parameters are drawn from, on top of its defaults (``{name: [low, high]}`` or ``{name:
+    value}``, held as sorted ``(name, low, high)`` rows; checked against the family by
+    ``make``), and how many worlds a reset proposes to find a valid one (best of K; a reset
+    whose K proposals are all invalid keeps the first and flags it)."""
+
+    world_ranges: tuple[tuple[str, float, float], ...] = ()
+    world_proposals: int = 4
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "world_ranges", _range_rows(self.world_ranges))
+        check_int("world_proposals", self.world_proposals)
+
+    def ranges(self) -> dict[str, tuple[float, float]]:
+        """``{name: (low, high)}``."""
+        return {name: (low, high) for name, low, high in self.world_ranges}
+
+
+def _range_rows(value: Any) -> tuple[tuple[str, float, float], ...]:
+    """``world_ranges`` as sorted ``(name, low, high)`` rows, from a mapping of ranges or
+    numbers or from rows; a ValueError names a malformed entry."""
+    if isinstance(value, Mapping):
+        items = list(value.items())
+    else:
+        try:
+            items = [(row[0], tuple(row[1:])) for row in value]
+        except (TypeError, IndexError):
+            raise ValueError(f"world_ranges must be a mapping of parameter names to [low, high]"
+                             f", got {value!r}") from None
+    rows = []
+    for name, pair in items:
+        if isinstance(pair, int | float) and not isinstance(pair, bool):
+            pair = (pair, pair)
+        if (not isinstance(name, str) or len(pair) != 2
+                or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in pair)):
+            raise ValueError(f"world_ranges: {name!r}: expected [low, high] (or one number), "
+                             f"got {pair!r}")
+        rows.append((name, float(pair[0]), float(pair[1])))
+    return tuple(sorted(rows))
+
+
 GROUPS: dict[str, type] = {"robots": RobotOptions, "humans": HumanOptions,
-                           "terms": TermOptions, "physics": PhysicsOptions}
+                           "terms": TermOptions, "physics": PhysicsOptions,
+                           "worlds": WorldOptions}
 # Flat keyword -> its group.
 KEYWORDS: dict[str, str] = {f.name: group for group, cls in GROUPS.items()
                             for f in dataclasses.fields(cls)}
@@ -199,12 +245,13 @@ KEYWORDS: dict[str, str] = {f.name: group for group, cls in GROUPS.items()
 
 @dataclasses.dataclass(frozen=True)
 class MakeOptions:
-    """Every option of :func:`sgjax.make`, in four groups."""
+    """Every option of :func:`sgjax.make`, in five groups."""
 
     robots: RobotOptions = dataclasses.field(default_factory=RobotOptions)
     humans: HumanOptions = dataclasses.field(default_factory=HumanOptions)
     terms: TermOptions = dataclasses.field(default_factory=TermOptions)
     physics: PhysicsOptions = dataclasses.field(default_factory=PhysicsOptions)
+    worlds: WorldOptions = dataclasses.field(default_factory=WorldOptions)
 
     @classmethod
     def from_keywords(cls, where: str = "make", **keywords: Any) -> MakeOptions:
@@ -236,7 +283,8 @@ class MakeOptions:
     def to_dict(self) -> dict[str, dict[str, Any]]:
         """Every option by group as plain data (tuples as lists), the form a checkpoint
         stores: ``{"robots": {"num_agents": 4, ...}, "humans": {...}, "terms": {...},
-        "physics": {...}}``; :meth:`from_dict` reads it back."""
+        "physics": {...}, "worlds": {...}}``; :meth:`from_dict` reads it back (a checkpoint
+        written before a group existed has its defaults)."""
         return {group: {f.name: thaw(getattr(getattr(self, group), f.name))
                         for f in dataclasses.fields(cls)} for group, cls in GROUPS.items()}
 
@@ -260,7 +308,7 @@ class MakeOptions:
 
 def group_keywords(group: str) -> list[str]:
     """The flat keywords of one group (``"robots"``, ``"humans"``, ``"terms"``,
-    ``"physics"``)."""
+    ``"physics"``, ``"worlds"``)."""
     return [f.name for f in dataclasses.fields(GROUPS[group])]
 
 

@@ -18,11 +18,15 @@ from sgjax.dynamics.planner import PlannerConfig, PlannerParams
 from sgjax.environment.env import EnvConfig, SocialNavEnv
 from sgjax.environment.options import MakeOptions
 from sgjax.environment.presets import resolve_terms
+from sgjax.environment.worlds import WorldSource
 from sgjax.humans.hsfm import MAX_SUBSTEP as HSFM_MAX_SUBSTEP
 from sgjax.humans.map_params import human_params
 from sgjax.humans.pedestrians import HumanConfig, HumanParams, spawn_humans
 from sgjax.maps.arrays import MapArrays, compile_map, spawn_groups
 from sgjax.maps.crowd_scenarios import CROWD_SCENARIOS
+from sgjax.maps.generated.export import world_map
+from sgjax.maps.generated.families import PREFIX as GENERATED
+from sgjax.maps.generated.families import family
 from sgjax.maps.io import load, shipped_map_names
 from sgjax.maps.sampling import sample_starts_goals
 from sgjax.maps.schema import MapSpec, parse_map
@@ -67,8 +71,10 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
     opts = (options or MakeOptions()).replace(where=f"make({str(label)!r})", **keywords)
     robot_opts, human_opts, term_opts, physics = opts.robots, opts.humans, opts.terms, opts.physics
     is_spec = isinstance(scenario, MapSpec)
-    is_path = not is_spec and (str(scenario).endswith(".json") or Path(str(scenario)).exists())
-    if not is_spec and not is_path and scenario not in registered():
+    generated = isinstance(scenario, str) and scenario.startswith(GENERATED)
+    is_path = not is_spec and not generated and (
+        str(scenario).endswith(".json") or Path(str(scenario)).exists())
+    if not is_spec and not is_path and not generated and scenario not in registered():
         raise KeyError(f"unknown scenario {scenario!r}{suggest(str(scenario), registered())}; "
                        f"registered scenarios are: {', '.join(registered())} (or pass a path "
                        "to a map .json file)")
@@ -88,15 +94,11 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
                          and human_config.force_model == "hsfm" else None)
 
     largest = max(p.radius for p in presets)
-    if is_spec:  # re-validate against the robots that will drive it
-        spec = parse_map(scenario.to_json(), source=scenario.source, clearance=largest)
-    else:
-        spec = load(scenario, clearance=largest)
     planner_config = PlannerConfig(num_arcs=physics.num_arcs)
     planner_params = PlannerParams()
     reach = (max(planner_config.arc_lengths) + largest + planner_params.obstacle_margin
              + PLANNER_SLACK)
-    map_arrays = compile_map(spec, reach=reach)
+    world, spec, map_arrays = _scenario_map(scenario, generated, is_spec, opts, largest, reach)
     action_dim = 3 if any(p.model == "omnidirectional" for p in presets) else 2
     config = EnvConfig(
         scenario=spec.name, max_agents=max_agents, action_mode=robot_opts.action_mode,
@@ -104,7 +106,7 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
         contact_passes=physics.contact_passes, humans=human_config, observer=observer,
         rewarder=rewarder, enders=enders, num_zones=len(spec.zones),
         arrived=robot_opts.arrived, ended=robot_opts.ended,
-        decision_period=robot_opts.decision_period,
+        decision_period=robot_opts.decision_period, world=world,
     )
     params = EnvParams(
         robots=robot_params(presets),
@@ -121,6 +123,50 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
     )
     _check_capacity(spec.source, params, max_agents, human_config)
     return SocialNavEnv(config, params), params
+
+
+def _scenario_map(scenario: Any, generated: bool, is_spec: bool, opts: MakeOptions,
+                  largest: float, reach: float
+                  ) -> tuple[WorldSource | None, MapSpec, MapArrays]:
+    """The scenario's map for robots up to ``largest`` m and a planner reaching ``reach`` m:
+    ``(world source or None, spec, arrays)``; a map spec or file is validated again for the
+    robots that will drive it."""
+    if generated:
+        return _generated(scenario, opts, largest, reach)
+    if is_spec:
+        spec = parse_map(scenario.to_json(), source=scenario.source, clearance=largest)
+    else:
+        spec = load(scenario, clearance=largest)
+    return None, spec, compile_map(spec, reach=reach)
+
+
+def _generated(name: str, opts: MakeOptions, largest: float, reach: float
+               ) -> tuple[WorldSource, MapSpec, MapArrays]:
+    """A generated world family as an environment's world source, with its template world (key
+    0: the default params' map, which fixes every shape) as a map spec and map arrays."""
+    fam = family(name)
+    if opts.humans.slots:
+        raise ValueError(f"make({name!r}): generated worlds have no pedestrians yet "
+                         "(num_humans and max_humans must be 0)")
+    ranges = fam.ranges(opts.worlds.ranges())
+    source = WorldSource(fam.name, tuple((k, lo, hi) for k, (lo, hi) in sorted(ranges.items())),
+                         dataclasses.replace(fam.capacity, reach=float(reach)), float(largest),
+                         opts.worlds.world_proposals)
+    template, values, arrays, ok = _template(source)
+    if not ok:
+        raise ValueError(f"make({name!r}): the world of key 0 fails the family's checks for "
+                         f"robots of radius {largest} m (passages too narrow for them?); "
+                         f"narrow the ranges (world_ranges)")
+    data = world_map(template, f"{GENERATED}{fam.name}", fam.description, values)
+    spec = parse_map(data, source=f"{GENERATED}{fam.name}", clearance=largest)
+    return source, spec, arrays
+
+
+def _template(source: WorldSource) -> tuple[Any, dict, MapArrays, bool]:
+    """The world of key 0 (the first valid proposal, as a reset draws it): ``(world, values,
+    arrays, valid)`` on the host."""
+    world, draw = jax.jit(source.chosen)(jax.random.key(0))
+    return world, draw.values, draw.map, bool(draw.valid)
 
 
 def _substeps(

@@ -48,7 +48,7 @@ from sgjax.evaluation import counterfactual as cf
 from sgjax.evaluation import metrics
 from sgjax.evaluation.policies import Policy, RecurrentPolicy
 from sgjax.kernels.chunked_scan import scan_until_done
-from sgjax.types import EnvParams, EnvState
+from sgjax.types import EnvParams, EnvState, episode_params
 
 __all__ = ["STEP_CHUNK", "EpisodeRunner", "Episodes", "LaneRunner", "ParamLaneRunner",
            "argument_signature", "check_steps", "with_zone_books"]
@@ -129,11 +129,13 @@ def act(policy: Policy | RecurrentPolicy, memory: Any, obs: Array, keys: Array,
         state: EnvState, params: EnvParams) -> tuple[Any, Array]:
     """``policy`` for every environment of a batch: ``obs [N, R, D]``, ``keys [N]``, ``state``
     with leading axis ``N`` -> ``(memory, actions)``, actions ``[N, R]`` (GO/STOP) or
-    ``[N, R, d]``; ``memory`` (``[N, ...]``) passes through for a policy without memory."""
+    ``[N, R, d]``; ``memory`` (``[N, ...]``) passes through for a policy without memory. Each
+    environment's policy sees its episode's params (its generated world's map, if any)."""
     if isinstance(policy, RecurrentPolicy):
-        return jax.vmap(policy.step, in_axes=(0, 0, 0, 0, None))(memory, obs, keys, state,
-                                                                 params)
-    return memory, jax.vmap(policy, in_axes=(0, 0, 0, None))(obs, keys, state, params)
+        return jax.vmap(lambda c, o, k, s: policy.step(c, o, k, s, episode_params(s, params)))(
+            memory, obs, keys, state)
+    return memory, jax.vmap(lambda o, k, s: policy(o, k, s, episode_params(s, params)))(
+        obs, keys, state)
 
 
 def first_memory(policy: Policy | RecurrentPolicy, count: int, num_robots: int) -> Any:

@@ -7,6 +7,8 @@ vectorises the innermost axis, and a trailing axis of size 2 wastes it (see DESI
 
 from __future__ import annotations
 
+from typing import Any
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -130,9 +132,10 @@ def segments_intersect(
                                          np.array([[*q1, *q2]], np.float64))[0])
 
 
-def segments_intersect_pairs(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+def segments_intersect_pairs(p: np.ndarray, q: np.ndarray, xp: Any = np) -> np.ndarray:
     """Whether closed segments ``p [..., 4]`` and ``q [..., 4]`` (x1, y1, x2, y2) intersect,
-    pair by pair with broadcasting: ``[...]`` bool (host-side, numpy). Touching counts."""
+    pair by pair with broadcasting: ``[...]`` bool. Touching counts. ``xp``: ``numpy``
+    (host-side map validation, float64) or ``jax.numpy`` (inside ``jit``: generated worlds)."""
     p1, p2, q1, q2 = p[..., :2], p[..., 2:], q[..., :2], q[..., 2:]
 
     def orient(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -140,18 +143,18 @@ def segments_intersect_pairs(p: np.ndarray, q: np.ndarray) -> np.ndarray:
                 - (b[..., 1] - a[..., 1]) * (c[..., 0] - a[..., 0]))
 
     def on_segment(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-        low, high = np.minimum(a, b) - 1e-9, np.maximum(a, b) + 1e-9
-        return np.all((low <= c) & (c <= high), axis=-1)
+        low, high = xp.minimum(a, b) - 1e-9, xp.maximum(a, b) + 1e-9
+        return xp.all((low <= c) & (c <= high), axis=-1)
 
     d1, d2 = orient(q1, q2, p1), orient(q1, q2, p2)
     d3, d4 = orient(p1, p2, q1), orient(p1, p2, q2)
     proper = (((d1 > 0) != (d2 > 0)) & ((d3 > 0) != (d4 > 0)) & (d1 * d2 != 0)
               & (d3 * d4 != 0))
     eps = 1e-12
-    return proper | ((np.abs(d1) < eps) & on_segment(q1, q2, p1)) | (
-        (np.abs(d2) < eps) & on_segment(q1, q2, p2)) | (
-        (np.abs(d3) < eps) & on_segment(p1, p2, q1)) | (
-        (np.abs(d4) < eps) & on_segment(p1, p2, q2))
+    return proper | ((xp.abs(d1) < eps) & on_segment(q1, q2, p1)) | (
+        (xp.abs(d2) < eps) & on_segment(q1, q2, p2)) | (
+        (xp.abs(d3) < eps) & on_segment(p1, p2, q1)) | (
+        (xp.abs(d4) < eps) & on_segment(p1, p2, q2))
 
 
 # atan(a) / a as a polynomial in a^2 on [0, 1] (least-squares fit on Chebyshev nodes; the

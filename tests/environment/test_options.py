@@ -89,9 +89,11 @@ def test_freeze_and_thaw_are_one_pair():
 
 def test_make_options_round_trip_through_their_nested_form():
     options = MakeOptions.from_keywords(num_agents=3, human_groups=[2], num_humans=4,
-                                        observations="navigation", dt=0.05, arrived="park")
+                                        observations="navigation", dt=0.05, arrived="park",
+                                        world_ranges={"door_width": [1, 1.5]})
     nested = options.to_dict()
-    assert set(nested) == {"robots", "humans", "terms", "physics"}
+    assert set(nested) == {"robots", "humans", "terms", "physics", "worlds"}
+    assert nested["worlds"]["world_ranges"] == [["door_width", 1.0, 1.5]]
     assert nested["humans"]["human_groups"] == [2] and nested["robots"]["arrived"] == "park"
     assert MakeOptions.from_dict(nested) == options
     assert MakeOptions.from_dict({"physics": {"dt": 0.05}}) == MakeOptions.from_keywords(dt=0.05)

@@ -27,7 +27,7 @@ from sgjax.evaluation.metrics.base import NAN
 from sgjax.evaluation.metrics.constants import DEFAULT_CONSTANTS, MetricConstants
 from sgjax.evaluation.metrics.registration import METRICS
 from sgjax.evaluation.metrics.step_view import EpisodeEnd, StepView
-from sgjax.types import EnvParams, EnvState
+from sgjax.types import EnvParams, EnvState, episode_params
 
 
 @struct.dataclass
@@ -60,8 +60,10 @@ def episode_done(state: EnvState, terminated: Array, truncated: Array) -> Array:
 def update(m: MetricState, prev: EnvState, state: EnvState, info: dict, done: Array,
            params: EnvParams, constants: MetricConstants = DEFAULT_CONSTANTS) -> MetricState:
     """Accumulate one step ``prev -> state`` (``info`` from ``env.step_env``; ``done`` from
-    :func:`episode_done`). Steps after the episode ended change no metric."""
-    view = StepView(prev, state, info, done, params, constants, m.running)
+    :func:`episode_done`). Steps after the episode ended change no metric. The metrics read
+    the episode's params (its generated world's map, if any)."""
+    view = StepView(prev, state, info, done, episode_params(state, params), constants,
+                    m.running)
     tallies = {f.key: f.update(m.tallies[f.key], view) for f in METRICS.families()
                if f.per_step}
     return MetricState(running=m.running & ~done,
@@ -78,7 +80,7 @@ def finalize(m: MetricState, state: EnvState, params: EnvParams
     registered metric in catalogue order. Metrics not computed from the step (``per_step``
     False: the counterfactual ones) read NaN here; the runner fills them in when it plays
     their lanes."""
-    end = EpisodeEnd(state, params, m.length, m.active_steps)
+    end = EpisodeEnd(state, episode_params(state, params), m.length, m.active_steps)
     present = state.robots.present
     robot, episode = {}, {}
     for family in METRICS.families():

@@ -1,0 +1,105 @@
+"""Generated worlds: how fast they are made, what a generating ``reset`` costs to compile, and
+what a new world at every episode costs a training run, beside the fixed map in the same run.
+
+    python bench/generated_worlds.py [--batch 1024] [--updates 4]
+
+Prints, for each family (``sgjax.maps.generated``): the compile time and the rate of drawing
+worlds (each draw makes ``world_proposals`` candidates, compiles them to map arrays, checks
+them and keeps the first valid one, as a reset does) in batches of ``--batch``; the compile time
+of ``jit(vmap(reset))`` beside the fixed map's; and the training throughput (env steps/s, best
+of two calls of ``--updates`` updates) of the main job's config (``train/configs/doorway.yaml``)
+on the shipped doorway and on ``generated:doorway`` (a new world at every episode).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import jax
+
+import sgjax
+from sgjax.environment.worlds import source_for
+from sgjax.maps.generated.families import FAMILIES
+from train.algorithm.config import load_config
+from train.algorithm.trainer import Trainer, seed_keys
+
+CONFIG = Path(__file__).resolve().parents[1] / "train/configs/doorway.yaml"
+
+
+def best_of(fn, *args, repeats: int = 3) -> float:
+    """The fastest of ``repeats`` calls (s), after the warm-up call the compile made."""
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        jax.block_until_ready(fn(*args))
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def generation(batch: int) -> None:
+    print(f"worlds drawn in batches of {batch} (each draw: 4 proposals, compiled and checked)")
+    for name in FAMILIES:
+        source = source_for(name)
+        keys = jax.random.split(jax.random.key(0), batch)
+        t0 = time.perf_counter()
+        draw = jax.jit(jax.vmap(source.draw)).lower(keys).compile()
+        compile_s = time.perf_counter() - t0
+        seconds = best_of(draw, keys)
+        print(f"  {name:>10}: compile {compile_s:5.1f} s, {batch / seconds:9,.0f} worlds/s "
+              f"({4 * batch / seconds:9,.0f} proposals/s)")
+
+
+def reset_compile(envs: int) -> None:
+    print(f"compile of jit(vmap(reset)) over {envs} environments, 4 robots")
+    for scenario in ("doorway", "generated:doorway", "hallway", "generated:hallway"):
+        env, params = sgjax.make(scenario, num_agents=4)
+        keys = jax.random.split(jax.random.key(0), envs)
+        t0 = time.perf_counter()
+        reset = jax.jit(jax.vmap(env.reset, in_axes=(0, None))).lower(keys, params).compile()
+        compile_s = time.perf_counter() - t0
+        seconds = best_of(reset, keys, params)
+        print(f"  {scenario:>18}: compile {compile_s:5.1f} s, {envs / seconds:9,.0f} resets/s")
+
+
+def training(updates: int) -> None:
+    print(f"training throughput, the main job's config ({CONFIG.name}), {updates} updates per "
+          "call, best of two calls")
+    rates = {}
+    for scenario in ("doorway", "generated:doorway"):
+        config = load_config(CONFIG, [f"env.scenarios=[{scenario!r}]"])
+        trainer = Trainer(config)
+        runner = jax.jit(jax.vmap(trainer.init))(seed_keys(config))
+        t0 = time.perf_counter()
+        chunk = trainer.jitted_chunk_lanes(updates).lower(runner).compile()
+        compile_s = time.perf_counter() - t0
+        runner, _ = chunk(runner)
+        best = float("inf")
+        for _ in range(2):
+            t0 = time.perf_counter()
+            runner, logs = chunk(runner)
+            jax.block_until_ready(logs)
+            best = min(best, time.perf_counter() - t0)
+        rates[scenario] = updates * config.algorithm.steps_per_update / best
+        print(f"  {scenario:>18}: compile {compile_s:5.1f} s, {rates[scenario]:9,.0f} env "
+              "steps/s")
+    print(f"  generated / fixed: {rates['generated:doorway'] / rates['doorway']:.2f}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--batch", type=int, default=1024)
+    parser.add_argument("--envs", type=int, default=256)
+    parser.add_argument("--updates", type=int, default=4)
+    parser.add_argument("--skip-training", action="store_true")
+    args = parser.parse_args()
+    print(f"jax {jax.__version__} on {jax.devices()[0].device_kind}")
+    generation(args.batch)
+    reset_compile(args.envs)
+    if not args.skip_training:
+        training(args.updates)
+
+
+if __name__ == "__main__":
+    main()

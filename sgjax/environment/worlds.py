@@ -1,0 +1,105 @@
+"""Generated worlds in the environment: a family and its ranges as static configuration
+(:class:`WorldSource`), and the world an episode plays in (:class:`WorldDraw`, held in
+``EnvState.world``).
+
+Each environment of a batch plays its own world: ``reset`` draws one from its key (the same key,
+the same world) and keeps it in the episode's state, and ``step`` reads the map from there, so
+a batch of environments is a batch of worlds that stays on the device. The state holds the
+world (rather than batched params) because the world changes at every reset, inside the step's
+auto-reset, where params are fixed for the whole call."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+from jax import Array
+
+from sgjax.maps.arrays import MapArrays
+from sgjax.maps.generated.checks import verdict
+from sgjax.maps.generated.compiled import world_arrays
+from sgjax.maps.generated.export import world_map
+from sgjax.maps.generated.families import family
+from sgjax.maps.generated.family import Family, generate, range_arrays
+from sgjax.maps.generated.world import Capacity, World
+
+
+@struct.dataclass
+class WorldDraw:
+    """The world one episode plays in: its map arrays, whether it passed every check
+    (``valid``: False only when all the reset's proposals failed) and the parameter values it
+    was built from (``{name: float32}``)."""
+
+    map: MapArrays
+    valid: Array
+    values: dict
+
+
+@dataclasses.dataclass(frozen=True)
+class WorldSource:
+    """A family of worlds as an environment draws them: its name, the ranges (``(name, low,
+    high)`` rows, checked against the family), its capacity (the planner's reach set by
+    ``make``), the widest robot's radius (m; passages must fit it) and the proposals per
+    reset."""
+
+    family_name: str
+    ranges: tuple[tuple[str, float, float], ...]
+    capacity: Capacity
+    robot_radius: float
+    proposals: int = 4
+
+    @property
+    def family(self) -> Family:
+        return family(self.family_name)
+
+    def chosen(self, key: Array) -> tuple[World, WorldDraw]:
+        """The world of ``key`` and its draw: ``proposals`` candidates, the first valid one
+        kept (the first candidate, flagged invalid, when none is)."""
+        ranges = range_arrays({name: (low, high) for name, low, high in self.ranges})
+        fam, capacity = self.family, self.capacity
+
+        def propose(k: Array) -> tuple[World, WorldDraw]:
+            world, values = generate(fam, k, ranges)
+            arrays, dist, overflow = world_arrays(world, capacity)
+            ok = verdict(world, dist, arrays.next_hop, overflow, self.robot_radius,
+                         route_nodes=capacity.route_nodes).valid
+            return world, WorldDraw(map=arrays, valid=ok, values=values)
+
+        worlds, draws = jax.vmap(propose)(jax.random.split(key, self.proposals))
+        first = jnp.argmax(draws.valid)  # the first valid one, else 0
+        return jax.tree.map(lambda x: x[first], (worlds, draws))
+
+    def draw(self, key: Array) -> WorldDraw:
+        """The draw of :meth:`chosen` (what ``reset`` keeps in the state)."""
+        return self.chosen(key)[1]
+
+
+def source_for(family_name: str, ranges: dict | None = None, robot_radius: float = 0.25,
+               proposals: int = 4, reach: float | None = None) -> WorldSource:
+    """A :class:`WorldSource` of a family by name, with ``ranges`` ({name: (low, high)}) on its
+    defaults (checked), for robots up to ``robot_radius`` m (``reach``: the planner's, default
+    the family capacity's)."""
+    fam = family(family_name)
+    checked = fam.ranges(ranges)
+    capacity = fam.capacity if reach is None else dataclasses.replace(fam.capacity,
+                                                                      reach=float(reach))
+    return WorldSource(fam.name, tuple((k, lo, hi) for k, (lo, hi) in sorted(checked.items())),
+                       capacity, float(robot_radius), int(proposals))
+
+
+def sample_maps(source: WorldSource, count: int, seed: int) -> list[tuple[dict, bool]]:
+    """``count`` worlds of ``source`` from ``seed`` (world ``i`` from the ``i``-th key of
+    ``jax.random.split(key(seed), count)``, so the same seed and count give the same files),
+    each as ``(map-file dict, valid)``."""
+    keys = jax.random.split(jax.random.key(seed), count)
+    worlds, draws = jax.jit(jax.vmap(source.chosen))(keys)
+    out = []
+    for i in range(count):
+        world = jax.tree.map(lambda x, i=i: x[i], worlds)
+        values = {k: v[i] for k, v in draws.values.items()}
+        name = f"{source.family_name}-{seed}-{i:04d}"
+        out.append((world_map(world, name, source.family.description, values),
+                    bool(draws.valid[i])))
+    return out

@@ -1,0 +1,36 @@
+"""Shortest routes on a generated world's graph inside ``jit``: Floyd-Warshall as a
+``fori_loop`` over the padded nodes (``maps.routing.all_pairs_shortest_paths`` is its host
+counterpart for loaded maps)."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+from jax import Array
+
+NO_PATH = -1
+# A path through another node replaces the current one only when shorter by more than this
+# share of it: float32 sums of equal legs differ by rounding, and the first path found stays.
+TIE = 1e-6
+
+
+def shortest_paths(nodes: Array, adjacency: Array) -> tuple[Array, Array]:
+    """``(dist [N, N], next_hop [N, N])`` over edges weighted by Euclidean length (m):
+    ``dist`` is ``inf`` where unreachable, ``next_hop[i, j]`` the next node from ``i`` towards
+    ``j`` (``NO_PATH`` where unreachable, ``i`` on the diagonal). ``nodes [N, 2]``,
+    ``adjacency [N, N]`` bool."""
+    count = nodes.shape[0]
+    gap = jnp.linalg.norm(nodes[:, None, :] - nodes[None, :, :], axis=-1)
+    eye = jnp.eye(count, dtype=bool)
+    dist = jnp.where(eye, 0.0, jnp.where(adjacency, gap, jnp.inf))
+    index = jnp.arange(count, dtype=jnp.int32)
+    next_hop = jnp.where(eye | adjacency, index[None, :], NO_PATH)
+
+    def relax(k: Array, carry: tuple[Array, Array]) -> tuple[Array, Array]:
+        dist, next_hop = carry
+        through = dist[:, k][:, None] + dist[k, :][None, :]
+        better = through < dist * (1.0 - TIE)
+        return (jnp.where(better, through, dist),
+                jnp.where(better, next_hop[:, k][:, None], next_hop))
+
+    return jax.lax.fori_loop(0, count, relax, (dist, next_hop))

@@ -1,0 +1,218 @@
+"""Generated worlds (``sgjax.maps.generated``): over thousands of keys every world of every
+family is valid, connected and deterministic, ``vmap`` gives each key's world, the in-``jit``
+graph and wall grid are the host's, and the exported files pass ``sgjax maps check``; the
+checks fail on worlds built broken (a node in a wall, an edge through a wall, no dilemma)."""
+
+from __future__ import annotations
+
+import functools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from sgjax.maps.arrays import compile_map
+from sgjax.maps.check import check_map
+from sgjax.maps.generated.checks import verdict
+from sgjax.maps.generated.compiled import world_arrays
+from sgjax.maps.generated.export import world_map
+from sgjax.maps.generated.families import FAMILIES, family
+from sgjax.maps.generated.family import draw_values, generate, range_arrays
+from sgjax.maps.routing import all_pairs_shortest_paths
+from sgjax.maps.schema import parse_map
+
+KEYS = 2048  # worlds per family in the property test
+RADIUS = 0.3  # m: the widest robot the checks are asked about
+
+
+@functools.cache
+def batch(name: str, count: int, seed: int = 0):
+    """``count`` worlds of family ``name``: (worlds, values, arrays, verdicts)."""
+    fam = FAMILIES[name]
+    ranges = range_arrays(fam.ranges())
+
+    def one(key):
+        world, values = generate(fam, key, ranges)
+        arrays, dist, overflow = world_arrays(world, fam.capacity)
+        return world, values, arrays, verdict(world, dist, arrays.next_hop, overflow, RADIUS,
+                                              route_nodes=fam.capacity.route_nodes)
+
+    return jax.jit(jax.vmap(one))(jax.random.split(jax.random.key(seed), count))
+
+
+def one_world(out, i):
+    return jax.tree.map(lambda x: np.asarray(x[i]), out)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", list(FAMILIES))
+def test_every_world_of_thousands_of_keys_is_valid(name):
+    worlds, values, arrays, v = batch(name, KEYS)
+    checks = {k: np.asarray(getattr(v, k)) for k in ("made", "clearance", "edges_clear",
+                                                      "connected", "routes_fit", "passages",
+                                                      "grid", "dilemma")}
+    assert {k: int((~c).sum()) for k, c in checks.items()} == dict.fromkeys(checks, 0)
+    fam = FAMILIES[name]
+    for key, value in values.items():  # every value inside its range
+        low, high = fam.ranges()[key]
+        assert np.all((np.asarray(value) >= low - 1e-6) & (np.asarray(value) <= high + 1e-6))
+    # worlds differ from key to key
+    assert len({tuple(np.round(np.asarray(w), 4)) for w in worlds.walls[:64, 0]}) > 32
+
+
+@pytest.mark.parametrize("name", list(FAMILIES))
+def test_the_same_key_gives_the_same_world_and_vmap_gives_each_keys(name):
+    """Shapes and values stable under ``vmap``."""
+    fam = FAMILIES[name]
+    ranges = range_arrays(fam.ranges())
+    keys = jax.random.split(jax.random.key(7), 4)
+    single = jax.jit(lambda k: generate(fam, k, ranges))
+    together = jax.jit(jax.vmap(lambda k: generate(fam, k, ranges)))(keys)
+    for i, key in enumerate(keys):
+        alone = single(key)
+        again = single(key)
+        for a, b, c in zip(jax.tree.leaves(alone), jax.tree.leaves(again),
+                           jax.tree.leaves(together), strict=True):
+            np.testing.assert_array_equal(np.asarray(a), np.asarray(b))  # deterministic
+            # vmap: each key's world, up to float32 rounding of a differently fused program
+            np.testing.assert_allclose(np.asarray(a), np.asarray(c)[i], rtol=1e-6, atol=1e-6)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", list(FAMILIES))
+def test_exported_worlds_pass_the_map_checker_and_compile_to_the_same_routes(name):
+    worlds, values, arrays, _ = batch(name, KEYS)
+    fam = FAMILIES[name]
+    for i in range(0, KEYS, KEYS // 24):
+        world, arr = one_world(worlds, i), one_world(arrays, i)
+        data = world_map(world, f"{name}-{i}", fam.description,
+                         {k: v[i] for k, v in values.items()})
+        problems = check_map(data, f"{name}-{i}", clearance=RADIUS)
+        assert [p for p in problems if p.severity == "error"] == [], i
+        assert not [p for p in problems if "enclosed" in p.message or "no robot" in p.message]
+        spec = parse_map(data, source=f"{name}-{i}", clearance=RADIUS)
+        dist, _ = all_pairs_shortest_paths(spec.node_positions, spec.edges)
+        kept = np.flatnonzero(world.node_valid)  # the exported nodes, in row order
+        ours = np.asarray(arr.path_length)[np.ix_(kept, kept)]
+        np.testing.assert_allclose(np.where(np.isfinite(dist), dist, -1.0), ours, rtol=1e-5,
+                                   atol=1e-4)
+        # the host's wall grid over the same extent lists the same walls per cell
+        host = compile_map(spec, reach=fam.capacity.reach)
+        if host.grid_shape == arr.grid_shape and np.allclose(host.grid_origin,
+                                                              arr.grid_origin):
+            rows = np.flatnonzero(world.wall_valid)  # file wall k is slot rows[k]
+            ours_sets = [{int(w) for w in cell if world.wall_valid[w]} for cell in arr.cell_walls]
+            host_sets = [{int(rows[w]) for w in cell if w < len(rows)}
+                         for cell in np.asarray(host.cell_walls)]
+            assert ours_sets == host_sets
+
+
+def test_the_wall_grid_matches_the_hosts_on_the_familys_extent():
+    """The planner's per-cell wall lists: the in-jit grid equals the host's ``wall_grid`` on
+    the same grid (the family's extent)."""
+    from sgjax.maps.arrays import wall_grid
+    from sgjax.maps.generated.grid import grid_layout
+
+    fam = family("hallway")
+    worlds, _, arrays, _ = batch("hallway", 64)
+    origin, (nx, ny) = grid_layout(fam.capacity)
+    hi = origin + np.asarray([nx, ny]) * fam.capacity.cell_size
+    for i in range(0, 64, 9):
+        world, arr = one_world(worlds, i), one_world(arrays, i)
+        lists, _, shape = wall_grid(world.walls.astype(np.float64), world.wall_valid,
+                                    origin, hi, fam.capacity.reach,
+                                    fam.capacity.cell_size)
+        assert shape == (nx, ny)
+        pad = world.walls.shape[0] - 1
+        ours = [sorted(int(w) for w in cell if w != pad) for cell in arr.cell_walls]
+        host = [sorted(int(w) for w in cell if w != pad) for cell in lists]
+        assert ours == host
+
+
+def _broken(mutate):
+    """A doorway world of key 3, changed by ``mutate(world) -> world``, and its verdict."""
+    fam = family("doorway")
+    world, _ = generate(fam, jax.random.key(3), range_arrays(fam.ranges()))
+    world = mutate(world)
+    arrays, dist, overflow = world_arrays(world, fam.capacity)
+    return world, verdict(world, dist, arrays.next_hop, overflow, RADIUS)
+
+
+def _exported_errors(world):
+    data = world_map(jax.tree.map(np.asarray, world), "broken", "a broken doorway")
+    return [p for p in check_map(data, "broken", clearance=RADIUS) if p.severity == "error"]
+
+
+def test_a_node_in_a_wall_fails_both_checks():
+    # a spawn moved onto the room's left wall
+    world, v = _broken(lambda w: w.replace(nodes=w.nodes.at[5].set(w.walls[2, :2] + 0.05)))
+    assert not bool(v.clearance) and not bool(v.valid)
+    assert any("wall" in p.message for p in _exported_errors(world))
+
+
+def test_an_edge_through_a_wall_fails_both_checks():
+    # a spawn of the left room joined straight to the right room's approach node: through the
+    # wall beside the door (the spawn moved to the door wall's height)
+    def mutate(w):
+        top = w.walls[3]  # the left face above the door
+        spawn = jnp.stack([w.nodes[5, 0], (top[1] + top[3]) / 2])
+        return w.replace(nodes=w.nodes.at[5].set(spawn), adjacency=w.adjacency.at[5, 1].set(
+            True).at[1, 5].set(True))
+
+    world, v = _broken(mutate)
+    assert not bool(v.edges_clear)
+    assert any("crosses wall" in p.message for p in _exported_errors(world))
+
+
+def test_the_dilemma_check_fails_on_a_world_without_one():
+    # one flow only (the right room's robots do not cross): no conflicting directions
+    def one_way(w):
+        return w.replace(group_starts=w.group_starts.at[1].set(False))
+
+    world, v = _broken(one_way)
+    assert bool(v.clearance) and bool(v.connected) and not bool(v.dilemma)
+    _, whole = _broken(lambda w: w)
+    assert bool(whole.dilemma) and bool(whole.valid)
+
+
+def test_a_passage_narrower_than_the_robots_is_flagged():
+    fam = family("doorway")
+    ranges = range_arrays(fam.ranges({"door_width": 0.6}))
+    world, _ = generate(fam, jax.random.key(0), ranges)
+    arrays, dist, overflow = world_arrays(world, fam.capacity)
+    assert not bool(verdict(world, dist, arrays.next_hop, overflow, 0.3).passages)
+    assert bool(verdict(world, dist, arrays.next_hop, overflow, 0.2).passages)
+
+
+def test_ranges_are_checked_against_the_family():
+    fam = family("generated:doorway")
+    with pytest.raises(ValueError, match="no parameter 'door_widht'.*door_width"):
+        fam.ranges({"door_widht": (1, 2)})
+    with pytest.raises(ValueError, match=r"door_width range \[0.5, 1\] must lie within"):
+        fam.ranges({"door_width": (0.5, 1.0)})
+    with pytest.raises(ValueError, match="no world family 'dorway'.*doorway"):
+        family("dorway")
+
+
+def test_draws_stay_in_their_ranges_and_one_parameter_does_not_move_the_others():
+    ranges = range_arrays({"a": (0.0, 1.0), "b": (5.0, 6.0)})
+    wider = range_arrays({"a": (0.0, 1.0), "b": (5.0, 6.0), "c": (1.0, 2.0)})
+    key = jax.random.key(11)
+    one, two = draw_values(key, ranges), draw_values(key, wider)
+    assert 0.0 <= float(one["a"]) <= 1.0 and 5.0 <= float(one["b"]) <= 6.0
+    assert float(one["a"]) == float(two["a"]) and float(one["b"]) == float(two["b"])
+
+
+def test_the_docs_list_every_familys_parameters_with_their_ranges():
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[2] / "docs" / "generated.md").read_text()
+    for name, fam in FAMILIES.items():
+        section = text.split(f"### `{name}`")[1].split("###")[0]
+        rows = dict(re.findall(r"^\| `(\w+)` \| ([^|]+) \|", section, re.M))
+        assert set(rows) == set(fam.parameters), name
+        for key, parameter in fam.parameters.items():
+            low, high = (float(v) for v in rows[key].replace(" - ", " ").split())
+            assert (low, high) == parameter.default, (name, key)
