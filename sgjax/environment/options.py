@@ -197,11 +197,13 @@ class WorldOptions:
     """Generated worlds (a scenario ``"generated:<family>"``): the ranges the family's
     parameters are drawn from, on top of its defaults (``{name: [low, high]}`` or ``{name:
     value}``, held as sorted ``(name, low, high)`` rows; checked against the family by
-    ``make``), and how many worlds a reset proposes to find a valid one (best of K; a reset
-    whose K proposals are all invalid keeps the first and flags it)."""
+    ``make``), and how many worlds a reset proposes to find a valid one (the first valid of
+    K; a reset whose K proposals are all invalid keeps the first and flags it). The default
+    families' default ranges give valid worlds only, so one proposal; raise it where narrow
+    ranges make invalid worlds likely (a draw costs K worlds)."""
 
     world_ranges: tuple[tuple[str, float, float], ...] = ()
-    world_proposals: int = 4
+    world_proposals: int = 1
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "world_ranges", _range_rows(self.world_ranges))

@@ -41,14 +41,16 @@ class WorldDraw:
 class WorldSource:
     """A family of worlds as an environment draws them: its name, the ranges (``(name, low,
     high)`` rows, checked against the family), its capacity (the planner's reach set by
-    ``make``), the widest robot's radius (m; passages must fit it) and the proposals per
-    reset."""
+    ``make``), the widest robot's radius (m; passages must fit it), the proposals per reset,
+    and whether a draw checks the family's dilemma too (``sgjax maps generate`` does; a reset
+    does not: :func:`sgjax.maps.generated.checks.verdict`)."""
 
     family_name: str
     ranges: tuple[tuple[str, float, float], ...]
     capacity: Capacity
     robot_radius: float
-    proposals: int = 4
+    proposals: int = 1
+    check_dilemma: bool = False
 
     @property
     def family(self) -> Family:
@@ -64,7 +66,8 @@ class WorldSource:
             world, values = generate(fam, k, ranges)
             arrays, dist, overflow = world_arrays(world, capacity)
             ok = verdict(world, dist, arrays.next_hop, overflow, self.robot_radius,
-                         route_nodes=capacity.route_nodes).valid
+                         route_nodes=capacity.route_nodes,
+                         check_dilemma=self.check_dilemma).valid
             return world, WorldDraw(map=arrays, valid=ok, values=values)
 
         worlds, draws = jax.vmap(propose)(jax.random.split(key, self.proposals))
@@ -77,16 +80,17 @@ class WorldSource:
 
 
 def source_for(family_name: str, ranges: dict | None = None, robot_radius: float = 0.25,
-               proposals: int = 4, reach: float | None = None) -> WorldSource:
+               proposals: int = 1, reach: float | None = None,
+               check_dilemma: bool = True) -> WorldSource:
     """A :class:`WorldSource` of a family by name, with ``ranges`` ({name: (low, high)}) on its
     defaults (checked), for robots up to ``robot_radius`` m (``reach``: the planner's, default
-    the family capacity's)."""
+    the family capacity's), checking the dilemma too by default (for files)."""
     fam = family(family_name)
     checked = fam.ranges(ranges)
     capacity = fam.capacity if reach is None else dataclasses.replace(fam.capacity,
                                                                       reach=float(reach))
     return WorldSource(fam.name, tuple((k, lo, hi) for k, (lo, hi) in sorted(checked.items())),
-                       capacity, float(robot_radius), int(proposals))
+                       capacity, float(robot_radius), int(proposals), bool(check_dilemma))
 
 
 def sample_maps(source: WorldSource, count: int, seed: int) -> list[tuple[dict, bool]]:

@@ -12,7 +12,6 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sgjax.maps.arrays import compile_map
 from sgjax.maps.check import check_map
 from sgjax.maps.generated.checks import verdict
 from sgjax.maps.generated.compiled import world_arrays
@@ -97,37 +96,37 @@ def test_exported_worlds_pass_the_map_checker_and_compile_to_the_same_routes(nam
         ours = np.asarray(arr.path_length)[np.ix_(kept, kept)]
         np.testing.assert_allclose(np.where(np.isfinite(dist), dist, -1.0), ours, rtol=1e-5,
                                    atol=1e-4)
-        # the host's wall grid over the same extent lists the same walls per cell
-        host = compile_map(spec, reach=fam.capacity.reach)
-        if host.grid_shape == arr.grid_shape and np.allclose(host.grid_origin,
-                                                              arr.grid_origin):
-            rows = np.flatnonzero(world.wall_valid)  # file wall k is slot rows[k]
-            ours_sets = [{int(w) for w in cell if world.wall_valid[w]} for cell in arr.cell_walls]
-            host_sets = [{int(rows[w]) for w in cell if w < len(rows)}
-                         for cell in np.asarray(host.cell_walls)]
-            assert ours_sets == host_sets
 
 
 def test_the_wall_grid_matches_the_hosts_on_the_familys_extent():
-    """The planner's per-cell wall lists: the in-jit grid equals the host's ``wall_grid`` on
-    the same grid (the family's extent)."""
+    """The planner's per-cell wall lists: where a family's cells hold fewer than all its walls,
+    the in-jit grid equals the host's ``wall_grid`` on the same grid (the family's extent);
+    where they hold all of them (the shipped families), one cell lists every wall slot."""
+    import dataclasses
+
     from sgjax.maps.arrays import wall_grid
-    from sgjax.maps.generated.grid import grid_layout
+    from sgjax.maps.generated.grid import cell_walls, grid_layout
 
     fam = family("hallway")
     worlds, _, arrays, _ = batch("hallway", 64)
-    origin, (nx, ny) = grid_layout(fam.capacity)
-    hi = origin + np.asarray([nx, ny]) * fam.capacity.cell_size
+    assert np.asarray(arrays.cell_walls).shape == (64, 1, fam.capacity.walls - 1)
+    capacity = dataclasses.replace(fam.capacity, cell_walls=10)
+    origin, (nx, ny) = grid_layout(capacity)
+    hi = origin + np.asarray([nx, ny]) * capacity.cell_size
+    lists_of = jax.jit(lambda w: cell_walls(w.walls, w.wall_valid, capacity))
     for i in range(0, 64, 9):
-        world, arr = one_world(worlds, i), one_world(arrays, i)
-        lists, _, shape = wall_grid(world.walls.astype(np.float64), world.wall_valid,
-                                    origin, hi, fam.capacity.reach,
-                                    fam.capacity.cell_size)
-        assert shape == (nx, ny)
+        world = one_world(worlds, i)
+        ours, overflow = lists_of(world)
+        host, _, shape = wall_grid(world.walls.astype(np.float64), world.wall_valid,
+                                   origin, hi, capacity.reach, capacity.cell_size)
+        assert shape == (nx, ny) and not bool(overflow)
         pad = world.walls.shape[0] - 1
-        ours = [sorted(int(w) for w in cell if w != pad) for cell in arr.cell_walls]
-        host = [sorted(int(w) for w in cell if w != pad) for cell in lists]
+        ours = [sorted(int(w) for w in cell if w != pad) for cell in np.asarray(ours)]
+        host = [sorted(int(w) for w in cell if w != pad) for cell in host]
         assert ours == host
+    tight = dataclasses.replace(fam.capacity, cell_walls=3)
+    assert bool(jax.jit(lambda w: cell_walls(w.walls, w.wall_valid, tight))(
+        one_world(worlds, 0))[1])  # more near walls than a cell holds: flagged
 
 
 def _broken(mutate):
@@ -157,8 +156,10 @@ def test_an_edge_through_a_wall_fails_both_checks():
     def mutate(w):
         top = w.walls[3]  # the left face above the door
         spawn = jnp.stack([w.nodes[5, 0], (top[1] + top[3]) / 2])
-        return w.replace(nodes=w.nodes.at[5].set(spawn), adjacency=w.adjacency.at[5, 1].set(
-            True).at[1, 5].set(True))
+        # the spawn's edge (row 4 of the edge list: spawn 5 to the left approach node) now
+        # goes to the right room's approach node instead
+        return w.replace(nodes=w.nodes.at[5].set(spawn), edges=w.edges.at[4].set(
+            jnp.asarray([1, 5], jnp.int32)))
 
     world, v = _broken(mutate)
     assert not bool(v.edges_clear)

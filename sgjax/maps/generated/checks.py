@@ -4,12 +4,17 @@ path), and what a family promises (passages wider than the widest robot, a socia
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 from flax import struct
 from jax import Array
 
-from sgjax.kernels.geometry import point_segment_distance, segments_intersect_pairs
+from sgjax.kernels.geometry import (
+    point_segment_distance,
+    polynomial_atan2,
+    segments_intersect_pairs,
+)
 from sgjax.maps.generated.world import World
 from sgjax.maps.schema import DEFAULT_CLEARANCE
 
@@ -17,7 +22,7 @@ PASSAGE_MARGIN = 0.1  # m: a passage must be wider than the widest robot by this
 # Two routes cross a zone in conflicting directions when their headings through it differ by
 # more than this angle (opposed flows, crossing flows; not one lane).
 CONFLICT_ANGLE = float(np.deg2rad(60.0))
-HEADING_BINS = 36  # sectors of 10 degrees
+HEADING_BINS = 32  # sectors of 11.25 degrees (one bit each in a uint32)
 
 
 @struct.dataclass
@@ -48,13 +53,11 @@ def node_clearance(world: World) -> Array:
 
 
 def edges_through_walls(world: World) -> Array:
-    """``[N, N]`` bool: the graph edges that cross a valid wall."""
+    """``[E]`` bool: the valid graph edges that cross a valid wall."""
     n = world.nodes
-    segments = jnp.concatenate([jnp.broadcast_to(n[:, None, :], (n.shape[0],) * 2 + (2,)),
-                                jnp.broadcast_to(n[None, :, :], (n.shape[0],) * 2 + (2,))], -1)
-    cross = segments_intersect_pairs(segments[:, :, None, :], world.walls[None, None, :, :],
-                                     xp=jnp)
-    return world.adjacency & jnp.any(cross & world.wall_valid[None, None, :], axis=-1)
+    segments = jnp.concatenate([n[world.edges[:, 0]], n[world.edges[:, 1]]], -1)  # [E, 4]
+    cross = segments_intersect_pairs(segments[:, None, :], world.walls[None, :, :], xp=jnp)
+    return world.edge_valid & jnp.any(cross & world.wall_valid[None, :], axis=-1)
 
 
 def pairs_connected(world: World, dist: Array) -> Array:
@@ -79,61 +82,68 @@ def routes_fit(world: World, next_hop: Array, route_nodes: int) -> Array:
     return jnp.all(~pairs | (at == goal))
 
 
-def on_routes(world: World, dist: Array) -> Array:
-    """``[N, N]`` bool: node ``i`` lies on a shortest route from a start to goal ``j`` of one of
-    the world's groups (``dist[s, i] + dist[i, j]`` equals ``dist[s, j]`` up to float
-    rounding)."""
+def zone_headings(world: World, next_hop: Array, route_nodes: int) -> Array:
+    """``[Z]`` uint32: for each conflict zone, a bit per heading sector (:data:`HEADING_BINS` of
+    them) that some group route takes through it: every start to every goal of its group,
+    along ``next_hop`` for ``route_nodes - 1`` hops, an edge counting in a zone where its
+    midpoint lies inside it. The bits are OR-reduced, so no scatter runs per world."""
+    x, y = world.nodes[:, 0], world.nodes[:, 1]
+    z = world.zones
+    count = x.shape[0]
+    mx, my = (x[:, None] + x[None, :]) / 2, (y[:, None] + y[None, :]) / 2  # edge midpoints
+    inside = ((mx[None] >= z[:, 0, None, None]) & (mx[None] <= z[:, 2, None, None])
+              & (my[None] >= z[:, 1, None, None]) & (my[None] <= z[:, 3, None, None]))
+    angle = polynomial_atan2(y[None, :] - y[:, None], x[None, :] - x[:, None])  # edge i -> j
+    sector = (jnp.floor((angle + jnp.pi) / (2 * jnp.pi) * HEADING_BINS).astype(jnp.uint32)
+              % HEADING_BINS)
+    code = jnp.where(inside, jnp.uint32(1) << sector[None], jnp.uint32(0))  # [Z, N, N]
+    flat = code.reshape(z.shape[0], -1)
     starts = world.group_starts & world.node_valid[None, :]
     goals = world.group_goals & world.node_valid[None, :]
-    count = dist.shape[0]
     pairs = jnp.any(starts[:, :, None] & goals[:, None, :], axis=0) & ~jnp.eye(count, dtype=bool)
-    reach = jnp.isfinite(dist)
-    safe = jnp.where(reach, dist, 0.0)
-    via = safe[:, :, None] + safe[None, :, :]  # [s, i, j]
-    on = (reach[:, :, None] & reach[None, :, :] & pairs[:, None, :]
-          & (via <= safe[:, None, :] * (1.0 + 1e-5) + 1e-5))
-    return jnp.any(on, axis=0)
+    at = jnp.broadcast_to(jnp.arange(count)[:, None], (count, count))  # [start, goal]
+    goal = jnp.broadcast_to(jnp.arange(count)[None, :], (count, count))
+    bits = jnp.zeros(z.shape[0], jnp.uint32)
+    for _ in range(route_nodes - 1):
+        hop = jnp.maximum(next_hop[at, goal], 0)
+        taken = jnp.where(pairs[None] & (hop != at)[None],
+                          jnp.take(flat, at * count + hop, axis=1), jnp.uint32(0))
+        bits = bits | jax.lax.reduce(taken, jnp.uint32(0), jax.lax.bitwise_or, (1, 2))
+        at = hop
+    return bits
 
 
-def conflicting_routes(world: World, dist: Array, next_hop: Array) -> Array:
-    """``[Z]`` bool: whether two routes cross each conflict zone in conflicting directions.
-
-    A route crosses a zone on each of its edges whose midpoint lies inside it; the edges'
-    headings are binned in :data:`HEADING_BINS` sectors, and two occupied sectors more than
-    :data:`CONFLICT_ANGLE` apart (centre to centre, so within a sector's width of it) make a
-    conflict: opposed or crossing flows through the zone, not one lane (robots converging on
-    its entrance from many sides still pass it one way)."""
-    x, y = world.nodes[:, 0], world.nodes[:, 1]
-    count = x.shape[0]
-    z = world.zones
-    hop = jnp.maximum(next_hop, 0)  # [N, N]: the edge i -> hop[i, j] towards goal j
-    moving = (next_hop >= 0) & (hop != jnp.arange(count)[:, None])
-    used = on_routes(world, dist) & moving  # [N, N]
-    mx, my = (x[:, None] + x[hop]) / 2, (y[:, None] + y[hop]) / 2  # [N, N] edge midpoints
-    touches = ((mx[None] >= z[:, 0, None, None]) & (mx[None] <= z[:, 2, None, None])
-               & (my[None] >= z[:, 1, None, None]) & (my[None] <= z[:, 3, None, None]))
-    angle = jnp.arctan2(y[hop] - y[:, None], x[hop] - x[:, None])
-    sector = (jnp.floor((angle + jnp.pi) / (2 * jnp.pi) * HEADING_BINS).astype(jnp.int32)
-              % HEADING_BINS)
-    occupied = jnp.zeros((z.shape[0], HEADING_BINS), bool).at[:, sector].max(
-        touches & used[None])  # [Z, B]
-    centres = (jnp.arange(HEADING_BINS) + 0.5) * (2 * jnp.pi / HEADING_BINS)
-    apart = jnp.abs(jnp.angle(jnp.exp(1j * (centres[:, None] - centres[None, :]))))
-    return jnp.any(occupied[:, :, None] & occupied[:, None, :] & (apart > CONFLICT_ANGLE)[None],
-                   axis=(1, 2))
+def conflicting_routes(world: World, next_hop: Array, route_nodes: int) -> Array:
+    """``[Z]`` bool: whether two routes cross each conflict zone in conflicting directions:
+    two of its heading sectors (:func:`zone_headings`) more than :data:`CONFLICT_ANGLE` apart
+    (centre to centre, so within a sector's width of it): opposed or crossing flows through
+    the zone, not one lane (robots converging on its entrance from many sides still pass it
+    one way)."""
+    bits = zone_headings(world, next_hop, route_nodes)
+    sector = 2 * np.pi / HEADING_BINS
+    found = jnp.zeros(bits.shape, bool)
+    for b in range(HEADING_BINS):  # sector b, and any sector far enough from it
+        far = sum(1 << c for c in range(HEADING_BINS)
+                  if abs(np.angle(np.exp(1j * (b - c) * sector))) > CONFLICT_ANGLE)
+        found = found | ((((bits >> b) & 1) == 1) & ((bits & jnp.uint32(far)) != 0))
+    return found
 
 
 def verdict(world: World, dist: Array, next_hop: Array, overflow: Array,
             robot_radius: float, clearance: float = DEFAULT_CLEARANCE,
-            route_nodes: int | None = None) -> Verdict:
+            route_nodes: int | None = None, check_dilemma: bool = True) -> Verdict:
     """Every check of one world (robots of up to ``robot_radius`` m; nodes at least
     ``clearance`` m from walls, the map checker's rule; routes of at most ``route_nodes``
-    nodes, default the node count)."""
+    nodes, default the node count). ``check_dilemma`` False skips the dilemma check (its
+    verdict reads True): a reset does, since a family promises its dilemma by construction
+    (tested over thousands of worlds) and the check costs more than the rest together."""
+    route_nodes = route_nodes or world.nodes.shape[0]
     ok_nodes = jnp.all(~world.node_valid | (node_clearance(world) >= clearance))
-    dilemma = ~world.dilemma | jnp.any(conflicting_routes(world, dist, next_hop))
+    dilemma = (~world.dilemma | jnp.any(conflicting_routes(world, next_hop, route_nodes))
+               if check_dilemma else jnp.asarray(True))
     return Verdict(
         made=world.made, clearance=ok_nodes, edges_clear=~jnp.any(edges_through_walls(world)),
         connected=pairs_connected(world, dist),
-        routes_fit=routes_fit(world, next_hop, route_nodes or world.nodes.shape[0]),
+        routes_fit=routes_fit(world, next_hop, route_nodes),
         passages=jnp.all(world.zone_width >= 2.0 * robot_radius + PASSAGE_MARGIN),
         grid=~overflow, dilemma=dilemma)

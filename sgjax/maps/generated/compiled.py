@@ -15,10 +15,11 @@ from sgjax.maps.generated.world import Capacity, World
 
 def world_arrays(world: World, capacity: Capacity) -> tuple[MapArrays, Array, Array]:
     """``(arrays, dist [N, N], overflow)``: the world's map arrays, its shortest-path lengths
-    (``inf`` where unreachable, for the checks) and whether its walls overflow the grid's
-    per-cell lists."""
-    dist, next_hop = shortest_paths(world.nodes, world.adjacency)
+    (``inf`` where unreachable, for the checks) and whether it overflows its family's capacity
+    (more walls near a cell than a cell lists, more route nodes than ``hubs``)."""
+    dist, next_hop, fits = shortest_paths(world.nodes, world.adjacency, capacity.hubs)
     lists, overflow = cell_walls(world.walls, world.wall_valid, capacity)
+    overflow = overflow | ~fits
     origin, shape = grid_layout(capacity)
     nodes = world.nodes
     gap = jnp.linalg.norm(nodes[:, None, :] - nodes[None, :, :], axis=-1)

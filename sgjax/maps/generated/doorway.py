@@ -8,7 +8,7 @@ from collections.abc import Mapping
 from jax import Array
 
 from sgjax.maps.generated.family import Family, Parameter
-from sgjax.maps.generated.two_rooms import NODES, WALLS, two_rooms
+from sgjax.maps.generated.two_rooms import EDGES, NODES, WALLS, two_rooms
 from sgjax.maps.generated.world import Capacity, World
 
 PARAMETERS = {
@@ -21,7 +21,8 @@ PARAMETERS = {
     "door_offset": Parameter((-0.5, 0.5), (-1.0, 1.0), "", "the door's centre off the middle, "
                              "a fraction of the most it can move (1 m from the corners)"),
 }
-CAPACITY = Capacity(walls=WALLS, nodes=NODES, groups=2, zones=1, route_nodes=4,
+CAPACITY = Capacity(walls=WALLS, nodes=NODES, edges=EDGES, hubs=2, groups=2, zones=1,
+                    route_nodes=4,
                     extent=(-13.5, -8.5, 13.5, 8.5), cell_walls=WALLS - 1)
 
 

@@ -8,7 +8,7 @@ from collections.abc import Mapping
 from jax import Array
 
 from sgjax.maps.generated.family import Family, Parameter
-from sgjax.maps.generated.two_rooms import NODES, WALLS, two_rooms
+from sgjax.maps.generated.two_rooms import EDGES, NODES, WALLS, two_rooms
 from sgjax.maps.generated.world import Capacity, World
 
 PARAMETERS = {
@@ -25,7 +25,8 @@ PARAMETERS = {
                           "(a fraction of its length)"),
     "layby_length": Parameter((1.0, 2.0), (0.8, 3.0), "m", "the lay-by's length"),
 }
-CAPACITY = Capacity(walls=WALLS, nodes=NODES, groups=2, zones=1, route_nodes=4,
+CAPACITY = Capacity(walls=WALLS, nodes=NODES, edges=EDGES, hubs=2, groups=2, zones=1,
+                    route_nodes=4,
                     extent=(-17.5, -7.5, 17.5, 7.5), cell_walls=WALLS - 1)
 
 

@@ -13,7 +13,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax import Array
 
-from sgjax.kernels.geometry import point_segment_distance, segments_intersect_pairs
+from sgjax.kernels.geometry import point_segment_distance
 from sgjax.maps.generated.family import Family, Parameter
 from sgjax.maps.generated.world import Capacity, World, padded_walls
 
@@ -21,10 +21,11 @@ RING = 24  # spawn points on the ring
 BOXES = 4  # obstacle capacity
 CELLS = 3  # the middle square is cut into CELLS x CELLS cells; each box takes its own
 CORNER_GAP = 0.5  # m: corner nodes stand this far off a box's corners (each way)
-EDGE_CLEARANCE = 0.35  # m: an edge keeps this far from every wall
+EDGE_CLEARANCE = 0.35  # m: an edge keeps this far from every box (from its corners' circle)
 RING_GAP = 1.2  # m: the ring's distance from the nearest arena wall
 NODES = RING + 4 * BOXES
 WALLS = 4 + 4 * BOXES + 1
+PAIRS = np.stack(np.triu_indices(NODES, 1), axis=1).astype(np.int32)  # every candidate edge
 
 PARAMETERS = {
     "arena_size": Parameter((10.0, 16.0), (8.0, 20.0), "m", "the square arena's side"),
@@ -32,22 +33,9 @@ PARAMETERS = {
     "obstacle_size": Parameter((0.3, 0.8), (0.2, 1.0), "", "a box's half side, a fraction of "
                                "the most its cell allows"),
 }
-CAPACITY = Capacity(walls=WALLS, nodes=NODES, groups=1, zones=1, route_nodes=8,
+CAPACITY = Capacity(walls=WALLS, nodes=NODES, edges=len(PAIRS), hubs=NODES, groups=1, zones=1,
+                    route_nodes=8,
                     extent=(-10.5, -10.5, 10.5, 10.5), cell_walls=WALLS - 1)
-
-
-def segment_gaps(a: Array, b: Array) -> Array:
-    """Distances (m) between segments ``a [..., 4]`` and ``b [..., 4]`` (broadcast), 0 where
-    they cross."""
-    def ends_to(p: Array, q: Array) -> Array:
-        return jnp.minimum(
-            point_segment_distance(p[..., 0], p[..., 1], q[..., 0], q[..., 1], q[..., 2],
-                                   q[..., 3]),
-            point_segment_distance(p[..., 2], p[..., 3], q[..., 0], q[..., 1], q[..., 2],
-                                   q[..., 3]))
-
-    gap = jnp.minimum(ends_to(a, b), ends_to(b, a))
-    return jnp.where(segments_intersect_pairs(a, b, xp=jnp), 0.0, gap)
 
 
 def build(values: Mapping[str, Array], key: Array) -> World:
@@ -87,16 +75,21 @@ def build(values: Mapping[str, Array], key: Array) -> World:
                         axis=1).reshape(-1, 2)
     nodes = jnp.concatenate([ring, corners])
     node_valid = jnp.concatenate([jnp.ones(RING, bool), jnp.repeat(present, 4)])
-    segments = jnp.concatenate([jnp.broadcast_to(nodes[:, None], (NODES, NODES, 2)),
-                                jnp.broadcast_to(nodes[None], (NODES, NODES, 2))], -1)
-    gaps = segment_gaps(segments[:, :, None, :], walls[None, None])  # [N, N, W]
-    clear = jnp.all(~valid[None, None] | (gaps >= EDGE_CLEARANCE), axis=-1)
-    pair = node_valid[:, None] & node_valid[None, :] & ~jnp.eye(NODES, dtype=bool)
+    # visibility: a candidate edge is kept where it keeps EDGE_CLEARANCE from the circle
+    # through each present box's corners (conservative: no wall is nearer); the ring lies
+    # inside the arena, so no chord between its points comes near the arena's walls
+    a, b = nodes[PAIRS[:, 0]], nodes[PAIRS[:, 1]]
+    gap = point_segment_distance(cx[None], cy[None], a[:, 0:1], a[:, 1:2], b[:, 0:1],
+                                 b[:, 1:2])  # [E, BOXES]
+    clear = jnp.all(~present[None] | (gap >= size[None] * np.sqrt(2.0) + EDGE_CLEARANCE),
+                    axis=1)
+    edge_valid = node_valid[PAIRS[:, 0]] & node_valid[PAIRS[:, 1]] & clear
     in_ring = jnp.arange(NODES) < RING
     zone = jnp.stack([-half / 2, -half / 2, half / 2, half / 2])
     return World(
         walls=walls, wall_valid=valid, nodes=nodes, node_valid=node_valid,
-        adjacency=pair & clear, group_starts=in_ring[None], group_goals=in_ring[None],
+        edges=jnp.asarray(PAIRS), edge_valid=edge_valid, group_starts=in_ring[None],
+        group_goals=in_ring[None],
         zones=zone[None], zone_width=values["arena_size"][None] / 2,
         bounds=jnp.stack([-half - 0.5, -half - 0.5, half + 0.5, half + 0.5]),
         made=jnp.asarray(True), dilemma=jnp.asarray(True))

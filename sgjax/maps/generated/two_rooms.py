@@ -10,7 +10,7 @@ import jax.numpy as jnp
 from jax import Array
 
 from sgjax.maps.generated.lattice import lattice
-from sgjax.maps.generated.world import Capacity, World, padded_walls, undirected
+from sgjax.maps.generated.world import Capacity, World, padded_walls
 
 SPAWN_COLUMNS, SPAWN_ROWS = 3, 8  # spawn lattice of each room
 SPAWNS = SPAWN_COLUMNS * SPAWN_ROWS
@@ -20,6 +20,7 @@ MARGIN = 0.6  # m: spawns keep this far from the room's walls
 ZONE_MARGIN = 0.5  # m: the conflict zone reaches this far past the passage's sides
 LAYBY_MIN = 0.4  # m: a lay-by shallower than this is not built
 NODES = 2 + 2 * SPAWNS
+EDGES = 1 + 2 * SPAWNS  # the passage, and each spawn to its room's approach node
 WALLS = 17  # 16 wall slots (4 of them the lay-by's and the corridor wall past it) + padding
 
 
@@ -73,7 +74,7 @@ def two_rooms(key: Array, capacity: Capacity, room_height: Array, left_depth: Ar
     zone = jnp.stack([a[0], bottom - ZONE_MARGIN, b[0], jnp.where(niche, up, top) + ZONE_MARGIN])
     return World(
         walls=walls, wall_valid=valid, nodes=nodes, node_valid=jnp.ones(NODES, bool),
-        adjacency=undirected(NODES, pairs), group_starts=jnp.stack([in_left, in_right]),
+        edges=pairs, edge_valid=jnp.ones(EDGES, bool), group_starts=jnp.stack([in_left, in_right]),
         group_goals=jnp.stack([in_right, in_left]), zones=zone[None],
         zone_width=width[None], bounds=jnp.stack([x0 - 0.5, -h - 0.5, x1 + 0.5, h + 0.5]),
         made=jnp.asarray(True), dilemma=jnp.asarray(True))

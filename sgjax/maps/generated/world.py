@@ -20,10 +20,15 @@ class Capacity:
     (the planner's per-cell wall lists point at it for their empty entries); ``extent`` is the
     largest ``(xmin, ymin, xmax, ymax)`` any world of the family can reach (m), which fixes the
     planner's wall grid; ``route_nodes`` bounds the nodes of any start-goal route;
-    ``cell_walls`` the walls one grid cell may list."""
+    ``cell_walls`` the walls one grid cell may list (all the wall slots: one cell listing every
+    wall, no grid to compute; the planner masks the unused ones). Shortest paths only go
+    through nodes of degree 2 or more, so routes are found over the ``hubs`` of them alone
+    (Floyd-Warshall over ``hubs`` nodes, not all)."""
 
     walls: int
     nodes: int
+    edges: int
+    hubs: int  # nodes that may lie inside a route (degree 2 or more); the rest are leaves
     groups: int
     zones: int
     route_nodes: int
@@ -38,18 +43,20 @@ class World:
     """One generated world (a pytree; ``vmap`` gives a batch of them).
 
     ``walls [W, 4]`` segments ``(x1, y1, x2, y2)`` (m), ``wall_valid [W]``; ``nodes [N, 2]`` (m),
-    ``node_valid [N]``; ``adjacency [N, N]`` the undirected graph edges (symmetric, none on the
-    diagonal or at invalid nodes); ``group_starts``, ``group_goals [G, N]``; ``zones [Z, 4]``
-    conflict-zone rectangles ``(xmin, ymin, xmax, ymax)`` and ``zone_width [Z]`` the free width
-    of the passage each guards (m); ``bounds [4]`` the drawing extent; ``made`` whether the
-    draw could build the world at all (False: flagged, never looped on); ``dilemma`` whether
-    the family promises a social dilemma in this world."""
+    ``node_valid [N]``; ``edges [E, 2]`` node rows of the undirected graph edges,
+    ``edge_valid [E]`` (an edge at an invalid node is never valid); ``group_starts``,
+    ``group_goals [G, N]``; ``zones [Z, 4]`` conflict-zone rectangles ``(xmin, ymin, xmax,
+    ymax)`` and ``zone_width [Z]`` the free width of the passage each guards (m); ``bounds
+    [4]`` the drawing extent; ``made`` whether the draw could build the world at all (False:
+    flagged, never looped on); ``dilemma`` whether the family promises a social dilemma in this
+    world."""
 
     walls: Array
     wall_valid: Array
     nodes: Array
     node_valid: Array
-    adjacency: Array
+    edges: Array
+    edge_valid: Array
     group_starts: Array
     group_goals: Array
     zones: Array
@@ -57,6 +64,16 @@ class World:
     bounds: Array
     made: Array
     dilemma: Array
+
+    @property
+    def adjacency(self) -> Array:
+        """``[N, N]`` bool: the valid edges, both ways."""
+        count = self.nodes.shape[0]
+        keep = (self.edge_valid & self.node_valid[self.edges[:, 0]]
+                & self.node_valid[self.edges[:, 1]])
+        adjacency = jnp.zeros((count, count), bool)
+        adjacency = adjacency.at[self.edges[:, 0], self.edges[:, 1]].max(keep)
+        return adjacency.at[self.edges[:, 1], self.edges[:, 0]].max(keep)
 
 
 def padded_walls(walls: Array, capacity: int) -> tuple[Array, Array]:
@@ -70,14 +87,3 @@ def padded_walls(walls: Array, capacity: int) -> tuple[Array, Array]:
                            (capacity - count, 4))
     valid = jnp.arange(capacity) < count
     return jnp.concatenate([walls, pad]), valid
-
-
-def undirected(count: int, pairs: list[tuple[int, int]] | Array, mask: Array | None = None
-               ) -> Array:
-    """``[count, count]`` bool adjacency of the edge ``pairs`` (rows ``[E, 2]``), both ways,
-    each edge kept where ``mask [E]`` (default all)."""
-    pairs = jnp.asarray(pairs, jnp.int32).reshape(-1, 2)
-    keep = jnp.ones(pairs.shape[0], bool) if mask is None else mask
-    adjacency = jnp.zeros((count, count), bool)
-    adjacency = adjacency.at[pairs[:, 0], pairs[:, 1]].max(keep)
-    return adjacency.at[pairs[:, 1], pairs[:, 0]].max(keep)
