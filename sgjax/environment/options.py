@@ -11,7 +11,8 @@ each belongs to one group:
   ``observation_preset``, ``reward_preset`` (``docs/terms.md``);
 * :class:`PhysicsOptions`: ``dt``, ``substeps``, ``time_limit``, ``num_arcs``,
   ``contact_passes``;
-* :class:`WorldOptions`: ``world_ranges``, ``world_proposals`` (generated worlds:
+* :class:`WorldOptions`: ``world_ranges``, ``world_proposals``, ``world_seeds``,
+  ``world_holdout`` (generated worlds:
   ``make("generated:<family>")``, ``docs/generated.md``).
 
 :class:`MakeOptions` holds the five groups; ``MakeOptions.from_keywords(**kw)`` builds it from
@@ -204,10 +205,24 @@ class WorldOptions:
 
     world_ranges: tuple[tuple[str, float, float], ...] = ()
     world_proposals: int = 1
+    # (first, count): play only the worlds with these seeds (a held-out split, docs/generated.md)
+    world_seeds: tuple[int, int] | None = None
+    # (first, count): never draw a world of this split (training beside a held-out split)
+    world_holdout: tuple[int, int] | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "world_ranges", _range_rows(self.world_ranges))
         check_int("world_proposals", self.world_proposals)
+        for name in ("world_seeds", "world_holdout"):
+            value = getattr(self, name)
+            if value is None:
+                continue
+            if (isinstance(value, str | bytes) or len(value) != 2
+                    or not all(isinstance(v, int) and not isinstance(v, bool) for v in value)
+                    or value[0] < 0 or value[1] < 1 or value[0] + value[1] > 2**32):
+                raise ValueError(f"{name} must be [first, count] (integers, first >= 0, "
+                                 f"count >= 1, below 2**32), got {value!r}")
+            object.__setattr__(self, name, (int(value[0]), int(value[1])))
 
     def ranges(self) -> dict[str, tuple[float, float]]:
         """``{name: (low, high)}``."""

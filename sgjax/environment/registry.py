@@ -18,7 +18,7 @@ from sgjax.dynamics.planner import PlannerConfig, PlannerParams
 from sgjax.environment.env import EnvConfig, SocialNavEnv
 from sgjax.environment.options import MakeOptions
 from sgjax.environment.presets import resolve_terms
-from sgjax.environment.worlds import WorldSource
+from sgjax.environment.worlds import WorldSource, source_for
 from sgjax.humans.hsfm import MAX_SUBSTEP as HSFM_MAX_SUBSTEP
 from sgjax.humans.map_params import human_params
 from sgjax.humans.pedestrians import HumanConfig, HumanParams, spawn_humans
@@ -148,10 +148,9 @@ def _generated(name: str, opts: MakeOptions, largest: float, reach: float
     if opts.humans.slots:
         raise ValueError(f"make({name!r}): generated worlds have no pedestrians yet "
                          "(num_humans and max_humans must be 0)")
-    ranges = fam.ranges(opts.worlds.ranges())
-    source = WorldSource(fam.name, tuple((k, lo, hi) for k, (lo, hi) in sorted(ranges.items())),
-                         dataclasses.replace(fam.capacity, reach=float(reach)), float(largest),
-                         opts.worlds.world_proposals)
+    w = opts.worlds
+    source = source_for(fam.name, w.ranges(), float(largest), w.world_proposals, float(reach),
+                        check_dilemma=False, seeds=w.world_seeds, holdout=w.world_holdout)
     template, values, arrays, ok = _template(source)
     if not ok:
         raise ValueError(f"make({name!r}): the world of key 0 fails the family's checks for "

@@ -14,6 +14,7 @@ import dataclasses
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from flax import struct
 from jax import Array
 
@@ -23,6 +24,7 @@ from sgjax.maps.generated.compiled import world_arrays
 from sgjax.maps.generated.export import world_map
 from sgjax.maps.generated.families import family
 from sgjax.maps.generated.family import Family, generate, range_arrays
+from sgjax.maps.generated.splits import is_excluded, split_hashes, values_hash, world_key
 from sgjax.maps.generated.world import Capacity, World
 
 
@@ -51,16 +53,24 @@ class WorldSource:
     robot_radius: float
     proposals: int = 1
     check_dilemma: bool = False
+    # (first, count): a reset plays one of the worlds with these seeds (a held-out split);
+    # None: a fresh world from the reset's key
+    seeds: tuple[int, int] | None = None
+    # sorted hashes of worlds a draw must not take (a held-out split's: training refuses them)
+    exclude: tuple[int, ...] = ()
 
     @property
     def family(self) -> Family:
         return family(self.family_name)
 
     def chosen(self, key: Array) -> tuple[World, WorldDraw]:
-        """The world of ``key`` and its draw: ``proposals`` candidates, the first valid one
-        kept (the first candidate, flagged invalid, when none is)."""
+        """The world of ``key`` and its draw: ``proposals`` candidates (fresh worlds from the
+        key, or worlds of the split ``seeds`` the key picks), the first valid one kept (the
+        first candidate, flagged invalid, when none is); a world whose hash is in ``exclude``
+        is not valid."""
         ranges = range_arrays({name: (low, high) for name, low, high in self.ranges})
         fam, capacity = self.family, self.capacity
+        excluded = jnp.asarray(np.asarray(self.exclude, np.uint32))
 
         def propose(k: Array) -> tuple[World, WorldDraw]:
             world, values = generate(fam, k, ranges)
@@ -68,9 +78,16 @@ class WorldSource:
             ok = verdict(world, dist, arrays.next_hop, overflow, self.robot_radius,
                          route_nodes=capacity.route_nodes,
                          check_dilemma=self.check_dilemma).valid
-            return world, WorldDraw(map=arrays, valid=ok, values=values)
+            fresh = ~is_excluded(values_hash(values), excluded)
+            return world, WorldDraw(map=arrays, valid=ok & fresh, values=values)
 
-        worlds, draws = jax.vmap(propose)(jax.random.split(key, self.proposals))
+        if self.seeds is None:
+            keys = jax.random.split(key, self.proposals)
+        else:
+            first, count = self.seeds
+            index = jax.random.randint(key, (self.proposals,), 0, count)
+            keys = jax.vmap(world_key)(jnp.uint32(first) + index.astype(jnp.uint32))
+        worlds, draws = jax.vmap(propose)(keys)
         first = jnp.argmax(draws.valid)  # the first valid one, else 0
         return jax.tree.map(lambda x: x[first], (worlds, draws))
 
@@ -80,17 +97,25 @@ class WorldSource:
 
 
 def source_for(family_name: str, ranges: dict | None = None, robot_radius: float = 0.25,
-               proposals: int = 1, reach: float | None = None,
-               check_dilemma: bool = True) -> WorldSource:
+               proposals: int = 1, reach: float | None = None, check_dilemma: bool = True,
+               seeds: tuple[int, int] | None = None, holdout: tuple[int, int] | None = None
+               ) -> WorldSource:
     """A :class:`WorldSource` of a family by name, with ``ranges`` ({name: (low, high)}) on its
     defaults (checked), for robots up to ``robot_radius`` m (``reach``: the planner's, default
-    the family capacity's), checking the dilemma too by default (for files)."""
+    the family capacity's), checking the dilemma too by default (for files). ``seeds``: play
+    the worlds of this split ``(first, count)``; ``holdout``: never draw a world of that split
+    (its worlds' hashes excluded, under the same ranges; at least 4 proposals then)."""
     fam = family(family_name)
     checked = fam.ranges(ranges)
     capacity = fam.capacity if reach is None else dataclasses.replace(fam.capacity,
                                                                       reach=float(reach))
+    exclude = () if holdout is None else tuple(
+        int(h) for h in split_hashes(fam, checked, *holdout))
+    if exclude:
+        proposals = max(proposals, 4)
     return WorldSource(fam.name, tuple((k, lo, hi) for k, (lo, hi) in sorted(checked.items())),
-                       capacity, float(robot_radius), int(proposals), bool(check_dilemma))
+                       capacity, float(robot_radius), int(proposals), bool(check_dilemma),
+                       None if seeds is None else (int(seeds[0]), int(seeds[1])), exclude)
 
 
 def sample_maps(source: WorldSource, count: int, seed: int) -> list[tuple[dict, bool]]:
