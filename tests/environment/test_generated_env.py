@@ -36,6 +36,7 @@ def test_resets_draw_a_world_per_key_and_the_same_key_the_same_world(doorway):
         assert np.min(np.abs(nodes[None] - starts[:, None]).sum(-1), axis=1).max() < 1e-5
 
 
+@pytest.mark.slow
 def test_the_step_reads_the_episodes_world_and_an_ended_episode_draws_a_new_one(doorway):
     env, params = doorway
     keys = jax.random.split(jax.random.key(1), 4)

@@ -132,10 +132,15 @@ def test_the_wall_grid_matches_the_hosts_on_the_familys_extent():
 def _broken(mutate):
     """A doorway world of key 3, changed by ``mutate(world) -> world``, and its verdict."""
     fam = family("doorway")
-    world, _ = generate(fam, jax.random.key(3), range_arrays(fam.ranges()))
-    world = mutate(world)
-    arrays, dist, overflow = world_arrays(world, fam.capacity)
-    return world, verdict(world, dist, arrays.next_hop, overflow, RADIUS)
+
+    @jax.jit
+    def made(key):
+        world = mutate(generate(fam, key, range_arrays(fam.ranges()))[0])
+        arrays, dist, overflow = world_arrays(world, fam.capacity)
+        return world, verdict(world, dist, arrays.next_hop, overflow, RADIUS,
+                              route_nodes=fam.capacity.route_nodes)
+
+    return made(jax.random.key(3))
 
 
 def _exported_errors(world):
@@ -180,10 +185,16 @@ def test_the_dilemma_check_fails_on_a_world_without_one():
 def test_a_passage_narrower_than_the_robots_is_flagged():
     fam = family("doorway")
     ranges = range_arrays(fam.ranges({"door_width": 0.6}))
-    world, _ = generate(fam, jax.random.key(0), ranges)
-    arrays, dist, overflow = world_arrays(world, fam.capacity)
-    assert not bool(verdict(world, dist, arrays.next_hop, overflow, 0.3).passages)
-    assert bool(verdict(world, dist, arrays.next_hop, overflow, 0.2).passages)
+
+    @jax.jit
+    def passages(key):
+        world, _ = generate(fam, key, ranges)
+        arrays, dist, overflow = world_arrays(world, fam.capacity)
+        return [verdict(world, dist, arrays.next_hop, overflow, radius, check_dilemma=False
+                        ).passages for radius in (0.3, 0.2)]
+
+    wide, narrow = passages(jax.random.key(0))
+    assert not bool(wide) and bool(narrow)
 
 
 def test_ranges_are_checked_against_the_family():

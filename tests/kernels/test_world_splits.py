@@ -39,6 +39,7 @@ def test_hashes_follow_the_quantised_values():
     assert not bool(is_excluded(jnp.uint32(3), jnp.zeros(0, jnp.uint32)))
 
 
+@pytest.mark.slow
 def test_a_seed_fixes_its_world_and_a_split_plays_only_its_worlds():
     fam = family("doorway")
     ranges = fam.ranges()

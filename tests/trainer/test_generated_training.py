@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import jax
 import numpy as np
+import pytest
 from test_train import tiny
 
 from train.algorithm.trainer import Trainer, seed_keys
 
 
+@pytest.mark.slow
 def test_a_run_on_generated_worlds_trains_on_a_world_per_environment():
     config = tiny(env={"scenarios": ["generated:doorway"], "curriculum": [[0, 2]],
                        "time_limit": 1.0, "world_ranges": {"door_width": [1.0, 1.6]}})
