@@ -130,6 +130,136 @@ def seed_aggregate(per_seed: np.ndarray, confidence: float = CONFIDENCE, resampl
     return out
 
 
+def paired_over_seeds_and_episodes(a: np.ndarray, b: np.ndarray,
+                                   confidence: float = CONFIDENCE, resamples: int = 4000,
+                                   seed: int = 0) -> Summary:
+    """``A - B`` where A is trained over seeds and both play the same episodes: ``a [S, E]``
+    (each training seed's value on each shared episode), ``b [E]`` or ``[S, E]`` (an untrained
+    baseline's values on the same episodes, or another trained policy's, seed by seed). The
+    mean difference with a **two-level bootstrap** interval: each resample draws ``S`` seeds
+    with replacement, then ``E`` episodes with replacement (the same episodes for A and B:
+    paired), so the interval carries the variance of training seeds and of episodes together
+    (a t interval over episodes of seed-averaged differences carries the episodes' alone).
+    Percentile interval over ``resamples`` resamples (fixed ``seed``); ``n`` is ``S x E``.
+    NaN pairs are left out of each mean."""
+    a = np.asarray(a, float)
+    b = np.broadcast_to(np.asarray(b, float), a.shape)
+    if a.ndim != 2:
+        raise ValueError(f"paired_over_seeds_and_episodes: a must be [seeds, episodes], got "
+                         f"{a.shape}")
+    diff = a - b
+    seeds, episodes = diff.shape
+    if not np.isfinite(diff).any():
+        return Summary(math.nan, math.nan, math.nan, math.nan, 0)
+    rng = np.random.default_rng(seed)
+    means = np.empty(resamples)
+    for r in range(resamples):  # one resample: a [S, E] pick of the difference table
+        rows = rng.integers(0, seeds, seeds)
+        cols = rng.integers(0, episodes, episodes)
+        means[r] = np.nanmean(diff[np.ix_(rows, cols)])
+    tail = (1 - confidence) / 2
+    low, high = np.nanquantile(means, [tail, 1 - tail])
+    finite = diff[np.isfinite(diff)]
+    return Summary(float(np.mean(finite)), float(low), float(high),
+                   float(np.std(finite, ddof=1)) if finite.size > 1 else math.nan,
+                   int(finite.size))
+
+
+def per_seed_paired_t(a: np.ndarray, b: np.ndarray, confidence: float = CONFIDENCE
+                      ) -> Summary:
+    """``A - B`` as a Student-t interval over training seeds of each seed's paired
+    difference (its mean over the shared episodes): ``a [S, E]``, ``b [E]`` or ``[S, E]``.
+    The other interval :func:`paired_over_seeds_and_episodes` offers: exact under normal
+    seed means, and with few seeds wide, as it should be (never the range of the seeds)."""
+    a = np.asarray(a, float)
+    b = np.broadcast_to(np.asarray(b, float), a.shape)
+    per_seed = np.nanmean(a - b, axis=1)
+    per_seed = per_seed[np.isfinite(per_seed)]
+    if not per_seed.size:
+        return Summary(math.nan, math.nan, math.nan, math.nan, 0)
+    low, high = t_interval(per_seed, confidence)
+    return Summary(float(np.mean(per_seed)), low, high,
+                   float(np.std(per_seed, ddof=1)) if per_seed.size > 1 else math.nan,
+                   int(per_seed.size))
+
+
+def stratified_resamples(cells: Mapping[str, np.ndarray], resamples: int, seed: int
+                         ) -> list[np.ndarray]:
+    """``resamples`` stratified bootstrap resamples of per-seed scores by cell (``cells
+    {cell: [S_c]}``): each resample draws every cell's seeds with replacement within the
+    cell, and concatenates them (rliable's stratified bootstrap)."""
+    rng = np.random.default_rng(seed)
+    arrays = [np.asarray(v, float)[np.isfinite(np.asarray(v, float))] for v in cells.values()]
+    return [np.concatenate([v[rng.integers(0, v.size, v.size)] for v in arrays if v.size])
+            for _ in range(resamples)]
+
+
+def aggregate_over_cells(cells: Mapping[str, np.ndarray], confidence: float = CONFIDENCE,
+                         resamples: int = 2000, seed: int = 0) -> dict[str, float]:
+    """One method's aggregate over all its cells (``cells {cell: [S] per-seed scores}``, e.g.
+    every scenario x robot count): the interquartile mean and the mean of every run, each with
+    a stratified-bootstrap percentile interval (seeds resampled within each cell)."""
+    everything = np.concatenate([np.asarray(v, float) for v in cells.values()])
+    everything = everything[np.isfinite(everything)]
+    out = {"runs": int(everything.size), "cells": len(cells),
+           "iqm": interquartile_mean(everything),
+           "mean": float(np.mean(everything)) if everything.size else math.nan}
+    draws = stratified_resamples(cells, resamples, seed)
+    tail = (1 - confidence) / 2
+    for name, statistic in (("iqm", interquartile_mean), ("mean", np.mean)):
+        values = np.asarray([statistic(d) for d in draws])
+        out[f"{name}_low"], out[f"{name}_high"] = (float(q) for q in np.quantile(
+            values, [tail, 1 - tail]))
+    return out
+
+
+def improvement_over_cells(a: Mapping[str, np.ndarray], b: Mapping[str, np.ndarray],
+                           confidence: float = CONFIDENCE, resamples: int = 2000,
+                           seed: int = 0) -> dict[str, float]:
+    """P(A > B) over the cells both have (the mean over cells of each cell's
+    :func:`probability_of_improvement` of its seeds), with a stratified-bootstrap percentile
+    interval (each side's seeds resampled within each cell)."""
+    shared = [c for c in a if c in b]
+    if not shared:
+        raise ValueError("improvement_over_cells: no cell in common")
+
+    def value(x: Mapping[str, np.ndarray], y: Mapping[str, np.ndarray]) -> float:
+        return float(np.nanmean([probability_of_improvement(x[c], y[c]) for c in shared]))
+
+    rng = np.random.default_rng(seed)
+
+    def resample(cells: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        out = {}
+        for c in shared:
+            v = np.asarray(cells[c], float)
+            v = v[np.isfinite(v)]
+            out[c] = v[rng.integers(0, v.size, v.size)] if v.size else v
+        return out
+
+    values = np.asarray([value(resample(a), resample(b)) for _ in range(resamples)])
+    tail = (1 - confidence) / 2
+    low, high = np.nanquantile(values, [tail, 1 - tail])
+    return {"probability": value(a, b), "low": float(low), "high": float(high),
+            "cells": len(shared)}
+
+
+def performance_profile(cells: Mapping[str, np.ndarray], thresholds: np.ndarray,
+                        confidence: float = CONFIDENCE, resamples: int = 2000, seed: int = 0
+                        ) -> dict[str, np.ndarray]:
+    """The fraction of a method's runs (seeds of every cell) whose score exceeds each threshold
+    (``thresholds [T]``), with a stratified-bootstrap percentile band: ``{"thresholds",
+    "fraction", "low", "high"}`` (rliable's performance profile)."""
+    thresholds = np.asarray(thresholds, float)
+    everything = np.concatenate([np.asarray(v, float) for v in cells.values()])
+    everything = everything[np.isfinite(everything)]
+    fraction = np.mean(everything[:, None] > thresholds[None], axis=0)
+    draws = np.asarray([np.mean(d[:, None] > thresholds[None], axis=0)
+                        for d in stratified_resamples(cells, resamples, seed)])
+    tail = (1 - confidence) / 2
+    return {"thresholds": thresholds, "fraction": fraction,
+            "low": np.quantile(draws, tail, axis=0), "high": np.quantile(draws, 1 - tail, axis=0)}
+
+
 def summarize(values: np.ndarray, binary: bool, fraction: bool = False) -> Summary:
     """Summary over episodes of one metric's per-episode values (NaNs are left out). Every
     metric is non-negative, so the interval is clipped at 0, and at 1 for ``fraction``s."""
