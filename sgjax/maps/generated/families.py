@@ -6,10 +6,11 @@ from __future__ import annotations
 from sgjax.maps.generated.doorway import DOORWAY
 from sgjax.maps.generated.family import Family
 from sgjax.maps.generated.hallway import HALLWAY
+from sgjax.maps.generated.intersection import INTERSECTION
 from sgjax.maps.generated.open_space import OPEN
 from sgjax.validation import suggest
 
-FAMILIES: dict[str, Family] = {f.name: f for f in (DOORWAY, HALLWAY, OPEN)}
+FAMILIES: dict[str, Family] = {f.name: f for f in (DOORWAY, HALLWAY, INTERSECTION, OPEN)}
 PREFIX = "generated:"  # a scenario name that names a family
 
 
