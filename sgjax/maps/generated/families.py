@@ -8,9 +8,11 @@ from sgjax.maps.generated.family import Family
 from sgjax.maps.generated.hallway import HALLWAY
 from sgjax.maps.generated.intersection import INTERSECTION
 from sgjax.maps.generated.open_space import OPEN
+from sgjax.maps.generated.roundabout import ROUNDABOUT
 from sgjax.validation import suggest
 
-FAMILIES: dict[str, Family] = {f.name: f for f in (DOORWAY, HALLWAY, INTERSECTION, OPEN)}
+FAMILIES: dict[str, Family] = {f.name: f for f in (DOORWAY, HALLWAY, INTERSECTION, ROUNDABOUT,
+                                                  OPEN)}
 PREFIX = "generated:"  # a scenario name that names a family
 
 
