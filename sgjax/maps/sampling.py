@@ -43,7 +43,7 @@ class Route:
         return safe_norm(self.goal_x - x, self.goal_y - y)
 
 
-def _mix32(h: Array) -> Array:
+def mix32(h: Array) -> Array:
     """MurmurHash3's 32-bit finaliser: a cheap bijective scramble of uint32 values."""
     h = h ^ (h >> 16)
     h = h * jnp.uint32(0x85EBCA6B)
@@ -99,14 +99,14 @@ def sample_starts_goals(
     group_index = jnp.arange(m.group_starts.shape[0])
     seed = jax.random.bits(key, (2,), jnp.uint32)
     slots = jnp.arange(num_robots, dtype=jnp.uint32)
-    group_draws = (_mix32(seed[1] ^ _mix32(slots + 1)) >> 8).astype(jnp.float32) / 2.0**24
+    group_draws = (mix32(seed[1] ^ mix32(slots + 1)) >> 8).astype(jnp.float32) / 2.0**24
     index_bits = max(1, (num_nodes - 1).bit_length())
     high_bits = jnp.uint32(0xFFFFFFFF ^ ((1 << index_bits) - 1))
     # Every slot's start and goal priorities at once, [R, 2, N], with the node index in the low
     # bits so that one max reduction names the winner.
     counters = jnp.arange(num_robots * 2 * num_nodes, dtype=jnp.uint32).reshape(
         num_robots, 2, num_nodes)
-    scrambled = _mix32(seed[0] ^ (counters * jnp.uint32(0x9E3779B9))) | jnp.uint32(0x80000000)
+    scrambled = mix32(seed[0] ^ (counters * jnp.uint32(0x9E3779B9))) | jnp.uint32(0x80000000)
     priorities = (scrambled & high_bits) | node_index.astype(jnp.uint32)
     single_group = m.group_starts.shape[0] == 1
 

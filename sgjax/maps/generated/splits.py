@@ -14,6 +14,7 @@ import numpy as np
 from jax import Array
 
 from sgjax.maps.generated.family import Family, draw_values, range_arrays
+from sgjax.maps.sampling import mix32
 
 WORLD_ROOT = 0x5EED  # the root key every world seed folds into
 QUANTUM = 0.05  # parameter values are quantised to this (m, or a fraction) before hashing
@@ -25,15 +26,6 @@ def world_key(seed: Array | int) -> Array:
     return jax.random.fold_in(jax.random.key(WORLD_ROOT), seed)
 
 
-def _mix(h: Array) -> Array:
-    """MurmurHash3's 32-bit finaliser (uint32)."""
-    h = h ^ (h >> 16)
-    h = h * jnp.uint32(0x85EBCA6B)
-    h = h ^ (h >> 13)
-    h = h * jnp.uint32(0xC2B2AE35)
-    return h ^ (h >> 16)
-
-
 def values_hash(values: Mapping[str, Array]) -> Array:
     """A uint32 identity of a world's parameter values: each value (in name order) rounded to
     :data:`QUANTUM`, folded into a MurmurHash3 chain. Worlds whose every parameter rounds alike
@@ -41,7 +33,7 @@ def values_hash(values: Mapping[str, Array]) -> Array:
     h = jnp.uint32(0x9E3779B9)
     for name in sorted(values):
         q = jnp.round(values[name] / QUANTUM).astype(jnp.int32).astype(jnp.uint32)
-        h = _mix(h ^ (q + jnp.uint32(0x7F4A7C15) + (h << 6) + (h >> 2)))
+        h = mix32(h ^ (q + jnp.uint32(0x7F4A7C15) + (h << 6) + (h >> 2)))
     return h
 
 
