@@ -44,7 +44,26 @@ def _add_environment_options(parser: argparse.ArgumentParser) -> None:
                         "checkpoint's, else settle)")
     parser.add_argument("--observation-preset", default=None,
                         help="observation preset the policy expects (docs/terms.md)")
+    parser.add_argument("--world-range", dest="world_ranges", action="append", default=None,
+                        metavar="NAME=LOW,HIGH", type=_world_range,
+                        help="generated scenarios: a parameter's range (or NAME=VALUE), "
+                             "repeatable (docs/generated.md)")
+    parser.add_argument("--world-seeds", type=int, nargs=2, default=None,
+                        metavar=("FIRST", "COUNT"),
+                        help="generated scenarios: play only the worlds of this seed split")
     add_cache_arguments(parser)
+
+
+def _world_range(text: str) -> tuple[str, float, float]:
+    """``NAME=LOW,HIGH`` or ``NAME=VALUE`` -> a ``(name, low, high)`` row."""
+    name, _, values = text.partition("=")
+    try:
+        pair = [float(v) for v in values.split(",")]
+    except ValueError:
+        pair = []
+    if not name or len(pair) not in (1, 2):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected NAME=LOW,HIGH or NAME=VALUE")
+    return (name, pair[0], pair[-1])
 
 
 def _add_action_choice(parser: argparse.ArgumentParser) -> None:
@@ -56,7 +75,8 @@ def _add_action_choice(parser: argparse.ArgumentParser) -> None:
                          help="trained checkpoints sample their actions")
 
 
-ENVIRONMENT_FLAGS = ("num_humans", "time_limit", "action_mode", "arrived", "observation_preset")
+ENVIRONMENT_FLAGS = ("num_humans", "time_limit", "action_mode", "arrived", "observation_preset",
+                     "world_ranges", "world_seeds")
 
 
 def _options(args: argparse.Namespace, policy: Any) -> MakeOptions:
@@ -224,16 +244,7 @@ def run_maps_generate(args: argparse.Namespace) -> None:
     from sgjax.environment.worlds import sample_maps, source_for
     from sgjax.files import write_atomic
 
-    ranges = {}
-    for item in args.set:
-        name, _, text = item.partition("=")
-        try:
-            pair = [float(v) for v in text.split(",")]
-        except ValueError:
-            pair = []
-        if not name or len(pair) not in (1, 2):
-            raise ValueError(f"--set {item!r}: expected NAME=LOW,HIGH or NAME=VALUE")
-        ranges[name] = tuple(pair) if len(pair) == 2 else pair[0]
+    ranges = {name: (low, high) for name, low, high in args.set}
     source = source_for(args.family, ranges, robot_radius=args.clearance)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -306,6 +317,7 @@ def _add_maps_commands(commands: Any) -> None:
     generate.add_argument("--seed", type=int, default=0)
     generate.add_argument("--out", required=True, help="folder for the .json files")
     generate.add_argument("--set", action="append", default=[], metavar="NAME=LOW,HIGH",
+                          type=_world_range,
                           help="a parameter's range (or NAME=VALUE), repeatable")
     generate.add_argument("--clearance", type=float, default=0.25,
                           help="the largest robot radius passages and nodes must fit (m)")
