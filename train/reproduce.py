@@ -193,12 +193,12 @@ def train_baseline(config: Any, partial: Path | None = None, resume: bool = Fals
     phases = Phases("compile", "train")
     start = jax.jit(jax.vmap(trainer.init))
     keys = seed_keys(config)
-    with phases.timing("compile"):
-        runner = start(keys)
     file = PartialFile(partial, config, "cell", resume=resume, saves=SAVES_PER_RUN)
     loaded = file.load(shaped_like(jax.eval_shape(start, keys)))
-    done = 0
-    if loaded is not None:
+    if loaded is None:
+        with phases.timing("compile"):
+            runner, done = start(keys), 0
+    else:
         runner, done = loaded
         print(f"    resuming {partial} at update {done} of {updates}", flush=True)
     per_call = equal_calls(updates, SAVES_PER_RUN)

@@ -60,26 +60,44 @@ def edges_through_walls(world: World) -> Array:
     return world.edge_valid & jnp.any(cross & world.wall_valid[None, :], axis=-1)
 
 
-def pairs_connected(world: World, dist: Array) -> Array:
-    """Whether every (start, goal) pair of every group (start != goal) has a path."""
+def group_pairs(world: World) -> Array:
+    """``[N, N]`` bool: the (start, goal) pairs some group allows (valid nodes, start !=
+    goal)."""
     starts = world.group_starts & world.node_valid[None, :]
     goals = world.group_goals & world.node_valid[None, :]
-    pair = starts[:, :, None] & goals[:, None, :] & ~jnp.eye(dist.shape[0], dtype=bool)
-    return jnp.all(~pair | jnp.isfinite(dist)[None])
+    count = world.nodes.shape[0]
+    return jnp.any(starts[:, :, None] & goals[:, None, :], axis=0) & ~jnp.eye(count, dtype=bool)
+
+
+def route_steps(next_hop: Array, route_nodes: int) -> list[tuple[Array, Array]]:
+    """Every (start, goal) route walked along ``next_hop``: for each of the ``route_nodes - 1``
+    hops, ``(at, hop) [N, N]`` (indexed ``[start, goal]``: where the route is, and the node it
+    moves to; a route that has arrived stays put)."""
+    count = next_hop.shape[0]
+    at = jnp.broadcast_to(jnp.arange(count)[:, None], (count, count))
+    goal = jnp.broadcast_to(jnp.arange(count)[None, :], (count, count))
+    steps = []
+    for _ in range(route_nodes - 1):
+        hop = jnp.maximum(next_hop[at, goal], 0)
+        steps.append((at, hop))
+        at = hop
+    return steps
+
+
+def pairs_connected(world: World, dist: Array) -> Array:
+    """Whether every (start, goal) pair of every group (start != goal) has a path."""
+    return jnp.all(~group_pairs(world) | jnp.isfinite(dist))
 
 
 def routes_fit(world: World, next_hop: Array, route_nodes: int) -> Array:
     """Whether every group route reaches its goal within ``route_nodes`` nodes (the route
     arrays' static length: a longer one would be cut short)."""
-    starts = world.group_starts & world.node_valid[None, :]
-    goals = world.group_goals & world.node_valid[None, :]
     count = next_hop.shape[0]
-    pairs = jnp.any(starts[:, :, None] & goals[:, None, :], axis=0) & ~jnp.eye(count, dtype=bool)
-    at = jnp.broadcast_to(jnp.arange(count)[:, None], (count, count))  # [start, goal]
     goal = jnp.broadcast_to(jnp.arange(count)[None, :], (count, count))
-    for _ in range(route_nodes - 1):
-        at = jnp.maximum(next_hop[at, goal], 0)
-    return jnp.all(~pairs | (at == goal))
+    steps = route_steps(next_hop, route_nodes)
+    last = steps[-1][1] if steps else jnp.broadcast_to(jnp.arange(count)[:, None],
+                                                       (count, count))
+    return jnp.all(~group_pairs(world) | (last == goal))
 
 
 def zone_headings(world: World, next_hop: Array, route_nodes: int) -> Array:
@@ -98,18 +116,12 @@ def zone_headings(world: World, next_hop: Array, route_nodes: int) -> Array:
               % HEADING_BINS)
     code = jnp.where(inside, jnp.uint32(1) << sector[None], jnp.uint32(0))  # [Z, N, N]
     flat = code.reshape(z.shape[0], -1)
-    starts = world.group_starts & world.node_valid[None, :]
-    goals = world.group_goals & world.node_valid[None, :]
-    pairs = jnp.any(starts[:, :, None] & goals[:, None, :], axis=0) & ~jnp.eye(count, dtype=bool)
-    at = jnp.broadcast_to(jnp.arange(count)[:, None], (count, count))  # [start, goal]
-    goal = jnp.broadcast_to(jnp.arange(count)[None, :], (count, count))
+    pairs = group_pairs(world)
     bits = jnp.zeros(z.shape[0], jnp.uint32)
-    for _ in range(route_nodes - 1):
-        hop = jnp.maximum(next_hop[at, goal], 0)
+    for at, hop in route_steps(next_hop, route_nodes):
         taken = jnp.where(pairs[None] & (hop != at)[None],
                           jnp.take(flat, at * count + hop, axis=1), jnp.uint32(0))
         bits = bits | jax.lax.reduce(taken, jnp.uint32(0), jax.lax.bitwise_or, (1, 2))
-        at = hop
     return bits
 
 

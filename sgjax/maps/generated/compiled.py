@@ -17,12 +17,12 @@ def world_arrays(world: World, capacity: Capacity) -> tuple[MapArrays, Array, Ar
     """``(arrays, dist [N, N], overflow)``: the world's map arrays, its shortest-path lengths
     (``inf`` where unreachable, for the checks) and whether it overflows its family's capacity
     (more walls near a cell than a cell lists, more route nodes than ``hubs``)."""
-    dist, next_hop, fits = shortest_paths(world.nodes, world.adjacency, capacity.hubs)
+    nodes = world.nodes
+    gap = jnp.linalg.norm(nodes[:, None, :] - nodes[None, :, :], axis=-1)
+    dist, next_hop, fits = shortest_paths(gap, world.adjacency, capacity.hubs)
     lists, overflow = cell_walls(world.walls, world.wall_valid, capacity)
     overflow = overflow | ~fits
     origin, shape = grid_layout(capacity)
-    nodes = world.nodes
-    gap = jnp.linalg.norm(nodes[:, None, :] - nodes[None, :, :], axis=-1)
     # padding nodes are never starts or goals, and lie far from everything
     arrays = MapArrays(
         wall_x1=world.walls[:, 0], wall_y1=world.walls[:, 1],

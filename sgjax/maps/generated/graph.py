@@ -14,18 +14,17 @@ NO_PATH = -1
 TIE = 1e-6
 
 
-def shortest_paths(nodes: Array, adjacency: Array, hubs: int) -> tuple[Array, Array, Array]:
-    """``(dist [N, N], next_hop [N, N], fits)`` over edges weighted by Euclidean length (m):
-    ``dist`` is ``inf`` where unreachable, ``next_hop[i, j]`` the next node from ``i`` towards
-    ``j`` (``NO_PATH`` where unreachable, ``i`` on the diagonal). ``nodes [N, 2]``,
-    ``adjacency [N, N]`` bool.
+def shortest_paths(gap: Array, adjacency: Array, hubs: int) -> tuple[Array, Array, Array]:
+    """``(dist [N, N], next_hop [N, N], fits)`` over edges weighted by their length ``gap [N,
+    N]`` (m, the nodes' distances): ``dist`` is ``inf`` where unreachable, ``next_hop[i, j]``
+    the next node from ``i`` towards ``j`` (``NO_PATH`` where unreachable, ``i`` on the
+    diagonal); ``adjacency [N, N]`` bool.
 
     A shortest path never passes through a node of degree 1 (it would leave by the edge it came
     in on), so Floyd-Warshall relaxes through the ``hubs`` nodes of highest degree alone: exact
     when no more than ``hubs`` nodes have degree 2 or more (``fits``; a world where more do is
     flagged, not mis-routed silently)."""
-    count = nodes.shape[0]
-    gap = jnp.linalg.norm(nodes[:, None, :] - nodes[None, :, :], axis=-1)
+    count = gap.shape[0]
     eye = jnp.eye(count, dtype=bool)
     dist = jnp.where(eye, 0.0, jnp.where(adjacency, gap, jnp.inf))
     index = jnp.arange(count, dtype=jnp.int32)

@@ -160,8 +160,9 @@ def build(values: Mapping[str, Array], key: Array) -> World:
     length and turn within the ranges' spread and jitters the spawn lattices."""
     k_arms, k_spawn = jax.random.split(key)
     arms = draw_arms(values, k_arms)
-    walls, valid = padded_walls(arm_walls(arms)[0], CAPACITY.walls)
-    valid = valid & jnp.concatenate([arm_walls(arms)[1], jnp.zeros(1, bool)])
+    sides, built = arm_walls(arms)
+    walls, valid = padded_walls(sides, CAPACITY.walls)
+    valid = valid & jnp.concatenate([built, jnp.zeros(1, bool)])
     # approach nodes on each arm's centre line, past both its corners
     reach = jnp.maximum(jnp.maximum(arms.t_left, arms.t_right),
                         jnp.max(arms.half * arms.present)) + 1.0
