@@ -39,10 +39,10 @@ def best_of(fn, *args, repeats: int = 3) -> float:
     return best
 
 
-def generation(batch: int) -> None:
+def generation(batch: int, families: list[str]) -> None:
     print(f"worlds drawn in batches of {batch}, each compiled to map arrays and checked as a "
           "reset checks it (the dilemma apart)")
-    for name in FAMILIES:
+    for name in families:
         source = source_for(name, check_dilemma=False)
         keys = jax.random.split(jax.random.key(0), batch)
         t0 = time.perf_counter()
@@ -96,11 +96,14 @@ def main() -> None:
     parser.add_argument("--batch", type=int, default=1024)
     parser.add_argument("--envs", type=int, default=256)
     parser.add_argument("--updates", type=int, default=4)
+    parser.add_argument("--families", nargs="+", choices=list(FAMILIES), default=list(FAMILIES))
     parser.add_argument("--skip-training", action="store_true")
+    parser.add_argument("--skip-resets", action="store_true")
     args = parser.parse_args()
     print(f"jax {jax.__version__} on {jax.devices()[0].device_kind}")
-    generation(args.batch)
-    reset_compile(args.envs)
+    generation(args.batch, args.families)
+    if not args.skip_resets:
+        reset_compile(args.envs)
     if not args.skip_training:
         training(args.updates)
 

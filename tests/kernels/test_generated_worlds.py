@@ -89,7 +89,11 @@ def test_exported_worlds_pass_the_map_checker_and_compile_to_the_same_routes(nam
                          {k: v[i] for k, v in values.items()})
         problems = check_map(data, f"{name}-{i}", clearance=RADIUS)
         assert [p for p in problems if p.severity == "error"] == [], i
-        assert not [p for p in problems if "enclosed" in p.message or "no robot" in p.message]
+        # a floor plan's zones are all its doors: those off the two pairs' routes see no robot
+        idle = [p for p in problems if "no robot's shortest route crosses" in p.message]
+        assert len(idle) < len(data["zones"]) if name == "floorplan" else not idle
+        assert not [p for p in problems if "enclosed" in p.message
+                    or ("no robot" in p.message and p not in idle)]
         spec = parse_map(data, source=f"{name}-{i}", clearance=RADIUS)
         dist, _ = all_pairs_shortest_paths(spec.node_positions, spec.edges)
         kept = np.flatnonzero(world.node_valid)  # the exported nodes, in row order
@@ -228,3 +232,34 @@ def test_the_docs_list_every_familys_parameters_with_their_ranges():
         for key, parameter in fam.parameters.items():
             low, high = (float(v) for v in rows[key].replace(" - ", " ").split())
             assert (low, high) == parameter.default, (name, key)
+
+
+def test_pointer_doubling_finds_the_routes_that_walking_finds():
+    """Floor plans' long routes are followed by pointer doubling: where every route is after
+    any number of hops, and the edges the routes take, equal a hop-by-hop walk's."""
+    from sgjax.maps.generated.checks import (
+        WALK_HOPS,
+        after_hops,
+        group_pairs,
+        route_steps,
+        used_edges,
+    )
+
+    fam = FAMILIES["floorplan"]
+    worlds, _, arrays, _ = batch("floorplan", 64)
+    assert fam.capacity.route_nodes - 1 > WALK_HOPS
+    for i in range(0, 64, 8):
+        world, hop = one_world(worlds, i), jnp.asarray(one_world(arrays, i).next_hop)
+        steps = route_steps(hop, fam.capacity.route_nodes - 1)
+        for hops in (WALK_HOPS + 1, 13, fam.capacity.route_nodes - 1):
+            np.testing.assert_array_equal(np.asarray(after_hops(hop, hops)),
+                                          np.asarray(steps[hops - 1][1]))
+        pairs = np.asarray(group_pairs(world))
+        walked = np.zeros(hop.shape, bool)
+        for at, nxt in steps:
+            at, nxt = np.asarray(at), np.asarray(nxt)
+            moved = pairs & (nxt != at)
+            walked[at[moved], nxt[moved]] = True
+        used = np.asarray(used_edges(world, hop, fam.capacity.route_nodes))
+        np.testing.assert_array_equal(used, walked)
+        assert walked.sum() > 0

@@ -23,6 +23,9 @@ PASSAGE_MARGIN = 0.1  # m: a passage must be wider than the widest robot by this
 # more than this angle (opposed flows, crossing flows; not one lane).
 CONFLICT_ANGLE = float(np.deg2rad(60.0))
 HEADING_BINS = 32  # sectors of 11.25 degrees (one bit each in a uint32)
+# Routes of up to this many hops are walked hop by hop (a gather per hop: cheapest for the
+# mini-games' routes of 3 to 7 hops); longer ones (the floor plans') by pointer doubling.
+WALK_HOPS = 8
 
 
 @struct.dataclass
@@ -69,19 +72,48 @@ def group_pairs(world: World) -> Array:
     return jnp.any(starts[:, :, None] & goals[:, None, :], axis=0) & ~jnp.eye(count, dtype=bool)
 
 
-def route_steps(next_hop: Array, route_nodes: int) -> list[tuple[Array, Array]]:
-    """Every (start, goal) route walked along ``next_hop``: for each of the ``route_nodes - 1``
-    hops, ``(at, hop) [N, N]`` (indexed ``[start, goal]``: where the route is, and the node it
-    moves to; a route that has arrived stays put)."""
+def route_steps(next_hop: Array, hops: int) -> list[tuple[Array, Array]]:
+    """Every (start, goal) route walked along ``next_hop`` for ``hops`` hops: for each,
+    ``(at, hop) [N, N]`` (indexed ``[start, goal]``: where the route is, and the node it moves
+    to; a route that has arrived stays put)."""
     count = next_hop.shape[0]
     at = jnp.broadcast_to(jnp.arange(count)[:, None], (count, count))
     goal = jnp.broadcast_to(jnp.arange(count)[None, :], (count, count))
     steps = []
-    for _ in range(route_nodes - 1):
+    for _ in range(hops):
         hop = jnp.maximum(next_hop[at, goal], 0)
         steps.append((at, hop))
         at = hop
     return steps
+
+
+def hop_doublings(next_hop: Array, hops: int) -> list[Array]:
+    """Where every (start, goal) route is after 1, 2, 4, ... hops along ``next_hop``: ``[N, N]``
+    arrays indexed ``[start, goal]``, enough of them to reach ``hops`` (a route that has
+    arrived stays put). Each is the one before composed with itself (pointer doubling), so a
+    route of ``L`` nodes costs ``log2 L`` gathers, not ``L``."""
+    count = next_hop.shape[0]
+    goal = jnp.broadcast_to(jnp.arange(count)[None, :], (count, count))
+    at = jnp.maximum(next_hop, 0)  # after one hop (an unreachable goal: node 0, flagged apart)
+    powers = [at]
+    while (1 << len(powers)) <= hops:
+        at = at[at, goal]
+        powers.append(at)
+    return powers
+
+
+def after_hops(next_hop: Array, hops: int) -> Array:
+    """``[N, N]`` where every (start, goal) route is after exactly ``hops`` hops: walked, or
+    composed from :func:`hop_doublings` for routes longer than :data:`WALK_HOPS`."""
+    count = next_hop.shape[0]
+    at = jnp.broadcast_to(jnp.arange(count)[:, None], (count, count))
+    if hops <= WALK_HOPS:
+        return route_steps(next_hop, hops)[-1][1] if hops else at
+    goal = jnp.broadcast_to(jnp.arange(count)[None, :], (count, count))
+    for bit, power in enumerate(hop_doublings(next_hop, hops)):
+        if hops >> bit & 1:
+            at = power[at, goal]
+    return at
 
 
 def pairs_connected(world: World, dist: Array) -> Array:
@@ -94,31 +126,52 @@ def routes_fit(world: World, next_hop: Array, route_nodes: int) -> Array:
     arrays' static length: a longer one would be cut short)."""
     count = next_hop.shape[0]
     goal = jnp.broadcast_to(jnp.arange(count)[None, :], (count, count))
-    steps = route_steps(next_hop, route_nodes)
-    last = steps[-1][1] if steps else jnp.broadcast_to(jnp.arange(count)[:, None],
-                                                       (count, count))
+    last = after_hops(next_hop, route_nodes - 1)
     return jnp.all(~group_pairs(world) | (last == goal))
 
 
+def used_edges(world: World, next_hop: Array, route_nodes: int) -> Array:
+    """``[N, N]`` bool: the directed edges ``i -> j`` some group route takes (every start to
+    every goal of its group, along ``next_hop``, for ``route_nodes - 1`` hops or more, the next
+    power of two: a longer route fails :func:`routes_fit` anyway). Found by pointer doubling:
+    ``on[i, g]``, some route to ``g`` passes ``i`` within its first ``2^k`` hops, grows by
+    or-ing ``on`` into the nodes ``2^k`` hops on (a scatter per doubling), so a route of ``L``
+    nodes costs ``log2 L`` scatters, not ``L`` gathers of every zone."""
+    count = next_hop.shape[0]
+    start = jnp.broadcast_to(jnp.arange(count)[:, None], (count, count))
+    goal = jnp.broadcast_to(jnp.arange(count)[None, :], (count, count))
+    powers = hop_doublings(next_hop, route_nodes - 1)
+    on = group_pairs(world)  # [node, goal]: the routes' first nodes
+    for power in powers:
+        on = on.at[power, goal].max(on)
+    hop = powers[0]
+    return jnp.zeros((count, count), bool).at[start, hop].max(on & (hop != start))
+
+
 def zone_headings(world: World, next_hop: Array, route_nodes: int) -> Array:
-    """``[Z]`` uint32: for each conflict zone, a bit per heading sector (:data:`HEADING_BINS` of
-    them) that some group route takes through it: every start to every goal of its group,
-    along ``next_hop`` for ``route_nodes - 1`` hops, an edge counting in a zone where its
-    midpoint lies inside it. The bits are OR-reduced, so no scatter runs per world."""
+    """``[Z]`` uint32: for each valid conflict zone, a bit per heading sector
+    (:data:`HEADING_BINS` of them) that some group route takes through it, an edge counting in
+    a zone where its midpoint lies inside it; the bits are OR-reduced, so no scatter runs per
+    zone. Routes of up to :data:`WALK_HOPS` hops are walked (each hop's codes gathered for
+    every route); longer ones mark the edges they use first (:func:`used_edges`)."""
     x, y = world.nodes[:, 0], world.nodes[:, 1]
     z = world.zones
     count = x.shape[0]
     mx, my = (x[:, None] + x[None, :]) / 2, (y[:, None] + y[None, :]) / 2  # edge midpoints
     inside = ((mx[None] >= z[:, 0, None, None]) & (mx[None] <= z[:, 2, None, None])
-              & (my[None] >= z[:, 1, None, None]) & (my[None] <= z[:, 3, None, None]))
+              & (my[None] >= z[:, 1, None, None]) & (my[None] <= z[:, 3, None, None])
+              & world.zone_valid[:, None, None])
     angle = polynomial_atan2(y[None, :] - y[:, None], x[None, :] - x[:, None])  # edge i -> j
     sector = (jnp.floor((angle + jnp.pi) / (2 * jnp.pi) * HEADING_BINS).astype(jnp.uint32)
               % HEADING_BINS)
     code = jnp.where(inside, jnp.uint32(1) << sector[None], jnp.uint32(0))  # [Z, N, N]
+    if route_nodes - 1 > WALK_HOPS:
+        code = jnp.where(used_edges(world, next_hop, route_nodes)[None], code, jnp.uint32(0))
+        return jax.lax.reduce(code, jnp.uint32(0), jax.lax.bitwise_or, (1, 2))
     flat = code.reshape(z.shape[0], -1)
     pairs = group_pairs(world)
     bits = jnp.zeros(z.shape[0], jnp.uint32)
-    for at, hop in route_steps(next_hop, route_nodes):
+    for at, hop in route_steps(next_hop, route_nodes - 1):
         taken = jnp.where(pairs[None] & (hop != at)[None],
                           jnp.take(flat, at * count + hop, axis=1), jnp.uint32(0))
         bits = bits | jax.lax.reduce(taken, jnp.uint32(0), jax.lax.bitwise_or, (1, 2))
@@ -157,5 +210,6 @@ def verdict(world: World, dist: Array, next_hop: Array, overflow: Array,
         made=world.made, clearance=ok_nodes, edges_clear=~jnp.any(edges_through_walls(world)),
         connected=pairs_connected(world, dist),
         routes_fit=routes_fit(world, next_hop, route_nodes),
-        passages=jnp.all(world.zone_width >= 2.0 * robot_radius + PASSAGE_MARGIN),
+        passages=jnp.all(~world.zone_valid
+                         | (world.zone_width >= 2.0 * robot_radius + PASSAGE_MARGIN)),
         grid=~overflow, dilemma=dilemma)

@@ -15,11 +15,11 @@ def world_map(world: World, name: str, description: str,
               values: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The map-file dict of one world (host arrays or device arrays of one world, not a
     batch): its valid walls, its valid nodes (ids: their rows), edges, the groups that have
-    starts and goals, and its zones; ``values`` (the parameters it was built from) go into the
+    starts and goals, and its valid zones; ``values`` (the parameters it was built from) go into the
     description."""
     w = {field: np.asarray(getattr(world, field)) for field in (
         "walls", "wall_valid", "nodes", "node_valid", "edges", "edge_valid", "group_starts",
-        "group_goals", "zones", "bounds")}
+        "group_goals", "zones", "zone_valid", "bounds")}
     rows = np.flatnonzero(w["node_valid"])
     adjacency = np.zeros((len(w["nodes"]),) * 2, bool)
     keep = w["edge_valid"] & w["node_valid"][w["edges"][:, 0]] & w["node_valid"][w["edges"][:, 1]]
@@ -40,5 +40,5 @@ def world_map(world: World, name: str, description: str,
         "edges": [[int(i), int(j)] for i, j in zip(a, b, strict=True)],
         "groups": [g for g in groups if g["starts"] and g["goals"]],
         "zones": [{"name": f"zone {i}", "rect": [round(float(v), 6) for v in rect]}
-                  for i, rect in enumerate(w["zones"])],
+                  for i, rect in enumerate(w["zones"][w["zone_valid"]])],
     }

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from sgjax.maps.generated.doorway import DOORWAY
 from sgjax.maps.generated.family import Family
+from sgjax.maps.generated.floorplan import FLOORPLAN
 from sgjax.maps.generated.hallway import HALLWAY
 from sgjax.maps.generated.intersection import INTERSECTION
 from sgjax.maps.generated.open_space import OPEN
@@ -12,7 +13,7 @@ from sgjax.maps.generated.roundabout import ROUNDABOUT
 from sgjax.validation import suggest
 
 FAMILIES: dict[str, Family] = {f.name: f for f in (DOORWAY, HALLWAY, INTERSECTION, ROUNDABOUT,
-                                                  OPEN)}
+                                                  OPEN, FLOORPLAN)}
 PREFIX = "generated:"  # a scenario name that names a family
 
 

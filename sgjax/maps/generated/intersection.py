@@ -181,6 +181,7 @@ def build(values: Mapping[str, Array], key: Array) -> World:
         edge_valid=node_valid[pairs[:, 0]] & node_valid[pairs[:, 1]], group_starts=starts,
         group_goals=goals, zones=jnp.stack([-r, -r, r, r])[None],
         zone_width=(2 * jnp.min(jnp.where(arms.present, arms.half, jnp.inf)))[None],
+        zone_valid=jnp.ones(1, bool),
         bounds=jnp.asarray([-13.5, -13.5, 13.5, 13.5]), made=room, dilemma=jnp.asarray(True))
 
 

@@ -91,6 +91,7 @@ def build(values: Mapping[str, Array], key: Array) -> World:
         edges=jnp.asarray(PAIRS), edge_valid=edge_valid, group_starts=in_ring[None],
         group_goals=in_ring[None],
         zones=zone[None], zone_width=values["arena_size"][None] / 2,
+        zone_valid=jnp.ones(1, bool),
         bounds=jnp.stack([-half - 0.5, -half - 0.5, half + 0.5, half + 0.5]),
         made=jnp.asarray(True), dilemma=jnp.asarray(True))
 

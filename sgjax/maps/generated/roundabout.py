@@ -84,7 +84,8 @@ def build(values: Mapping[str, Array], key: Array) -> World:
         walls=walls, wall_valid=valid, nodes=nodes, node_valid=node_valid, edges=pairs,
         edge_valid=node_valid[pairs[:, 0]] & node_valid[pairs[:, 1]], group_starts=starts,
         group_goals=goals, zones=jnp.stack([-r, -r, r, r])[None],
-        zone_width=(narrowest - island)[None], bounds=jnp.asarray([-13.5, -13.5, 13.5, 13.5]),
+        zone_width=(narrowest - island)[None], zone_valid=jnp.ones(1, bool),
+        bounds=jnp.asarray([-13.5, -13.5, 13.5, 13.5]),
         made=room, dilemma=jnp.asarray(True))
 
 

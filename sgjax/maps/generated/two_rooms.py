@@ -76,5 +76,6 @@ def two_rooms(key: Array, capacity: Capacity, room_height: Array, left_depth: Ar
         walls=walls, wall_valid=valid, nodes=nodes, node_valid=jnp.ones(NODES, bool),
         edges=pairs, edge_valid=jnp.ones(EDGES, bool), group_starts=jnp.stack([in_left, in_right]),
         group_goals=jnp.stack([in_right, in_left]), zones=zone[None],
-        zone_width=width[None], bounds=jnp.stack([x0 - 0.5, -h - 0.5, x1 + 0.5, h + 0.5]),
+        zone_width=width[None], zone_valid=jnp.ones(1, bool),
+        bounds=jnp.stack([x0 - 0.5, -h - 0.5, x1 + 0.5, h + 0.5]),
         made=jnp.asarray(True), dilemma=jnp.asarray(True))

@@ -46,7 +46,8 @@ class World:
     ``node_valid [N]``; ``edges [E, 2]`` node rows of the undirected graph edges,
     ``edge_valid [E]`` (an edge at an invalid node is never valid); ``group_starts``,
     ``group_goals [G, N]``; ``zones [Z, 4]`` conflict-zone rectangles ``(xmin, ymin, xmax,
-    ymax)`` and ``zone_width [Z]`` the free width of the passage each guards (m); ``bounds
+    ymax)``, ``zone_width [Z]`` the free width of the passage each guards (m) and
+    ``zone_valid [Z]`` (a padding zone lies far away, its width far wider than any robot); ``bounds
     [4]`` the drawing extent; ``made`` whether the draw could build the world at all (False:
     flagged, never looped on); ``dilemma`` whether the family promises a social dilemma in this
     world."""
@@ -61,6 +62,7 @@ class World:
     group_goals: Array
     zones: Array
     zone_width: Array
+    zone_valid: Array
     bounds: Array
     made: Array
     dilemma: Array
