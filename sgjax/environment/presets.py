@@ -41,6 +41,11 @@ OBSERVATION_PRESETS: dict[str, list[Any]] = {
     # Default plus the others and the next waypoint: what a learned policy usually wants.
     "navigation": ["pose", "velocity", {"goal": {"frame": "robot"}}, "goal_distance",
                    "waypoint", {"others": {"k": 4}}],
+    # what a policy can carry between worlds: nothing in world coordinates, nothing sized by
+    # the map (the zone ahead, not one block per zone)
+    "transfer": [{"velocity": {"frame": "body"}}, {"goal": {"frame": "robot"}}, "goal_distance",
+                 "waypoint", {"lidar": {"beams": 16, "range": 5.0}}, {"others": {"k": 4}},
+                 "zone_ahead"],
     "socialgym": _SOCIALGYM_OBSERVATIONS,
     "cadrl": _SOCIALGYM_OBSERVATIONS,
     "any_order": _SOCIALGYM_OBSERVATIONS + ZONE_OBSERVATIONS,

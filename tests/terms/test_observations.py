@@ -274,6 +274,38 @@ def test_zone_terms_in_the_room():
     assert sorted(parts["zone_priority"][:2].tolist()) == [0, 1]
 
 
+def test_zone_ahead_reads_the_zone_terms_at_the_zone_in_front():
+    """``zone_ahead`` is the per-zone terms read at the zone the robot is in or the nearest it
+    has yet to pass; a robot past every zone reads none ahead."""
+    env, params = make_room(num_agents=3, observations=[
+        "zone_ahead", "in_zone", "entering_zone", "zone_entering_count", "zone_priority",
+        "zone_order"])
+    assert env.config.observer.sizes(env.config.layout)["zone_ahead"] == 7
+    state = place(env, params, [-1.1, -3.2, 2.0], [0.0, 0.0, 0.0], starts=[0, 0, 0],
+                  goals=[1, 1, 1])
+    state = state.replace(zones=state.zones.replace(
+        phase=state.zones.phase.at[2].set(zn.LEFT)))
+    obs = np.asarray(env.observe(state, params))
+    parts = env.split_observation(obs)
+    ahead = parts["zone_ahead"]
+    np.testing.assert_array_equal(ahead[:2, 0], [1, 1])
+    np.testing.assert_array_equal(ahead[:2, 2], parts["zone_priority"][:2, 0])
+    np.testing.assert_array_equal(ahead[:2, 3], parts["zone_order"][:2, 0])
+    np.testing.assert_array_equal(ahead[:2, 4], parts["in_zone"][:2, 0])
+    np.testing.assert_array_equal(ahead[:2, 5], parts["entering_zone"][:2, 0])
+    np.testing.assert_array_equal(ahead[:2, 6], parts["zone_entering_count"][:2, 0])
+    np.testing.assert_allclose(ahead[:2, 1], [0.1, 2.2], atol=1e-5)  # centre to the zone (m)
+    np.testing.assert_array_equal(ahead[2], [0, 10, -1, -1, 0, 0, 0])  # past the zone
+
+
+def test_the_transfer_preset_has_one_size_on_every_world():
+    import sgjax
+
+    sizes = {sgjax.make(s, num_agents=3, observation_preset="transfer")[0].observation_size
+             for s in ("doorway", "office", "generated:floorplan", "generated:open")}
+    assert len(sizes) == 1
+
+
 def test_observer_slices_sizes_and_split():
     spec = ["pose", {"velocity": {"history": 2}}, {"others": {"k": 2}}, {"lidar": {"beams": 8}}]
     env, params = make_room(num_agents=2, max_agents=4, observations=spec)
