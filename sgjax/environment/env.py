@@ -248,6 +248,20 @@ class SocialNavEnv:
         """The params an episode plays under (:func:`sgjax.types.episode_params`)."""
         return episode_params(state, params)
 
+    def reset_in_world(self, key: Array, params: EnvParams, world: WorldDraw
+                       ) -> tuple[Array, EnvState]:
+        """The episode ``reset`` starts, in the given ``world`` (a draw of this environment's
+        family: :meth:`sgjax.environment.worlds.WorldSource.of_seed`) rather than the one its
+        key draws: the spawns, goals and robot count from ``key`` as ``reset`` takes them. So
+        one world can be played again with another rollout seed (the worst-case
+        generalisation report does)."""
+        if self.config.world is None:
+            raise ValueError(f"reset_in_world: {self.config.scenario!r} is a fixed map, not a "
+                             "family of generated worlds")
+        self.check_params(params)
+        key, _ = jax.random.split(key)
+        return self._reset_in(key, params.replace(map=world.map), world, None)
+
     def _reset(self, key: Array, params: EnvParams, keep: Array | None = None
                ) -> tuple[Array, EnvState]:
         world = None
@@ -255,6 +269,10 @@ class SocialNavEnv:
             key, key_world = jax.random.split(key)
             world = self.config.world.draw(key_world)
             params = params.replace(map=world.map)
+        return self._reset_in(key, params, world, keep)
+
+    def _reset_in(self, key: Array, params: EnvParams, world: WorldDraw | None,
+                  keep: Array | None) -> tuple[Array, EnvState]:
         key_robots, key_humans = jax.random.split(key)
         fewest = jnp.where(params.min_agents > 0,
                            jnp.minimum(params.min_agents, params.num_agents), params.num_agents)

@@ -63,11 +63,11 @@ class WorldSource:
     def family(self) -> Family:
         return family(self.family_name)
 
-    def chosen(self, key: Array) -> tuple[World, WorldDraw]:
+    def chosen(self, key: Array | None, seed: Array | None = None) -> tuple[World, WorldDraw]:
         """The world of ``key`` and its draw: ``proposals`` candidates (fresh worlds from the
         key, or worlds of the split ``seeds`` the key picks), the first valid one kept (the
         first candidate, flagged invalid, when none is); a world whose hash is in ``exclude``
-        is not valid."""
+        is not valid. With ``key`` None, world ``seed`` alone (:meth:`of_seed`)."""
         ranges = range_arrays({name: (low, high) for name, low, high in self.ranges})
         fam, capacity = self.family, self.capacity
         excluded = jnp.asarray(np.asarray(self.exclude, np.uint32))
@@ -81,6 +81,8 @@ class WorldSource:
             fresh = ~is_excluded(values_hash(values), excluded)
             return world, WorldDraw(map=arrays, valid=ok & fresh, values=values)
 
+        if key is None:  # one world by its seed (of_seed)
+            return propose(world_key(seed))
         if self.seeds is None:
             keys = jax.random.split(key, self.proposals)
         else:
@@ -90,6 +92,11 @@ class WorldSource:
         worlds, draws = jax.vmap(propose)(keys)
         first = jnp.argmax(draws.valid)  # the first valid one, else 0
         return jax.tree.map(lambda x: x[first], (worlds, draws))
+
+    def of_seed(self, seed: Array | int) -> WorldDraw:
+        """World ``seed`` (built from ``world_key(seed)``, as a split of seeds plays it) under
+        these ranges, checked (``valid``) but never replaced by another proposal."""
+        return self.chosen(None, jnp.asarray(seed, jnp.uint32))[1]
 
     def draw(self, key: Array) -> WorldDraw:
         """The draw of :meth:`chosen` (what ``reset`` keeps in the state)."""

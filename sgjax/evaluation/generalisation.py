@@ -1,0 +1,208 @@
+"""Whether a policy works in worlds it never saw: a family's worlds played one by one, each
+twice (two rollout seeds), summarised per split, with the worst-case score SFL reports.
+
+A **split** is a range of world seeds (:mod:`sgjax.maps.generated.splits`): ``train`` is seeds
+``0 ..`` under the ranges given (the distribution training draws from), ``test`` the held-out
+seeds ``TEST_SEEDS`` (a run made with ``world_holdout=TEST_SEEDS`` never drew them), each world
+built from its seed by :meth:`~sgjax.environment.worlds.WorldSource.of_seed`. Every world is
+played with rollout seed A and again with rollout seed B (other spawns, goals and robot count
+draws, other action noise). The **worst alpha%** is the mean of rollout B over the
+``ceil(alpha N)`` worlds rollout A scored lowest (ranking and scoring on one rollout would
+select worlds for their bad luck, not their difficulty). The **gap** is the train split's mean
+less the test split's."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax import Array
+
+from sgjax.environment.env import SocialNavEnv
+from sgjax.environment.worlds import WorldDraw
+from sgjax.evaluation import metrics
+from sgjax.evaluation.policies import Policy, RecurrentPolicy, load_policy
+from sgjax.evaluation.runner import EpisodeRunner
+from sgjax.evaluation.statistics import summarize
+from sgjax.maps.generated.splits import TEST_SEEDS
+from sgjax.types import EnvParams
+
+REPORTED = ("team_success", "collisions", "makespan")  # per family and split
+RANKED = "team_success"  # the score the worst alpha% ranks worlds by
+SPLITS = {"train": 0, "test": TEST_SEEDS[0]}  # each split's first world seed
+
+
+class WorldRunner(EpisodeRunner):
+    """An :class:`EpisodeRunner` whose episode ``e`` plays world ``worlds[e]`` (a batch of
+    :class:`WorldDraw`, an argument of :attr:`run`) instead of the world its reset key
+    draws."""
+
+    def episodes(self, key: Array, params: EnvParams, worlds: WorldDraw) -> tuple:
+        reset_keys, step_keys = self.episode_keys(key)
+        obs, first = jax.vmap(self.env.reset_in_world, in_axes=(0, None, 0))(
+            reset_keys, params, worlds)
+        final, tally, _, _ = self.play(params, obs, first, 1, step_keys)
+        robot, episode = self.finalize(tally, final, params)
+        return jax.vmap(metrics.per_episode)(robot, episode), robot, None
+
+
+@dataclasses.dataclass(frozen=True)
+class WorldPlays:
+    """Worlds ``seeds [N]`` played twice: ``valid [N]`` (worlds that failed the family's
+    checks are not played: their rows are NaN), and each rollout's per-world metrics
+    ``a``, ``b`` (``{name: [N]}``)."""
+
+    seeds: np.ndarray
+    valid: np.ndarray
+    a: dict[str, np.ndarray]
+    b: dict[str, np.ndarray]
+
+
+def play_worlds(env: SocialNavEnv, params: EnvParams, policy: Policy | RecurrentPolicy | str,
+                seeds: np.ndarray, seed: int = 0, chunk: int = 1000) -> WorldPlays:
+    """Play every world of ``seeds`` once with rollout key A and once with B (both from
+    ``seed``), ``chunk`` worlds per compiled call (the worlds' map arrays of a chunk are held
+    at once)."""
+    source = env.config.world
+    if source is None:
+        raise ValueError(f"play_worlds: {env.config.scenario!r} is a fixed map; give a "
+                         "generated family (generated:<family>)")
+    seeds = np.asarray(seeds, np.uint32)
+    size = min(chunk, len(seeds))
+    runner = WorldRunner(env, load_policy(policy, env), size, int(params.max_steps))
+    draw = jax.jit(jax.vmap(source.of_seed))
+    key_a, key_b = jax.random.split(jax.random.key(seed))
+    valid, a, b = [], {k: [] for k in REPORTED}, {k: [] for k in REPORTED}
+    for i, start in enumerate(range(0, len(seeds), size)):
+        part = seeds[start:start + size]
+        padded = np.concatenate([part, np.repeat(part[-1:], size - len(part))])
+        worlds = draw(jnp.asarray(padded))
+        ok = np.asarray(worlds.valid)[:len(part)]
+        valid.append(ok)
+        for out, key in ((a, key_a), (b, key_b)):
+            played = runner(jax.random.fold_in(key, i), params, worlds)
+            for name in REPORTED:
+                value = np.asarray(played.values[name], np.float64)[:len(part)]
+                out[name].append(np.where(ok, value, np.nan))
+    return WorldPlays(seeds=seeds, valid=np.concatenate(valid),
+                      a={k: np.concatenate(v) for k, v in a.items()},
+                      b={k: np.concatenate(v) for k, v in b.items()})
+
+
+def worst_fraction(first: np.ndarray, second: np.ndarray, alpha: float) -> tuple[float, int]:
+    """``(mean, count)``: the mean of ``second`` over the ``ceil(alpha N)`` worlds ``first``
+    scored lowest (``N`` the worlds with both scores; ties in world order)."""
+    if not 0.0 < alpha <= 1.0:
+        raise ValueError(f"alpha must lie in (0, 1], got {alpha}")
+    keep = np.isfinite(first) & np.isfinite(second)
+    first, second = first[keep], second[keep]
+    if not len(first):
+        return math.nan, 0
+    count = max(1, math.ceil(alpha * len(first)))
+    worst = np.argsort(first, kind="stable")[:count]
+    return float(np.mean(second[worst])), count
+
+
+def split_summary(plays: WorldPlays, alphas: Sequence[float]) -> dict[str, Any]:
+    """A split's row: every reported metric over both rollouts of every valid world (mean and
+    95% interval over the worlds' two-rollout means), the worst alpha% of each ``alphas``, and
+    the worlds played."""
+    row: dict[str, Any] = {"worlds": int(len(plays.seeds)), "valid": int(plays.valid.sum())}
+    for name in REPORTED:
+        pair = np.stack([plays.a[name], plays.b[name]])
+        seen = np.isfinite(pair)
+        both = np.where(seen.any(axis=0), np.where(seen, pair, 0.0).sum(axis=0)
+                        / np.maximum(seen.sum(axis=0), 1), np.nan)
+        row[name] = summarize(both, binary=False, fraction=name == "team_success").as_dict()
+    for alpha in alphas:
+        mean, count = worst_fraction(plays.a[RANKED], plays.b[RANKED], alpha)
+        row[f"worst_{alpha:g}"] = {"mean": mean, "worlds": count}
+    return row
+
+
+def family_report(env: SocialNavEnv, params: EnvParams, policy: Any, worlds: int,
+                  alphas: Sequence[float] = (0.1,), seed: int = 0, chunk: int = 1000,
+                  splits: Mapping[str, int] | None = None) -> dict[str, Any]:
+    """Every split's row (:func:`split_summary`) for ``worlds`` worlds of each, and the gap
+    (train less test) of every reported metric's mean."""
+    splits = dict(SPLITS if splits is None else splits)
+    rows = {}
+    for name, first in splits.items():
+        seeds = first + np.arange(worlds, dtype=np.int64)
+        rows[name] = split_summary(play_worlds(env, params, policy, seeds, seed, chunk), alphas)
+    report: dict[str, Any] = {"splits": rows}
+    if {"train", "test"} <= set(rows):
+        report["gap"] = {k: _difference(rows["train"][k]["mean"], rows["test"][k]["mean"])
+                         for k in REPORTED}
+    return report
+
+
+def _difference(a: float | None, b: float | None) -> float | None:
+    return None if a is None or b is None else float(a - b)
+
+
+def report(policies: Sequence[Any], families: Sequence[str], num_agents: int, worlds: int,
+           alphas: Sequence[float], seed: int, options_for: Any, chunk: int = 1000,
+           progress: Any = print) -> dict[str, Any]:
+    """:func:`family_report` of every policy on every family (``generated:<family>``, made
+    with ``options_for(policy)``: a checkpoint's training options, with evaluation's on top)
+    at exactly ``num_agents`` robots: ``{"rows": [{policy, family, ...}], ...}``."""
+    from sgjax.environment.registry import make
+
+    rows = []
+    for policy in policies:
+        for family in families:
+            options = options_for(policy)
+            env, params = make(family if family.startswith("generated:")
+                               else f"generated:{family}", num_agents=num_agents,
+                               max_agents=options.robots.max_agents or num_agents,
+                               options=options)
+            params = params.replace(min_agents=jnp.asarray(0, jnp.int32))
+            row = {"policy": str(policy), "family": family,
+                   **family_report(env, params, policy, worlds, alphas, seed, chunk)}
+            rows.append(row)
+            if progress is not None:
+                progress(_progress_line(row, alphas))
+    return {"num_agents": int(num_agents), "worlds_per_split": int(worlds),
+            "alphas": [float(a) for a in alphas], "seed": int(seed), "rows": rows}
+
+
+def _progress_line(row: Mapping[str, Any], alphas: Sequence[float]) -> str:
+    parts = []
+    for split, values in row["splits"].items():
+        worst = ", ".join(f"worst {a:g}: {values[f'worst_{a:g}']['mean']:.2f}" for a in alphas)
+        parts.append(f"{split} {values['team_success']['mean']:.2f} ({worst})")
+    return f"{row['family']:>22} {row['policy']:>14}: team success " + "; ".join(parts)
+
+
+def table_markdown(result: Mapping[str, Any]) -> str:
+    """The markdown table of a :func:`report` result: per policy, family and split, team
+    success with its interval, collisions, makespan, each worst alpha%, and the gap."""
+    alphas = result["alphas"]
+    head = (["family", "policy", "split", "worlds", "team success [95% CI]", "collisions",
+             "makespan (s)"] + [f"worst {100 * a:g}%" for a in alphas])
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+
+    def number(v: float | None, digits: int = 2) -> str:
+        return "—" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}f}"
+
+    for row in result["rows"]:
+        for split, v in row["splits"].items():
+            ts = v["team_success"]
+            cells = [row["family"], row["policy"], split, f"{v['valid']}/{v['worlds']}",
+                     f"{number(ts['mean'])} [{number(ts['ci_low'])}, {number(ts['ci_high'])}]",
+                     number(v["collisions"]["mean"]), number(v["makespan"]["mean"], 1)]
+            cells += [number(v[f"worst_{a:g}"]["mean"]) for a in alphas]
+            lines.append("| " + " | ".join(cells) + " |")
+        if "gap" in row:
+            gap = row["gap"]
+            lines.append("| " + " | ".join(
+                [row["family"], row["policy"], "gap (train - test)", "",
+                 number(gap["team_success"]), number(gap["collisions"]),
+                 number(gap["makespan"], 1)] + [""] * len(alphas)) + " |")
+    return "\n".join(lines) + "\n"
