@@ -135,7 +135,13 @@ def run_evaluate(args: argparse.Namespace) -> None:
 
 
 def run_render(args: argparse.Namespace) -> None:
-    from sgjax.evaluation.render import episode_frames, plot_trajectories, save_animation, save_png
+    from sgjax.evaluation.render import (
+        episode_frames,
+        plot_trajectories,
+        recorded_map,
+        save_animation,
+        save_png,
+    )
 
     out = Path(args.out)
     if out.suffix.lower() not in (".gif", ".mp4"):
@@ -148,7 +154,7 @@ def run_render(args: argparse.Namespace) -> None:
     batch = run_episodes(env, params, policy, jax.random.key(args.seed), 1, record=True)
     states = jax.tree.map(lambda leaf: leaf[:, 0], batch.states)
     length = int(batch.values["episode_length"][0])
-    spec = load_map(args.scenario)
+    spec = recorded_map(args.scenario, states)
     title = f"{spec.name} / {args.policy}"
     frames, stride = episode_frames(spec, states, params, length, title=title,
                                     width_px=args.width, max_frames=args.max_frames)

@@ -28,13 +28,12 @@ from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluation.evaluate import evaluate, lane_results
 from sgjax.evaluation.metrics import DEFAULT_CONSTANTS
 from sgjax.evaluation.provenance import provenance
-from sgjax.evaluation.render import episode_frames, save_gif
+from sgjax.evaluation.render import episode_frames, recorded_map, save_gif
 from sgjax.evaluation.report import markdown_table, summary_tables, write_all
 from sgjax.evaluation.runner import Episodes
 from sgjax.evaluation.statistics import Summary, paired_difference, seed_aggregate
 from sgjax.evaluation.trained import TrainedEvaluation
 from sgjax.files import write_atomic
-from sgjax.maps.io import load as load_map
 from sgjax.terms.base import ConfigError
 from sgjax.version import __version__
 from train.algorithm.actor import ActorLayout, ActorWeights, TrainedActor
@@ -556,7 +555,7 @@ def _write_gif(scenario: str, states: Any, length: int, params: Any, count: int,
                path: Path) -> None:
     """Draw a recorded evaluation episode (``states [T + 1, ...]``, ``length`` steps, ``count``
     robots) into ``path``."""
-    frames, stride = episode_frames(load_map(scenario), states, params, length,
+    frames, stride = episode_frames(recorded_map(scenario, states), states, params, length,
                                     title=f"{scenario} / trained, {count} robots",
                                     width_px=400)
     gif = save_gif(frames, path, fps=max(1, round(1 / (float(params.dt) * stride))))

@@ -14,6 +14,7 @@ import shutil
 import subprocess
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import jax
 import matplotlib
@@ -27,7 +28,7 @@ from matplotlib.patches import Circle, Rectangle
 from PIL import Image
 
 from sgjax.maps.arrays import spawn_groups
-from sgjax.maps.schema import MapSpec
+from sgjax.maps.schema import MapSpec, Zone
 
 ROBOT_COLOURS = matplotlib.colormaps["tab10"].colors
 CONTACT_COLOUR = "#e31a1c"
@@ -318,3 +319,46 @@ def save_png(image: np.ndarray, path: str | Path) -> Path:
 def _index(tree, t: int):
     """Step ``t`` of a stacked pytree."""
     return jax.tree.map(lambda leaf: leaf[t], tree)
+
+
+def drawing_of_arrays(arrays: Any, name: str) -> MapSpec:
+    """A map to draw from one episode's map arrays (a generated world's, say: ``state.world.map``
+    of one episode, host or device): its valid walls, the graph's edges (node pairs one hop
+    apart on some route), the groups and the zones within reach; bounds around the walls. For
+    drawing only: nothing is validated."""
+    a = jax.tree.map(np.asarray, arrays)
+    walls = np.stack([a.wall_x1, a.wall_y1, a.wall_x2, a.wall_y2], -1)[a.wall_valid]
+    nodes = np.stack([a.node_x, a.node_y], -1)
+    count = len(nodes)
+    hop = a.next_hop
+    rows = np.arange(count)
+    direct = (hop == rows[None, :]) & (rows[:, None] != rows[None, :])
+    i, j = np.nonzero(np.triu(direct | direct.T, 1))
+    used = np.zeros(count, bool)
+    used[np.any(a.group_starts | a.group_goals, axis=0)] = True
+    used[i] = used[j] = True
+    near = np.all(np.abs(nodes) < 1e5, axis=1) & used  # padding nodes lie far away
+    keep = near[i] & near[j]
+    xy = walls.reshape(-1, 2)
+    lo, hi = xy.min(axis=0) - 0.5, xy.max(axis=0) + 0.5
+    zones = tuple(Zone(f"zone {k}", tuple(float(v) for v in r))
+                  for k, r in enumerate(a.zone_rect) if np.all(np.abs(r) < 1e5))
+    groups = tuple((tuple(np.flatnonzero(s).tolist()), tuple(np.flatnonzero(g).tolist()))
+                   for s, g in zip(a.group_starts, a.group_goals, strict=True) if s.any())
+    return MapSpec(name=name, description="", bounds=(float(lo[0]), float(lo[1]),
+                                                      float(hi[0]), float(hi[1])),
+                   walls=walls, node_ids=rows, node_positions=nodes,
+                   edges=np.stack([i[keep], j[keep]], 1).astype(int), groups=groups,
+                   routes=(), zones=zones)
+
+
+def recorded_map(scenario: Any, states: Any) -> MapSpec:
+    """The map one recorded episode (``states [T + 1, ...]``) played on: a generated world's
+    (from its first state) or the scenario's map file."""
+    from sgjax.maps.io import load
+
+    world = getattr(states, "world", None)
+    if world is not None:
+        first = jax.tree.map(lambda leaf: leaf[0], world.map)
+        return drawing_of_arrays(first, str(scenario))
+    return load(scenario)

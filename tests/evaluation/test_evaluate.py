@@ -179,6 +179,26 @@ def test_render_command_writes_animation_and_trajectory(tmp_path, capsys):
         assert picture.size[0] == 160
 
 
+def test_render_draws_the_generated_world_the_episode_played():
+    """A generated scenario's episode is drawn on its own world (from the recorded state), with
+    the world's valid walls and zones only."""
+    import jax
+
+    import sgjax
+    from sgjax.evaluation.render import recorded_map
+
+    env, params = sgjax.make("generated:floorplan", num_agents=2)
+    _, state = env.reset(jax.random.key(4), params)
+    states = jax.tree.map(lambda leaf: leaf[None], state)
+    spec = recorded_map("generated:floorplan", states)
+    m = state.world.map
+    assert len(spec.walls) == int(m.wall_valid.sum())
+    assert 0 < len(spec.zones) < m.zone_rect.shape[0]  # the doors, not the padding
+    xmin, ymin, xmax, ymax = spec.bounds
+    assert xmax - xmin < 60 and ymax - ymin < 60
+    assert recorded_map("doorway", object()).name == "doorway"  # a map file's own
+
+
 @pytest.mark.slow
 def test_render_builds_the_environment_the_policy_needs(tmp_path, capsys):
     """``sgjax render`` applies a policy's make settings as ``sgjax evaluate`` does: ``orca``
