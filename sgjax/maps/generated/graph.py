@@ -18,16 +18,14 @@ TIE = 1e-6
 HUBS_APART = 16
 
 
-def _through_hubs(gap: Array, adjacency: Array, hubs: int, degree: Array
-                  ) -> tuple[Array, Array]:
-    """``(dist, next_hop)`` of every node pair, relaxing through the ``hubs`` nodes of highest
-    ``degree`` (in that order) on the whole ``[N, N]`` matrix: the cheaper way with few hubs."""
+def _relaxed(gap: Array, adjacency: Array, order: Array) -> tuple[Array, Array]:
+    """``(dist, next_hop)`` of every node pair, relaxing through the nodes ``order`` (node
+    rows, in that order) on the whole ``[N, N]`` matrix."""
     count = gap.shape[0]
     eye = jnp.eye(count, dtype=bool)
     dist = jnp.where(eye, 0.0, jnp.where(adjacency, gap, jnp.inf))
     index = jnp.arange(count, dtype=jnp.int32)
     next_hop = jnp.where(eye | adjacency, index[None, :], NO_PATH)
-    order = jnp.argsort(-degree, stable=True)[:hubs] if hubs < count else index
 
     def relax(i: Array, carry: tuple[Array, Array]) -> tuple[Array, Array]:
         dist, next_hop = carry
@@ -37,28 +35,7 @@ def _through_hubs(gap: Array, adjacency: Array, hubs: int, degree: Array
         return (jnp.where(better, through, dist),
                 jnp.where(better, next_hop[:, k][:, None], next_hop))
 
-    return jax.lax.fori_loop(0, min(hubs, count), relax, (dist, next_hop))
-
-
-def _floyd_warshall(gap: Array, adjacency: Array) -> tuple[Array, Array]:
-    """``(dist, next_hop)`` over every node of a small graph, relaxing through each node in
-    row order (``gap``, ``adjacency`` as :func:`shortest_paths`). The next hops are kept in
-    the loop: working them out afterwards from the distances (a min over every neighbour) costs
-    a cube of entries with an argmin, more than the loop's selects."""
-    count = gap.shape[0]
-    eye = jnp.eye(count, dtype=bool)
-    dist = jnp.where(eye, 0.0, jnp.where(adjacency, gap, jnp.inf))
-    index = jnp.arange(count, dtype=jnp.int32)
-    next_hop = jnp.where(eye | adjacency, index[None, :], NO_PATH)
-
-    def relax(k: Array, carry: tuple[Array, Array]) -> tuple[Array, Array]:
-        dist, next_hop = carry
-        through = dist[:, k][:, None] + dist[k, :][None, :]
-        better = through < dist * (1.0 - TIE)
-        return (jnp.where(better, through, dist),
-                jnp.where(better, next_hop[:, k][:, None], next_hop))
-
-    return jax.lax.fori_loop(0, count, relax, (dist, next_hop))
+    return jax.lax.fori_loop(0, order.shape[0], relax, (dist, next_hop))
 
 
 def shortest_paths(gap: Array, adjacency: Array, hubs: int) -> tuple[Array, Array, Array]:
@@ -77,12 +54,14 @@ def shortest_paths(gap: Array, adjacency: Array, hubs: int) -> tuple[Array, Arra
     count = gap.shape[0]
     degree = jnp.sum(adjacency, axis=1)
     fits = jnp.sum(degree >= 2) <= hubs
-    if hubs < HUBS_APART or hubs >= count:
-        return (*_through_hubs(gap, adjacency, hubs, degree), fits)
+    ranked = jnp.argsort(-degree, stable=True).astype(jnp.int32)
+    if hubs < HUBS_APART or hubs >= count:  # relax through the hubs on the whole matrix
+        return (*_relaxed(gap, adjacency, ranked[:min(hubs, count)]), fits)
     index = jnp.arange(count, dtype=jnp.int32)
-    order = jnp.argsort(-degree, stable=True)[:hubs].astype(jnp.int32)  # hub -> node
+    order = ranked[:hubs]  # hub -> node
     hub_of = jnp.full(count, -1, jnp.int32).at[order].set(jnp.arange(hubs, dtype=jnp.int32))
-    hub_dist, hub_hop = _floyd_warshall(gap[order][:, order], adjacency[order][:, order])
+    hub_dist, hub_hop = _relaxed(gap[order][:, order], adjacency[order][:, order],
+                                 jnp.arange(hubs, dtype=jnp.int32))
     is_hub = hub_of >= 0
     neighbour = jnp.argmax(adjacency, axis=1).astype(jnp.int32)  # a leaf's one neighbour
     anchor = jnp.where(is_hub, index, jnp.where((degree >= 1) & is_hub[neighbour], neighbour,
