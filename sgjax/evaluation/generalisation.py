@@ -26,9 +26,11 @@ from jax import Array
 from sgjax.environment.env import SocialNavEnv
 from sgjax.environment.worlds import WorldDraw
 from sgjax.evaluation import metrics
+from sgjax.evaluation.evaluate import policy_environment
 from sgjax.evaluation.policies import Policy, RecurrentPolicy, load_policy
 from sgjax.evaluation.runner import EpisodeRunner
 from sgjax.evaluation.statistics import summarize
+from sgjax.maps.generated.families import PREFIX
 from sgjax.maps.generated.splits import TEST_SEEDS
 from sgjax.types import EnvParams
 
@@ -152,17 +154,13 @@ def report(policies: Sequence[Any], families: Sequence[str], num_agents: int, wo
     """:func:`family_report` of every policy on every family (``generated:<family>``, made
     with ``options_for(policy)``: a checkpoint's training options, with evaluation's on top)
     at exactly ``num_agents`` robots: ``{"rows": [{policy, family, ...}], ...}``."""
-    from sgjax.environment.registry import make
-
     rows = []
     for policy in policies:
         for family in families:
-            options = options_for(policy)
-            env, params = make(family if family.startswith("generated:")
-                               else f"generated:{family}", num_agents=num_agents,
-                               max_agents=options.robots.max_agents or num_agents,
-                               options=options)
-            params = params.replace(min_agents=jnp.asarray(0, jnp.int32))
+            scenario = family if family.startswith(PREFIX) else PREFIX + family
+            env, by_count = policy_environment(scenario, [num_agents], policy,
+                                               options_for(policy))
+            params = by_count[num_agents]
             row = {"policy": str(policy), "family": family,
                    **family_report(env, params, policy, worlds, alphas, seed, chunk)}
             rows.append(row)
