@@ -259,20 +259,14 @@ class SocialNavEnv:
             raise ValueError(f"reset_in_world: {self.config.scenario!r} is a fixed map, not a "
                              "family of generated worlds")
         self.check_params(params)
-        key, _ = jax.random.split(key)
-        return self._reset_in(key, params.replace(map=world.map), world, None)
+        return self._reset(key, params, world=world)
 
-    def _reset(self, key: Array, params: EnvParams, keep: Array | None = None
-               ) -> tuple[Array, EnvState]:
-        world = None
-        if self.config.world is not None:  # a new world first, from its own key
+    def _reset(self, key: Array, params: EnvParams, keep: Array | None = None,
+               world: WorldDraw | None = None) -> tuple[Array, EnvState]:
+        if self.config.world is not None:  # a world first, from its own key (or the one given)
             key, key_world = jax.random.split(key)
-            world = self.config.world.draw(key_world)
+            world = self.config.world.draw(key_world) if world is None else world
             params = params.replace(map=world.map)
-        return self._reset_in(key, params, world, keep)
-
-    def _reset_in(self, key: Array, params: EnvParams, world: WorldDraw | None,
-                  keep: Array | None) -> tuple[Array, EnvState]:
         key_robots, key_humans = jax.random.split(key)
         fewest = jnp.where(params.min_agents > 0,
                            jnp.minimum(params.min_agents, params.num_agents), params.num_agents)

@@ -25,14 +25,14 @@ from jax import Array
 
 from sgjax.environment.env import SocialNavEnv
 from sgjax.environment.worlds import WorldDraw
-from sgjax.evaluation import metrics
 from sgjax.evaluation.evaluate import policy_environment
 from sgjax.evaluation.policies import Policy, RecurrentPolicy, load_policy
+from sgjax.evaluation.report import markdown_table
 from sgjax.evaluation.runner import EpisodeRunner
 from sgjax.evaluation.statistics import summarize
 from sgjax.maps.generated.families import PREFIX
 from sgjax.maps.generated.splits import TEST_SEEDS
-from sgjax.types import EnvParams
+from sgjax.types import EnvParams, EnvState
 
 REPORTED = ("team_success", "collisions", "makespan")  # per family and split
 RANKED = "team_success"  # the score the worst alpha% ranks worlds by
@@ -44,19 +44,15 @@ class WorldRunner(EpisodeRunner):
     :class:`WorldDraw`, an argument of :attr:`run`) instead of the world its reset key
     draws."""
 
-    def episodes(self, key: Array, params: EnvParams, worlds: WorldDraw) -> tuple:
-        reset_keys, step_keys = self.episode_keys(key)
-        obs, first = jax.vmap(self.env.reset_in_world, in_axes=(0, None, 0))(
-            reset_keys, params, worlds)
-        final, tally, _, _ = self.play(params, obs, first, 1, step_keys)
-        robot, episode = self.finalize(tally, final, params)
-        return jax.vmap(metrics.per_episode)(robot, episode), robot, None
+    def reset_batch(self, keys: Array, params: EnvParams, worlds: WorldDraw
+                    ) -> tuple[Array, EnvState]:
+        return jax.vmap(self.env.reset_in_world, in_axes=(0, None, 0))(keys, params, worlds)
 
 
 @dataclasses.dataclass(frozen=True)
 class WorldPlays:
     """Worlds ``seeds [N]`` played twice: ``valid [N]`` (worlds that failed the family's
-    checks are not played: their rows are NaN), and each rollout's per-world metrics
+    checks are played with the rest but their rows read NaN), and each rollout's per-world metrics
     ``a``, ``b`` (``{name: [N]}``)."""
 
     seeds: np.ndarray
@@ -66,18 +62,15 @@ class WorldPlays:
 
 
 def play_worlds(env: SocialNavEnv, params: EnvParams, policy: Policy | RecurrentPolicy | str,
-                seeds: np.ndarray, seed: int = 0, chunk: int = 1000) -> WorldPlays:
+                seeds: np.ndarray, seed: int = 0, chunk: int = 1000,
+                compiled: tuple[WorldRunner, Any] | None = None) -> WorldPlays:
     """Play every world of ``seeds`` once with rollout key A and once with B (both from
     ``seed``), ``chunk`` worlds per compiled call (the worlds' map arrays of a chunk are held
-    at once)."""
-    source = env.config.world
-    if source is None:
-        raise ValueError(f"play_worlds: {env.config.scenario!r} is a fixed map; give a "
-                         "generated family (generated:<family>)")
+    at once). ``compiled``: the :func:`world_players` of an earlier call, to play more splits
+    without compiling again."""
     seeds = np.asarray(seeds, np.uint32)
-    size = min(chunk, len(seeds))
-    runner = WorldRunner(env, load_policy(policy, env), size, int(params.max_steps))
-    draw = jax.jit(jax.vmap(source.of_seed))
+    runner, draw = compiled or world_players(env, params, policy, min(chunk, len(seeds)))
+    size = runner.num_episodes
     key_a, key_b = jax.random.split(jax.random.key(seed))
     valid, a, b = [], {k: [] for k in REPORTED}, {k: [] for k in REPORTED}
     for i, start in enumerate(range(0, len(seeds), size)):
@@ -94,6 +87,18 @@ def play_worlds(env: SocialNavEnv, params: EnvParams, policy: Policy | Recurrent
     return WorldPlays(seeds=seeds, valid=np.concatenate(valid),
                       a={k: np.concatenate(v) for k, v in a.items()},
                       b={k: np.concatenate(v) for k, v in b.items()})
+
+
+def world_players(env: SocialNavEnv, params: EnvParams, policy: Any, chunk: int
+                  ) -> tuple[WorldRunner, Any]:
+    """``(runner, draw)``: a :class:`WorldRunner` of ``chunk`` episodes under ``policy`` and
+    the jitted ``vmap`` of the family's ``of_seed``, made once for every split."""
+    source = env.config.world
+    if source is None:
+        raise ValueError(f"play_worlds: {env.config.scenario!r} is a fixed map; give a "
+                         "generated family (generated:<family>)")
+    runner = WorldRunner(env, load_policy(policy, env), chunk, int(params.max_steps))
+    return runner, jax.jit(jax.vmap(source.of_seed))
 
 
 def worst_fraction(first: np.ndarray, second: np.ndarray, alpha: float) -> tuple[float, int]:
@@ -133,10 +138,12 @@ def family_report(env: SocialNavEnv, params: EnvParams, policy: Any, worlds: int
     """Every split's row (:func:`split_summary`) for ``worlds`` worlds of each, and the gap
     (train less test) of every reported metric's mean."""
     splits = dict(SPLITS if splits is None else splits)
+    players = world_players(env, params, policy, min(chunk, worlds))
     rows = {}
     for name, first in splits.items():
         seeds = first + np.arange(worlds, dtype=np.int64)
-        rows[name] = split_summary(play_worlds(env, params, policy, seeds, seed, chunk), alphas)
+        rows[name] = split_summary(play_worlds(env, params, policy, seeds, seed, chunk,
+                                               players), alphas)
     report: dict[str, Any] = {"splits": rows}
     if {"train", "test"} <= set(rows):
         report["gap"] = {k: _difference(rows["train"][k]["mean"], rows["test"][k]["mean"])
@@ -182,25 +189,25 @@ def table_markdown(result: Mapping[str, Any]) -> str:
     """The markdown table of a :func:`report` result: per policy, family and split, team
     success with its interval, collisions, makespan, each worst alpha%, and the gap."""
     alphas = result["alphas"]
-    head = (["family", "policy", "split", "worlds", "team success [95% CI]", "collisions",
-             "makespan (s)"] + [f"worst {100 * a:g}%" for a in alphas])
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    header = (["family", "policy", "split", "worlds", "team success [95% CI]", "collisions",
+               "makespan (s)"] + [f"worst {100 * a:g}%" for a in alphas])
 
     def number(v: float | None, digits: int = 2) -> str:
         return "—" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}f}"
 
+    rows = []
     for row in result["rows"]:
         for split, v in row["splits"].items():
             ts = v["team_success"]
-            cells = [row["family"], row["policy"], split, f"{v['valid']}/{v['worlds']}",
-                     f"{number(ts['mean'])} [{number(ts['ci_low'])}, {number(ts['ci_high'])}]",
-                     number(v["collisions"]["mean"]), number(v["makespan"]["mean"], 1)]
-            cells += [number(v[f"worst_{a:g}"]["mean"]) for a in alphas]
-            lines.append("| " + " | ".join(cells) + " |")
+            rows.append([row["family"], row["policy"], split, f"{v['valid']}/{v['worlds']}",
+                         f"{number(ts['mean'])} [{number(ts['ci_low'])}, "
+                         f"{number(ts['ci_high'])}]",
+                         number(v["collisions"]["mean"]), number(v["makespan"]["mean"], 1)]
+                        + [number(v[f"worst_{a:g}"]["mean"]) for a in alphas])
         if "gap" in row:
             gap = row["gap"]
-            lines.append("| " + " | ".join(
-                [row["family"], row["policy"], "gap (train - test)", "",
-                 number(gap["team_success"]), number(gap["collisions"]),
-                 number(gap["makespan"], 1)] + [""] * len(alphas)) + " |")
+            rows.append([row["family"], row["policy"], "gap (train - test)", "",
+                         number(gap["team_success"]), number(gap["collisions"]),
+                         number(gap["makespan"], 1)] + [""] * len(alphas))
+    lines = markdown_table(header, rows)
     return "\n".join(lines) + "\n"

@@ -265,7 +265,13 @@ class EpisodeRunner:
         return (jax.random.split(k_reset, self.num_episodes),
                 jax.random.split(k_steps, self.num_steps))
 
-    def episodes(self, key: Array, params: EnvParams) -> tuple:
+    def reset_batch(self, keys: Array, params: EnvParams, *args: Any
+                    ) -> tuple[Array, EnvState]:
+        """``env.reset`` of every episode (``keys [E]``); a subclass that plays chosen worlds
+        resets into them from its extra :attr:`run` arguments ``args``."""
+        return jax.vmap(self.env.reset, in_axes=(0, None))(keys, params)
+
+    def episodes(self, key: Array, params: EnvParams, *args: Any) -> tuple:
         """``(values, robot, states)``: every metric per episode ``{name: [E]}`` and per robot
         ``{name: [E, R]}``; with ``record`` the states ``[T + 1, E, ...]`` (the reset first),
         with ``record_lanes`` those episodes' ``[T + 1, len(record_lanes), ...]``, else None.
@@ -280,7 +286,7 @@ class EpisodeRunner:
                 rows = np.asarray(self.record_lanes)
                 states = jax.tree.map(lambda leaf: leaf[:, rows], states)
         else:
-            obs, first = jax.vmap(self.env.reset, in_axes=(0, None))(reset_keys, params)
+            obs, first = self.reset_batch(reset_keys, params, *args)
             final, tally, _, states = self.play(params, obs, first, 1, step_keys, emit=recorder)
             robot, episode = self.finalize(tally, final, params)
         values = jax.vmap(metrics.per_episode)(robot, episode)
