@@ -269,8 +269,6 @@ def run_generalise(args: argparse.Namespace) -> None:
 
 
 def _add_generalise_command(commands: Any) -> None:
-    from sgjax.maps.generated.families import FAMILIES
-
     gen = commands.add_parser(
         "generalise", help="a policy on worlds it never saw: train and held-out splits of "
         "generated families, the worst alpha%% and the gap",

@@ -27,7 +27,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle, Rectangle
 from PIL import Image
 
-from sgjax.maps.arrays import spawn_groups
+from sgjax.maps.arrays import FAR, spawn_groups
 from sgjax.maps.schema import MapSpec, Zone
 
 ROBOT_COLOURS = matplotlib.colormaps["tab10"].colors
@@ -334,21 +334,16 @@ def drawing_of_arrays(arrays: Any, name: str) -> MapSpec:
     rows = np.arange(count)
     direct = (hop == rows[None, :]) & (rows[:, None] != rows[None, :])
     i, j = np.nonzero(np.triu(direct | direct.T, 1))
-    used = np.zeros(count, bool)
-    used[np.any(a.group_starts | a.group_goals, axis=0)] = True
-    used[i] = used[j] = True
-    near = np.all(np.abs(nodes) < 1e5, axis=1) & used  # padding nodes lie far away
-    keep = near[i] & near[j]
     xy = walls.reshape(-1, 2)
     lo, hi = xy.min(axis=0) - 0.5, xy.max(axis=0) + 0.5
     zones = tuple(Zone(f"zone {k}", tuple(float(v) for v in r))
-                  for k, r in enumerate(a.zone_rect) if np.all(np.abs(r) < 1e5))
+                  for k, r in enumerate(a.zone_rect) if np.all(np.abs(r) < FAR / 2))
     groups = tuple((tuple(np.flatnonzero(s).tolist()), tuple(np.flatnonzero(g).tolist()))
                    for s, g in zip(a.group_starts, a.group_goals, strict=True) if s.any())
     return MapSpec(name=name, description="", bounds=(float(lo[0]), float(lo[1]),
                                                       float(hi[0]), float(hi[1])),
                    walls=walls, node_ids=rows, node_positions=nodes,
-                   edges=np.stack([i[keep], j[keep]], 1).astype(int), groups=groups,
+                   edges=np.stack([i, j], 1).astype(int), groups=groups,
                    routes=(), zones=zones)
 
 

@@ -13,7 +13,7 @@ from sgjax.kernels.geometry import segments_intersect
 from sgjax.maps.routing import all_pairs_shortest_paths, path_nodes
 from sgjax.maps.schema import MapSpec, point_segment_distances
 
-_FAR = 1.0e6  # m: where the padding wall of a wall-less map lives
+FAR = 1.0e6  # m: where padding walls (and a generated world's padding zones) live
 
 
 @struct.dataclass
@@ -180,7 +180,7 @@ def compile_map(spec: MapSpec, reach: float = 2.5, cell_size: float = 1.0) -> Ma
     the largest inflated robot radius); it sizes the per-cell wall lists.
     """
     # One masked padding wall far away at the end: wall lists point at it for their empty slots.
-    walls = np.concatenate([spec.walls, [[_FAR, _FAR, _FAR + 1.0, _FAR]]], axis=0)
+    walls = np.concatenate([spec.walls, [[FAR, FAR, FAR + 1.0, FAR]]], axis=0)
     valid = np.arange(walls.shape[0]) < spec.walls.shape[0]
     points = np.concatenate([spec.walls[:, :2], spec.walls[:, 2:], spec.node_positions], axis=0)
     lo = np.minimum(points.min(axis=0), spec.bounds[:2]) - reach

@@ -18,13 +18,10 @@ def world_map(world: World, name: str, description: str,
     starts and goals, and its valid zones; ``values`` (the parameters it was built from) go into the
     description."""
     w = {field: np.asarray(getattr(world, field)) for field in (
-        "walls", "wall_valid", "nodes", "node_valid", "edges", "edge_valid", "group_starts",
+        "walls", "wall_valid", "nodes", "node_valid", "group_starts",
         "group_goals", "zones", "zone_valid", "bounds")}
     rows = np.flatnonzero(w["node_valid"])
-    adjacency = np.zeros((len(w["nodes"]),) * 2, bool)
-    keep = w["edge_valid"] & w["node_valid"][w["edges"][:, 0]] & w["node_valid"][w["edges"][:, 1]]
-    adjacency[w["edges"][keep, 0], w["edges"][keep, 1]] = True
-    a, b = np.nonzero(np.triu(adjacency | adjacency.T, 1))
+    a, b = np.nonzero(np.triu(np.asarray(world.adjacency), 1))
     groups = [{"starts": np.flatnonzero(s & w["node_valid"]).tolist(),
                "goals": np.flatnonzero(g & w["node_valid"]).tolist()}
               for s, g in zip(w["group_starts"], w["group_goals"], strict=True)]

@@ -197,9 +197,9 @@ def build(values: Mapping[str, Array], key: Array) -> World:
     x0, x1, y0, y1 = xs[0], xs[counts[0]], ys[0], ys[counts[1]]
     outside = jnp.stack([jnp.stack([x0, y0, x1, y0]), jnp.stack([x1, y0, x1, y1]),
                          jnp.stack([x1, y1, x0, y1]), jnp.stack([x0, y1, x0, y0])])
-    walls, valid = padded_walls(jnp.concatenate([pieces, outside]), CAPACITY.walls)
-    valid = valid & jnp.concatenate([piece_valid & jnp.tile(usable, 2), jnp.ones(4, bool),
-                                     jnp.zeros(1, bool)])
+    walls, valid = padded_walls(jnp.concatenate([pieces, outside]), CAPACITY.walls,
+                                jnp.concatenate([piece_valid & jnp.tile(usable, 2),
+                                                 jnp.ones(4, bool)]))
     column, row = jnp.arange(CELLS) % COLUMNS, jnp.arange(CELLS) // COLUMNS
     xs_next, ys_next = xs[jnp.minimum(column + 1, COLUMNS)], ys[jnp.minimum(row + 1, ROWS)]
     centres = jnp.stack([(xs[column] + xs_next) / 2, (ys[row] + ys_next) / 2], -1)

@@ -8,7 +8,8 @@ import jax
 import jax.numpy as jnp
 from jax import Array
 
-NO_PATH = -1
+from sgjax.maps.routing import NO_PATH
+
 # A path through another node replaces the current one only when shorter by more than this
 # share of it: float32 sums of equal legs differ by rounding, and the first path found stays.
 TIE = 1e-6

@@ -161,8 +161,7 @@ def build(values: Mapping[str, Array], key: Array) -> World:
     k_arms, k_spawn = jax.random.split(key)
     arms = draw_arms(values, k_arms)
     sides, built = arm_walls(arms)
-    walls, valid = padded_walls(sides, CAPACITY.walls)
-    valid = valid & jnp.concatenate([built, jnp.zeros(1, bool)])
+    walls, valid = padded_walls(sides, CAPACITY.walls, built)
     # approach nodes on each arm's centre line, past both its corners
     reach = jnp.maximum(jnp.maximum(arms.t_left, arms.t_right),
                         jnp.max(arms.half * arms.present)) + 1.0

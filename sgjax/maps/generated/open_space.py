@@ -61,9 +61,8 @@ def build(values: Mapping[str, Array], key: Array) -> World:
                        jnp.stack([half, -half, half, half]),
                        jnp.stack([half, half, -half, half]),
                        jnp.stack([-half, half, -half, -half])])
-    walls, valid = padded_walls(jnp.concatenate([arena, boxes]), CAPACITY.walls)
-    valid = valid & jnp.concatenate([jnp.ones(4, bool), jnp.repeat(present, 4),
-                                     jnp.zeros(1, bool)])
+    walls, valid = padded_walls(jnp.concatenate([arena, boxes]), CAPACITY.walls,
+                                jnp.concatenate([jnp.ones(4, bool), jnp.repeat(present, 4)]))
     turn = jax.random.uniform(k_turn, (), jnp.float32, 0.0, 2 * np.pi / RING)
     angle = turn + jnp.arange(RING) * (2 * np.pi / RING)
     radius = half - RING_GAP

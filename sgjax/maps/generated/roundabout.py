@@ -54,9 +54,8 @@ def build(values: Mapping[str, Array], key: Array) -> World:
     points = island * jnp.stack([jnp.cos(corner), jnp.sin(corner)], -1)
     island_walls = jnp.concatenate([points[:-1], points[1:]], -1)
     outer, outer_valid = arm_walls(arms)
-    walls, valid = padded_walls(jnp.concatenate([outer, island_walls]), CAPACITY.walls)
-    valid = valid & jnp.concatenate([outer_valid, jnp.ones(ISLAND_SIDES, bool),
-                                     jnp.zeros(1, bool)])
+    walls, valid = padded_walls(jnp.concatenate([outer, island_walls]), CAPACITY.walls,
+                                jnp.concatenate([outer_valid, jnp.ones(ISLAND_SIDES, bool)]))
     # the ring halfway between the island and the narrowest arm's side, a node at each arm's
     # direction (absent arms: their right angle's) and at each gap's middle
     narrowest = jnp.min(jnp.where(arms.present, arms.half, jnp.inf))

@@ -55,8 +55,8 @@ def two_rooms(key: Array, capacity: Capacity, room_height: Array, left_depth: Ar
         jnp.stack([half, top, half, h]), jnp.stack([half, -h, half, bottom]),
         jnp.stack([half, -h, x1, -h]), jnp.stack([half, h, x1, h]), jnp.stack([x1, -h, x1, h]),
     ])
-    walls, valid = padded_walls(segments, capacity.walls)
-    valid = valid & jnp.ones(capacity.walls, bool).at[6:10].set(niche)
+    walls, valid = padded_walls(segments, capacity.walls,
+                                jnp.ones(len(segments), bool).at[6:10].set(niche))
     a = jnp.stack([-half - APPROACH, o])
     b = jnp.stack([half + APPROACH, o])
     k_left, k_right = jax.random.split(key)

@@ -9,7 +9,7 @@ import jax.numpy as jnp
 from flax import struct
 from jax import Array
 
-FAR = 1.0e6  # m: where padding walls and nodes live
+from sgjax.maps.arrays import FAR
 
 
 @dataclasses.dataclass(frozen=True)
@@ -78,9 +78,10 @@ class World:
         return adjacency.at[self.edges[:, 1], self.edges[:, 0]].max(keep)
 
 
-def padded_walls(walls: Array, capacity: int) -> tuple[Array, Array]:
+def padded_walls(walls: Array, capacity: int, built: Array | None = None
+                 ) -> tuple[Array, Array]:
     """``walls [K, 4]`` in ``capacity`` slots (the rest, the last always, padding far away):
-    ``(walls [capacity, 4], valid [capacity])``."""
+    ``(walls [capacity, 4], valid [capacity])``, valid where ``built [K]`` (default all)."""
     count = walls.shape[0]
     if count >= capacity:
         raise ValueError(f"{count} walls need {count + 1} slots (one is padding); the "
@@ -88,4 +89,6 @@ def padded_walls(walls: Array, capacity: int) -> tuple[Array, Array]:
     pad = jnp.broadcast_to(jnp.asarray([FAR, FAR, FAR + 1.0, FAR], walls.dtype),
                            (capacity - count, 4))
     valid = jnp.arange(capacity) < count
+    if built is not None:
+        valid = valid & jnp.concatenate([built, jnp.zeros(capacity - count, bool)])
     return jnp.concatenate([walls, pad]), valid
