@@ -23,9 +23,11 @@ from sgjax.maps.generated.checks import verdict
 from sgjax.maps.generated.compiled import world_arrays
 from sgjax.maps.generated.export import world_map
 from sgjax.maps.generated.families import family
-from sgjax.maps.generated.family import Family, generate, range_arrays
+from sgjax.maps.generated.family import Family, generate, range_arrays, world_values
 from sgjax.maps.generated.splits import is_excluded, split_hashes, values_hash, world_key
 from sgjax.maps.generated.world import Capacity, World
+
+HOLDOUT_TRIES = 4  # value draws a proposal may take to miss a held-out split's worlds
 
 
 @struct.dataclass
@@ -85,6 +87,8 @@ class WorldSource:
             return propose(world_key(seed))
         if self.seeds is None:
             keys = jax.random.split(key, self.proposals)
+            if self.exclude:  # each proposal skips held-out values before building anything
+                keys = jax.vmap(lambda k: self._fresh_key(k, ranges, excluded))(keys)
         else:
             first, count = self.seeds
             index = jax.random.randint(key, (self.proposals,), 0, count)
@@ -92,6 +96,16 @@ class WorldSource:
         worlds, draws = jax.vmap(propose)(keys)
         first = jnp.argmax(draws.valid)  # the first valid one, else 0
         return jax.tree.map(lambda x: x[first], (worlds, draws))
+
+    @staticmethod
+    def _fresh_key(key: Array, ranges: dict, excluded: Array) -> Array:
+        """Of :data:`HOLDOUT_TRIES` keys from ``key``, the first whose drawn values are not
+        excluded (the values alone are drawn: a world is built once, from the key kept; the
+        last key when every one is excluded, which its proposal's check then flags)."""
+        keys = jax.random.split(key, HOLDOUT_TRIES)
+        held = jax.vmap(lambda k: is_excluded(values_hash(world_values(k, ranges)),
+                                              excluded))(keys)
+        return keys[jnp.minimum(jnp.argmin(held), HOLDOUT_TRIES - 1)]
 
     def of_seed(self, seed: Array | int) -> WorldDraw:
         """World ``seed`` (built from ``world_key(seed)``, as a split of seeds plays it) under
@@ -111,15 +125,14 @@ def source_for(family_name: str, ranges: dict | None = None, robot_radius: float
     defaults (checked), for robots up to ``robot_radius`` m (``reach``: the planner's, default
     the family capacity's), checking the dilemma too by default (for files). ``seeds``: play
     the worlds of this split ``(first, count)``; ``holdout``: never draw a world of that split
-    (its worlds' hashes excluded, under the same ranges; at least 4 proposals then)."""
+    (its worlds' hashes excluded, under the same ranges: each proposal redraws held-out values
+    before building)."""
     fam = family(family_name)
     checked = fam.ranges(ranges)
     capacity = fam.capacity if reach is None else dataclasses.replace(fam.capacity,
                                                                       reach=float(reach))
     exclude = () if holdout is None else tuple(
         int(h) for h in split_hashes(fam, checked, *holdout))
-    if exclude:
-        proposals = max(proposals, 4)
     return WorldSource(fam.name, tuple((k, lo, hi) for k, (lo, hi) in sorted(checked.items())),
                        capacity, float(robot_radius), int(proposals), bool(check_dilemma),
                        None if seeds is None else (int(seeds[0]), int(seeds[1])), exclude)

@@ -74,9 +74,14 @@ def draw_values(key: Array, ranges: Mapping[str, Array]) -> dict[str, Array]:
             for name, k in zip(names, keys, strict=True)}
 
 
+def world_values(key: Array, ranges: Mapping[str, Array]) -> dict[str, Array]:
+    """The parameter values :func:`generate` draws from ``key`` (without building the
+    world)."""
+    return draw_values(jax.random.split(key)[0], ranges)
+
+
 def generate(family: Family, key: Array, ranges: Mapping[str, Array]) -> tuple[World, dict]:
     """A world of ``family`` from ``key``: ``(world, the drawn values)``; the same key and
     ranges give the same world."""
-    k_values, k_build = jax.random.split(key)
-    values = draw_values(k_values, ranges)
-    return family.build(values, k_build), values
+    values = world_values(key, ranges)
+    return family.build(values, jax.random.split(key)[1]), values

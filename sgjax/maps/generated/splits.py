@@ -13,7 +13,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax import Array
 
-from sgjax.maps.generated.family import Family, draw_values, range_arrays
+from sgjax.maps.generated.family import Family, range_arrays, world_values
 from sgjax.maps.sampling import mix32
 
 WORLD_ROOT = 0x5EED  # the root key every world seed folds into
@@ -41,8 +41,7 @@ def seed_values(family: Family, ranges: Mapping[str, tuple[float, float]], seed:
                 ) -> dict[str, Array]:
     """The parameter values of world ``seed`` (as :func:`~sgjax.maps.generated.family.generate`
     draws them from ``world_key(seed)``)."""
-    k_values, _ = jax.random.split(world_key(seed))
-    return draw_values(k_values, range_arrays(ranges))
+    return world_values(world_key(seed), range_arrays(ranges))
 
 
 def split_hashes(family: Family, ranges: Mapping[str, tuple[float, float]], first: int,
