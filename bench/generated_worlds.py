@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 
 import jax
+from compiled import compile_measured
 
 import sgjax
 from sgjax.environment.worlds import source_for
@@ -30,7 +31,8 @@ CONFIG = Path(__file__).resolve().parents[1] / "train/configs/doorway.yaml"
 
 
 def best_of(fn, *args, repeats: int = 3) -> float:
-    """The fastest of ``repeats`` calls (s), after the warm-up call the compile made."""
+    """The fastest of ``repeats`` calls (s), after one warm-up call."""
+    jax.block_until_ready(fn(*args))
     best = float("inf")
     for _ in range(repeats):
         t0 = time.perf_counter()
@@ -45,9 +47,7 @@ def generation(batch: int, families: list[str]) -> None:
     for name in families:
         source = source_for(name, check_dilemma=False)
         keys = jax.random.split(jax.random.key(0), batch)
-        t0 = time.perf_counter()
-        draw = jax.jit(jax.vmap(source.draw)).lower(keys).compile()
-        compile_s = time.perf_counter() - t0
+        draw, compile_s, _ = compile_measured(jax.jit(jax.vmap(source.draw)).lower(keys))
         seconds = best_of(draw, keys)
         with_dilemma = source_for(name)
         audit = jax.jit(jax.vmap(with_dilemma.draw)).lower(keys).compile()
@@ -60,9 +60,8 @@ def reset_compile(envs: int) -> None:
     for scenario in ("doorway", "generated:doorway", "hallway", "generated:hallway"):
         env, params = sgjax.make(scenario, num_agents=4)
         keys = jax.random.split(jax.random.key(0), envs)
-        t0 = time.perf_counter()
-        reset = jax.jit(jax.vmap(env.reset, in_axes=(0, None))).lower(keys, params).compile()
-        compile_s = time.perf_counter() - t0
+        reset, compile_s, _ = compile_measured(
+            jax.jit(jax.vmap(env.reset, in_axes=(0, None))).lower(keys, params))
         seconds = best_of(reset, keys, params)
         print(f"  {scenario:>18}: compile {compile_s:5.1f} s, {envs / seconds:9,.0f} resets/s")
 
@@ -75,9 +74,7 @@ def training(updates: int) -> None:
         config = load_config(CONFIG, [f"env.scenarios=[{scenario!r}]"])
         trainer = Trainer(config)
         runner = jax.jit(jax.vmap(trainer.init))(seed_keys(config))
-        t0 = time.perf_counter()
-        chunk = trainer.jitted_chunk_lanes(updates).lower(runner).compile()
-        compile_s = time.perf_counter() - t0
+        chunk, compile_s, _ = compile_measured(trainer.jitted_chunk_lanes(updates).lower(runner))
         runner, _ = chunk(runner)
         best = float("inf")
         for _ in range(2):

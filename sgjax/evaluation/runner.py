@@ -64,19 +64,23 @@ def argument_signature(args: Any) -> tuple:
 
 
 _COMPILED: dict[Any, Callable] = {}
+KEPT_PROGRAMS = 16  # compiled programs compiled_once keeps (the oldest go first)
 
 
 def compiled_once(program: Callable, *args: Any) -> tuple[Callable, float]:
     """``program`` (a ``jax.jit`` function) compiled ahead of time for the shapes of ``args``,
-    once per process: ``(executable, seconds this call spent compiling)`` (0 when it was
-    compiled before; a program found in the persistent compilation cache counts its
-    loading)."""
+    once per process (the last :data:`KEPT_PROGRAMS` kept): ``(executable, seconds this call
+    spent compiling)`` (0 when it was compiled before; a program found in the persistent
+    compilation cache counts its loading)."""
     key = (program, argument_signature(args))
     if key in _COMPILED:
         return _COMPILED[key], 0.0
     t0 = time.perf_counter()
-    _COMPILED[key] = program.lower(*args).compile()
-    return _COMPILED[key], time.perf_counter() - t0
+    compiled = program.lower(*args).compile()
+    if len(_COMPILED) >= KEPT_PROGRAMS:  # dicts keep insertion order: drop the oldest
+        del _COMPILED[next(iter(_COMPILED))]
+    _COMPILED[key] = compiled
+    return compiled, time.perf_counter() - t0
 
 
 def lanes_first(tree: Any, episodes: int, lanes: int) -> Any:
