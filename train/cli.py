@@ -291,8 +291,8 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
     tables, write them and a GIF of one evaluated episode.
 
     Per scenario, the trained policy and the baseline are the lanes of one compiled program
-    (:func:`train.algorithm.actor.table_evaluator`), called once per robot count (two programs
-    only where the baseline acts in another environment than the policy, e.g. a
+    (:meth:`sgjax.evaluation.trained.TrainedEvaluation.paired`), called once per robot count
+    (two programs only where the baseline acts in another environment than the policy, e.g. a
     continuous-action policy beside GO/STOP ``only_local``): the same episodes, keys and results
     as evaluating each policy with :func:`sgjax.evaluation.evaluate.evaluate` (seed ``config.seed +
     EVALUATION_SEED_OFFSET``, no training lane's). The
@@ -487,7 +487,7 @@ def _evaluate_scenario(config: TrainConfig, actor: tuple, scenario: str,
     names = [_trained_name(config)] + ([e.baseline] if together else [])
     evaluation = TrainedEvaluation(
         TrainedActor(network, layout), scenario, counts, e.episodes, options,
-        max_agents=options.robots.max_agents or None, modes=e.deterministic,
+        modes=e.deterministic,
         baselines=names[1:], record=record_count is not None)
     params = evaluation.params[counts[0]]
     mine, theirs, recorded, paired, spread = [], [], None, {}, {}

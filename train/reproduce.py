@@ -14,7 +14,8 @@ in the same world. Training follows the paper's setting where sgjax can: PPO, GO
 over the local planner, observation and reward normalisation, 3 robots, then 3 or 4 drawn per
 episode from a tenth of the steps on (the paper's "trained with up to 4 agents"; a policy that
 met only 4 robots for most of its training forgets 3: open/cadrl scored 0.00 at 3 robots and
-1.00 at 4 without the draw). Each seed is one lane of one jitted run (``Trainer.train_lanes``).
+1.00 at 4 without the draw). Each seed is one lane of one jitted run
+(``train.run.loop.train_in_calls``).
 
 Two profiles (``--profile``):
 
@@ -174,6 +175,11 @@ def only_local_options(profile: str, time_limit: float | None) -> MakeOptions:
     return MakeOptions.from_keywords(
         "only_local", dt=trained.physics.dt, time_limit=trained.physics.time_limit,
         robots=trained.robots.robots, arrived=trained.robots.arrived, enders=enders)
+
+
+def partial_path(out: Path, scenario: str, name: str) -> Path:
+    """Where a cell keeps its lanes while they train (deleted once its results are written)."""
+    return out / "partial" / f"{scenario}-{name}.msgpack"
 
 
 def train_baseline(config: Any, partial: Path | None = None, resume: bool = False
@@ -616,8 +622,7 @@ def run_cell(scenario: str, name: str, settings: dict[str, Any], out: Path,
         config = baseline_config(name, scenario, len(share), total_steps,
                                  settings["num_envs"], seed + int(share[0]),
                                  75.0 if time_limit is None else time_limit)
-    partial = (out / "partial" / f"{scenario}-{name}.msgpack" if processes.count == 1
-               else None)
+    partial = partial_path(out, scenario, name) if processes.count == 1 else None
     trainer, runner, compile_s, train_s = train_baseline(config, partial, resume)
     phases.add("compile", compile_s)
     phases.add("train", train_s)
@@ -673,7 +678,7 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
             if processes.is_main:  # a killed run keeps every finished cell
                 out.mkdir(parents=True, exist_ok=True)
                 write_atomic(path, json.dumps(run.document(scenarios), indent=1))
-                (out / "partial" / f"{scenario}-{name}.msgpack").unlink(missing_ok=True)
+                partial_path(out, scenario, name).unlink(missing_ok=True)
     if not processes.is_main:
         print(f"process {processes.index}: done; process 0 writes the tables")
         return run.results

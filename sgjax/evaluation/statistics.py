@@ -188,10 +188,23 @@ def stratified_resamples(cells: Mapping[str, np.ndarray], resamples: int, seed: 
     """``resamples`` stratified bootstrap resamples of per-seed scores by cell (``cells
     {cell: [S_c]}``): each resample draws every cell's seeds with replacement within the
     cell, and concatenates them (rliable's stratified bootstrap)."""
+    if not any(np.isfinite(np.asarray(v, float)).any() for v in cells.values()):
+        raise ValueError(f"no finite score in any of the {len(cells)} cells to resample")
     rng = np.random.default_rng(seed)
-    arrays = [np.asarray(v, float)[np.isfinite(np.asarray(v, float))] for v in cells.values()]
-    return [np.concatenate([v[rng.integers(0, v.size, v.size)] for v in arrays if v.size])
+    return [np.concatenate(list(resample_cells(cells, rng).values()))
             for _ in range(resamples)]
+
+
+def resample_cells(cells: Mapping[str, np.ndarray], rng: np.random.Generator
+                   ) -> dict[str, np.ndarray]:
+    """Every cell's finite scores drawn with replacement within the cell (one stratified
+    bootstrap draw; a cell without finite scores stays empty)."""
+    out = {}
+    for cell, values in cells.items():
+        v = np.asarray(values, float)
+        v = v[np.isfinite(v)]
+        out[cell] = v[rng.integers(0, v.size, v.size)] if v.size else v
+    return out
 
 
 def aggregate_over_cells(cells: Mapping[str, np.ndarray], confidence: float = CONFIDENCE,
@@ -227,16 +240,9 @@ def improvement_over_cells(a: Mapping[str, np.ndarray], b: Mapping[str, np.ndarr
         return float(np.nanmean([probability_of_improvement(x[c], y[c]) for c in shared]))
 
     rng = np.random.default_rng(seed)
-
-    def resample(cells: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-        out = {}
-        for c in shared:
-            v = np.asarray(cells[c], float)
-            v = v[np.isfinite(v)]
-            out[c] = v[rng.integers(0, v.size, v.size)] if v.size else v
-        return out
-
-    values = np.asarray([value(resample(a), resample(b)) for _ in range(resamples)])
+    a_shared, b_shared = {c: a[c] for c in shared}, {c: b[c] for c in shared}
+    values = np.asarray([value(resample_cells(a_shared, rng), resample_cells(b_shared, rng))
+                         for _ in range(resamples)])
     tail = (1 - confidence) / 2
     low, high = np.nanquantile(values, [tail, 1 - tail])
     return {"probability": value(a, b), "low": float(low), "high": float(high),

@@ -116,7 +116,8 @@ def _table_program(actor: ActorSpec, env: Any, baselines: tuple[str, ...], num_c
 class TrainedEvaluation:
     """Trained weights on ``episodes`` shared episodes of ``scenario`` at each robot count of
     ``counts``, in the ``sgjax.make`` ``options`` with ``max_agents`` robot slots (default the
-    largest count): built once, called for any weights.
+    options', else the largest count, as ``sgjax evaluate`` makes it): built once, called for
+    any weights.
 
     ``modes``: one play mode (False samples actions, True takes the most likely) or a tuple
     of them (one program plays them all: a leading modes axis). :meth:`lanes` and
@@ -133,7 +134,7 @@ class TrainedEvaluation:
             raise ValueError("TrainedEvaluation: no robot counts to evaluate at")
         self.env, self.params = params_by_count(
             scenario, self.counts, options=options,
-            max_agents=max(self.counts) if max_agents is None else max_agents)
+            max_agents=max_agents or options.robots.max_agents or max(self.counts))
         if self.env.observation_size != actor.obs_size:
             raise ValueError(f"{scenario}: the trained policy reads observations of size "
                              f"{actor.obs_size}, this environment gives "

@@ -70,3 +70,13 @@ def test_aggregates_over_cells_with_stratified_bootstrap():
     assert np.all(profile["low"] <= profile["fraction"] + 1e-12)
     assert np.all(profile["fraction"] <= profile["high"] + 1e-12)
     assert profile["fraction"][0] == 1.0 and profile["fraction"][-1] == 0.0
+
+
+def test_aggregates_over_cells_without_a_finite_score_are_refused_by_name():
+    from sgjax.evaluation.statistics import aggregate_over_cells, performance_profile
+
+    empty = {"doorway/3": np.asarray([np.nan, np.nan]), "open/3": np.asarray([])}
+    with pytest.raises(ValueError, match="no finite score in any of the 2 cells"):
+        aggregate_over_cells(empty, resamples=10)
+    with pytest.raises(ValueError, match="no finite score"):
+        performance_profile(empty, np.asarray([0.5]), resamples=10)

@@ -162,9 +162,14 @@ def test_trials_run_as_lanes_and_groups_and_write_the_results(tmp_path):
     assert len({tuple(sorted(t.params.items())) for t in trials}) == 5
     assert all(sorted(t.intermediate_values) == [1, 2] for t in trials)
     programs = {str(t.user_attrs["program"]) for t in trials}
-    compiled = [g for g in sweep.groups.values() if g.trainer._compiled_chunks]
+    from sgjax.evaluation.runner import _COMPILED
+
+    def chunks(trainer):  # the trainer's compiled chunk programs (in the shared cache)
+        return [k for k in _COMPILED if k[0] in set(trainer._jitted_chunks.values())]
+
+    compiled = [g for g in sweep.groups.values() if chunks(g.trainer)]
     assert len(compiled) == len(programs) == 2  # one compiled program per network width
-    assert all(len(g.trainer._compiled_chunks) == 1 for g in compiled)
+    assert all(len(chunks(g.trainer)) == 1 for g in compiled)
     document = write_outputs(sweep.study, space, TINY, "tiny", sweep.out, sweep.phases.seconds,
                              log=lambda _: None)
     check_document(document)

@@ -127,7 +127,7 @@ def acting_policy(network: NetworkConfig, layout: ActorLayout, weights: ActorWei
     most ``layout.slots``): actions sampled from it, or its most likely ones with
     ``deterministic``; continuous actions clipped to [-1, 1]. ``deterministic`` is a Python
     bool (one branch compiled) or a traced bool scalar (both computed, one chosen: a ``vmap``
-    over it plays both modes in one program, :func:`play_modes_evaluator`)."""
+    over it plays both modes in one program, as ``TrainedEvaluation(modes=(...))`` does)."""
     model = ActorCritic(network, layout.action_dim, layout.discrete, layout.others)
     spread = head_log_std(weights.params, layout.discrete)
 

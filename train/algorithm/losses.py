@@ -64,19 +64,11 @@ def masked_loss(network: ActorCritic, discrete: bool, coefficients: tuple[Any, A
                 ) -> tuple[Array, dict]:
     """:func:`ppo_terms` of a whole minibatch: the critic learns every active step, the actor
     only the steps whose action the environment read (all of them unless ``make``'s
-    ``decision_period`` holds actions); advantages normalised over the latter."""
-    def masked_mean(mask: Array) -> Any:
-        mask = mask.astype(jnp.float32)
-        count = jnp.maximum(jnp.sum(mask), 1.0)
-        return lambda x: jnp.sum(x * mask) / count
-
-    mean = masked_mean(traj.active)
-    acted = masked_mean(traj.active & traj.decides)
-    adv_mean = acted(advantages)
-    adv_std = jnp.sqrt(acted(jnp.square(advantages - adv_mean)))
-    adv = (advantages - adv_mean) / (adv_std + 1e-8)
-    return ppo_terms(network, discrete, coefficients, params, carry, traj, adv, targets,
-                     mean, acted)
+    ``decision_period`` holds actions); advantages normalised over the latter. It is the one
+    chunk of the minibatch that is the whole of it (:func:`chunk_loss`)."""
+    adv, counts = normalised_advantages(traj.active, traj.decides, advantages)
+    return chunk_loss(network, discrete, coefficients, params, carry, traj, adv, targets,
+                      counts)
 
 
 def chunk_loss(network: ActorCritic, discrete: bool, coefficients: tuple[Any, Any, Any],

@@ -25,7 +25,6 @@ command: progress, evaluation and checkpoints between the pieces).
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -37,7 +36,7 @@ from jax import Array
 
 from sgjax.compilation_cache import learner_compiler_options
 from sgjax.evaluation.policies import RecurrentPolicy
-from sgjax.evaluation.runner import argument_signature
+from sgjax.evaluation.runner import compiled_once
 from sgjax.terms.base import ConfigError
 from train.algorithm.actor import ActorLayout, ActorWeights, TrainedActor, acting_policy
 from train.algorithm.config import TrainConfig, resolved_compact, resolved_lanes
@@ -69,7 +68,6 @@ class Trainer:
         self.varied = self.settings.varied
         self.config = config
         self._jitted_chunks: dict[tuple[int, bool], Any] = {}  # jitted_chunk_lanes' jits
-        self._compiled_chunks: dict[tuple, Any] = {}  # compiled_chunk_lanes' executables
         a = config.algorithm
         self.batch = EnvBatch(config)
         self.num_envs = sum(self.batch.sizes)
@@ -260,17 +258,10 @@ class Trainer:
 
     def compiled_chunk_lanes(self, count: int, runners: RunnerState, donate: bool = False
                              ) -> tuple[Callable, float]:
-        """:meth:`jitted_chunk_lanes` compiled ahead of time for the shapes of ``runners``,
-        once per trainer: ``(executable, seconds this call spent compiling)`` (0 when it was
-        compiled before; a program found in the persistent compilation cache counts its
-        loading)."""
-        key = (count, donate, argument_signature(runners))
-        if key not in self._compiled_chunks:
-            t0 = time.perf_counter()
-            self._compiled_chunks[key] = self.jitted_chunk_lanes(count, donate).lower(
-                runners).compile()
-            return self._compiled_chunks[key], time.perf_counter() - t0
-        return self._compiled_chunks[key], 0.0
+        """:meth:`jitted_chunk_lanes` compiled ahead of time for the shapes of ``runners``
+        (:func:`sgjax.evaluation.runner.compiled_once`): ``(executable, seconds this call
+        spent compiling)``."""
+        return compiled_once(self.jitted_chunk_lanes(count, donate), runners)
 
     def train(self, key: Array) -> tuple[RunnerState, dict]:
         """A whole run: ``init`` then every update, one jittable function of the key."""

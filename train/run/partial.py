@@ -72,8 +72,3 @@ class PartialFile:
                                                                self.saves):
             checkpoint.save(self.path, self.config, state,
                             {**self.meta, "updates": done, "of": total})
-
-    def remove(self) -> None:
-        """Delete the file (its run's results are kept elsewhere)."""
-        if self.path is not None:
-            self.path.unlink(missing_ok=True)
