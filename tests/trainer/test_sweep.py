@@ -308,3 +308,17 @@ def test_two_processes_share_a_postgresql_study_without_running_a_trial_twice(tm
     assert len({tuple(sorted(t.params.items())) for t in trials}) == 6
     workers = [t.user_attrs["worker"] for t in trials]
     assert set(workers) == {0, 1}, workers  # both processes trained trials
+
+
+def test_init_refuses_a_lane_setting_the_program_would_not_read():
+    """A setting given to ``init`` that this Trainer reads from the config (not ``varied``)
+    is an error naming it, not a value silently ignored; a varied one is read."""
+    config = config_from_dict(TINY)
+    fixed = Trainer(config)
+    with pytest.raises(ConfigError, match="clip_eps = 0.05 differs from the config"):
+        fixed.init(jax.random.PRNGKey(0), hyper={"clip_eps": 0.05})
+    same = fixed.init(jax.random.PRNGKey(0), hyper={"clip_eps": config.algorithm.clip_eps})
+    assert float(same.hyper["clip_eps"]) == np.float32(config.algorithm.clip_eps)
+    varied = Trainer(config, varied=["clip_eps"]).init(jax.random.PRNGKey(0),
+                                                       hyper={"clip_eps": 0.05})
+    assert float(varied.hyper["clip_eps"]) == np.float32(0.05)

@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jax import Array
@@ -57,13 +58,21 @@ class LaneSettings:
 
     def with_values(self, hyper: dict | None) -> dict[str, Array]:
         """:meth:`defaults` with ``hyper`` ({name: value}) on top, ``gamma_lambda`` recomputed
-        where ``gamma`` or ``gae_lambda`` is given without it (``Trainer.init``)."""
+        where ``gamma`` or ``gae_lambda`` is given without it (``Trainer.init``). A concrete
+        value that differs from the config for a setting that does not vary is the error
+        :meth:`lane` gives (the program would read the config's); traced values (``init``
+        under ``vmap``) come from :meth:`lane`, which checked them."""
         settings = self.defaults()
         for name, value in (hyper or {}).items():
             if name not in settings:
                 raise ConfigError(f"hyper: {name!r} is not a lane setting; lanes may differ "
                                   f"in {list(LANE_SETTINGS)}")
             settings[name] = jnp.asarray(value, jnp.float32)
+            if (name in LANE_SETTINGS and not isinstance(value, jax.core.Tracer)
+                    and name not in self.varied
+                    and np.any(np.asarray(value, np.float32) != settings[name].dtype.type(
+                        getattr(self.algorithm, name)))):
+                self.lane({name: float(np.asarray(value).ravel()[0])})  # names the setting
         if {"gamma", "gae_lambda"} & set(hyper or {}) and "gamma_lambda" not in hyper:
             settings["gamma_lambda"] = settings["gamma"] * settings["gae_lambda"]
         return settings
