@@ -214,6 +214,9 @@ class EnvState:
     # the generated world this episode plays in (sgjax.environment.worlds.WorldDraw), or None on
     # a fixed map (no leaves: nothing traced)
     world: Any = None
+    # the world of the next episode, when a trainer picks it (sgjax.environment.worlds.Level,
+    # on a source with levels); None otherwise
+    next_level: Any = None
 
     @property
     def goal_distance(self) -> Array:

@@ -58,17 +58,21 @@ from train.run.socialgym_config import convert, is_socialgym_config, read_social
 COLUMNS = ("steps", "updates", "wall_s", "env_steps_per_s", "agent_steps_per_s", "num_agents",
            "episodes", "team_success", "robot_success", "mean_return", "policy_loss",
            "value_loss", "entropy", "approx_kl", "eval_team_success", "eval_robot_success")
+# a curriculum over generated worlds adds its buffers' statistics (world_curriculum)
+LEVEL_COLUMNS = ("levels_fill", "levels_replayed", "levels_score")
 
 
 class Logger:
-    """Scalars to ``progress.csv`` and, when tensorboardX is installed and asked for,
-    TensorBoard event files."""
+    """Scalars to ``progress.csv`` (:data:`COLUMNS`, then ``extra`` ones) and, when
+    tensorboardX is installed and asked for, TensorBoard event files."""
 
-    def __init__(self, out: Path, tensorboard: bool, append: bool):
+    def __init__(self, out: Path, tensorboard: bool, append: bool,
+                 extra: tuple[str, ...] = ()):
         path = out / "progress.csv"
         fresh = not (append and path.is_file())
         self._file = path.open("w" if fresh else "a", newline="")
-        self._csv = csv.DictWriter(self._file, fieldnames=COLUMNS)
+        self.columns = COLUMNS + tuple(extra)
+        self._csv = csv.DictWriter(self._file, fieldnames=self.columns)
         if fresh:
             self._csv.writeheader()
         self._tb = None
@@ -82,7 +86,7 @@ class Logger:
                 self._tb = SummaryWriter(str(out / "tb"))
 
     def log(self, row: dict[str, Any]) -> None:
-        self._csv.writerow({k: row.get(k, "") for k in COLUMNS})
+        self._csv.writerow({k: row.get(k, "") for k in self.columns})
         self._file.flush()
         if self._tb is not None:
             for name, value in row.items():
@@ -147,7 +151,8 @@ class PeriodicWork:
         self.latest = out / "checkpoints" / "latest.msgpack"
         self.best = out / "checkpoints" / "best.msgpack"
         a, e, lg = config.algorithm, config.evaluation, config.logging
-        self.logger = Logger(out, lg.tensorboard, append=resume)
+        self.logger = Logger(out, lg.tensorboard, append=resume,
+                             extra=LEVEL_COLUMNS if config.levels.active else ())
         self.progress = Progress(a.num_updates * a.steps_per_update, meta["steps"],
                                  lg.progress)
         self.next_eval = (meta["steps"] // e.every + 1) * e.every
@@ -283,6 +288,7 @@ def _row(logs: dict, meta: dict, wall: float, env_rate: float, trainer: Trainer)
         "mean_return": float(np.sum(logs["return_sum"])) / max(robots, 1.0),
         **{k: float(np.mean(logs[k])) for k in ("policy_loss", "value_loss", "entropy",
                                                 "approx_kl")},
+        **{k: float(np.mean(logs[k])) for k in LEVEL_COLUMNS if k in logs},
     }
 
 

@@ -54,7 +54,7 @@ from sgjax.dynamics.planner import PlannerConfig, approach, carrot_point, plan, 
 from sgjax.environment import physics
 from sgjax.environment.physics import Commands
 from sgjax.environment.presets import OBSERVATION_PRESETS, REWARD_PRESETS
-from sgjax.environment.worlds import WorldDraw, WorldSource
+from sgjax.environment.worlds import Level, WorldDraw, WorldSource
 from sgjax.humans.pedestrians import HumanConfig, HumanState, advance_waypoints, spawn_humans
 from sgjax.kernels.geometry import safe_norm
 from sgjax.kernels.row_chunks import chunk_size, update_flagged_rows
@@ -262,10 +262,16 @@ class SocialNavEnv:
         return self._reset(key, params, world=world)
 
     def _reset(self, key: Array, params: EnvParams, keep: Array | None = None,
-               world: WorldDraw | None = None) -> tuple[Array, EnvState]:
-        if self.config.world is not None:  # a world first, from its own key (or the one given)
+               world: WorldDraw | None = None, level: Level | None = None
+               ) -> tuple[Array, EnvState]:
+        source = self.config.world
+        if source is not None:  # a world first, from its own key (or the one given)
             key, key_world = jax.random.split(key)
-            world = self.config.world.draw(key_world) if world is None else world
+            if world is None and source.levels:  # the level a trainer chose, or a fresh seed
+                world = source.level_draw(
+                    key_world, Level.unset(source.family.parameters) if level is None else level)
+            elif world is None:
+                world = source.draw(key_world)
             params = params.replace(map=world.map)
         key_robots, key_humans = jax.random.split(key)
         fewest = jnp.where(params.min_agents > 0,
@@ -309,7 +315,8 @@ class SocialNavEnv:
         num_robots = self.max_agents
         if self.config.world is not None and world is None:  # reset_to: the params' map
             world = WorldDraw(map=params.map, valid=jnp.asarray(True), values={
-                name: jnp.float32(jnp.nan) for name in self.config.world.family.parameters})
+                name: jnp.float32(jnp.nan) for name in self.config.world.family.parameters},
+                seed=jnp.uint32(0))
         # Split only what is used: reset runs inside every auto-reset step.
         key_humans, key_zones, key_obs = key, key, key
         if self.config.uses_zones or self.config.observer.needs_key:
@@ -350,6 +357,9 @@ class SocialNavEnv:
                          if self.config.action_mode == "continuous"
                          else jnp.full(num_robots, GO, jnp.int32)),
             world=world,
+            next_level=(Level.unset(self.config.world.family.parameters)
+                        if self.config.world is not None and self.config.world.levels
+                        else None),
         )
         return self.observe(state, params, key_obs), state
 
@@ -380,7 +390,7 @@ class SocialNavEnv:
             key_step, state, actions, params
         )
         episode_done = jnp.all(~next_state.robots.present | terminated | truncated)
-        reset_obs, reset_state = self._reset(key_reset, params)
+        reset_obs, reset_state = self._reset(key_reset, params, level=state.next_level)
         info["episode_done"] = episode_done
         info["final_observation"] = obs
         info["final_robots"] = next_state.robots
@@ -438,8 +448,11 @@ class SocialNavEnv:
             """Reset the ended environments ``index [chunk]`` (unused places point past the
             batch and are dropped)."""
             obs, state = carry
-            fresh_obs, fresh = jax.vmap(self._reset, in_axes=(0, None))(
-                key_reset[jnp.minimum(index, num_envs - 1)], params)
+            ended = jnp.minimum(index, num_envs - 1)
+            levels = (None if states.next_level is None  # a trainer's chosen worlds, if any
+                      else jax.tree.map(lambda x: x[ended], states.next_level))
+            fresh_obs, fresh = jax.vmap(
+                lambda k, lv: self._reset(k, params, level=lv))(key_reset[ended], levels)
             rows = index[:, None]
             obs = _set_rows(obs, rows, fresh_obs)
             state = jax.tree.map(lambda old, new: _set_rows(old, rows, new), state, fresh)
@@ -558,6 +571,7 @@ class SocialNavEnv:
             total_steps=state.total_steps + 1,
             held_action=state.held_action,
             world=state.world,
+            next_level=state.next_level,
         )
 
     @staticmethod

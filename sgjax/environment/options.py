@@ -11,7 +11,7 @@ each belongs to one group:
   ``observation_preset``, ``reward_preset`` (``docs/terms.md``);
 * :class:`PhysicsOptions`: ``dt``, ``substeps``, ``time_limit``, ``num_arcs``,
   ``contact_passes``;
-* :class:`WorldOptions`: ``world_ranges``, ``world_proposals``, ``world_seeds``,
+* :class:`WorldOptions`: ``world_ranges``, ``world_proposals``, ``world_seeds``, ``world_levels``,
   ``world_holdout`` (generated worlds:
   ``make("generated:<family>")``, ``docs/generated.md``).
 
@@ -209,6 +209,9 @@ class WorldOptions:
     world_seeds: tuple[int, int] | None = None
     # (first, count): never draw a world of this split (training beside a held-out split)
     world_holdout: tuple[int, int] | None = None
+    # every world a seed and values, and a reset plays the level the state's next_level holds
+    # when one is chosen (a trainer's curriculum of worlds: train/configs, docs/generated.md)
+    world_levels: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "world_ranges", _range_rows(self.world_ranges))

@@ -151,7 +151,8 @@ def _generated(name: str, opts: MakeOptions, largest: float, reach: float
                          "(num_humans and max_humans must be 0)")
     w = opts.worlds
     source = source_for(fam.name, w.ranges(), float(largest), w.world_proposals, float(reach),
-                        check_dilemma=False, seeds=w.world_seeds, holdout=w.world_holdout)
+                        check_dilemma=False, seeds=w.world_seeds, holdout=w.world_holdout,
+                        levels=w.world_levels)
     template, values, arrays, ok = _template(source)
     if not ok:
         raise ValueError(f"make({name!r}): the world of key 0 fails the family's checks for "

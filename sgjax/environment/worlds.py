@@ -6,11 +6,17 @@ Each environment of a batch plays its own world: ``reset`` draws one from its ke
 the same world) and keeps it in the episode's state, and ``step`` reads the map from there, so
 a batch of environments is a batch of worlds that stays on the device. The state holds the
 world (rather than batched params) because the world changes at every reset, inside the step's
-auto-reset, where params are fixed for the whole call."""
+auto-reset, where params are fixed for the whole call.
+
+A source with ``levels`` on lets a trainer pick the world of an environment's next episode (a
+curriculum: :class:`Level`, written into ``EnvState.next_level``): every world is then a seed
+(its build key, ``world_key(seed)``) and parameter values, so a level kept in a replay buffer,
+or one with edited values (an ACCEL mutation), is built again exactly."""
 
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -33,12 +39,36 @@ HOLDOUT_TRIES = 4  # value draws a proposal may take to miss a held-out split's 
 @struct.dataclass
 class WorldDraw:
     """The world one episode plays in: its map arrays, whether it passed every check
-    (``valid``: False only when all the reset's proposals failed) and the parameter values it
-    was built from (``{name: float32}``)."""
+    (``valid``: False only when all the reset's proposals failed), the parameter values it
+    was built from (``{name: float32}``) and its seed (uint32: the build key is
+    ``world_key(seed)``; 0 for a world drawn straight from a reset's key, where there is no
+    seed)."""
 
     map: MapArrays
     valid: Array
     values: dict
+    seed: Array
+
+
+@struct.dataclass
+class Level:
+    """The world a trainer picks for an environment's next episode (``EnvState.next_level``):
+    a seed (uint32, the build key ``world_key(seed)``), parameter values (``{name: float32}``,
+    which need not be the seed's own: an edited level) and ``chosen`` (bool: False lets the
+    reset draw a fresh seed, as it does without a curriculum). Leaves gain a leading ``[N]``
+    in a batch."""
+
+    seed: Array
+    values: dict
+    chosen: Array
+
+    @classmethod
+    def unset(cls, parameters: Any) -> Level:
+        """No level chosen (the next reset draws a fresh world), for a family with these
+        ``parameters`` (names)."""
+        return cls(seed=jnp.uint32(0),
+                   values={name: jnp.float32(jnp.nan) for name in sorted(parameters)},
+                   chosen=jnp.asarray(False))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -60,6 +90,9 @@ class WorldSource:
     seeds: tuple[int, int] | None = None
     # sorted hashes of worlds a draw must not take (a held-out split's: training refuses them)
     exclude: tuple[int, ...] = ()
+    # every world a seed and values, and a reset plays the Level the state holds when one is
+    # chosen (a trainer's curriculum); False: worlds straight from the reset's key
+    levels: bool = False
 
     @property
     def family(self) -> Family:
@@ -81,10 +114,12 @@ class WorldSource:
                          route_nodes=capacity.route_nodes,
                          check_dilemma=self.check_dilemma).valid
             fresh = ~is_excluded(values_hash(values), excluded)
-            return world, WorldDraw(map=arrays, valid=ok & fresh, values=values)
+            return world, WorldDraw(map=arrays, valid=ok & fresh, values=values,
+                                    seed=jnp.uint32(0))
 
         if key is None:  # one world by its seed (of_seed)
-            return propose(world_key(seed))
+            world, drawn = propose(world_key(seed))
+            return world, drawn.replace(seed=jnp.asarray(seed, jnp.uint32))
         if self.seeds is None:
             keys = jax.random.split(key, self.proposals)
             if self.exclude:  # each proposal skips held-out values before building anything
@@ -95,7 +130,48 @@ class WorldSource:
             keys = jax.vmap(world_key)(jnp.uint32(first) + index.astype(jnp.uint32))
         worlds, draws = jax.vmap(propose)(keys)
         first = jnp.argmax(draws.valid)  # the first valid one, else 0
+        if self.seeds is not None:
+            draws = draws.replace(seed=jnp.uint32(first) + index.astype(jnp.uint32))
         return jax.tree.map(lambda x: x[first], (worlds, draws))
+
+    def built(self, seed: Array, values: dict) -> tuple[World, WorldDraw]:
+        """The world of seed ``seed`` (uint32) built from ``values`` ({name: float32}, the
+        seed's own or edited ones) and its draw, checked (``valid``; a world whose values a
+        held-out split holds is not valid)."""
+        capacity = self.capacity
+        excluded = jnp.asarray(np.asarray(self.exclude, np.uint32))
+        seed = jnp.asarray(seed, jnp.uint32)
+        world = self.family.build(values, jax.random.split(world_key(seed))[1])
+        arrays, dist, overflow = world_arrays(world, capacity)
+        ok = verdict(world, dist, arrays.next_hop, overflow, self.robot_radius,
+                     route_nodes=capacity.route_nodes, check_dilemma=self.check_dilemma).valid
+        fresh = ~is_excluded(values_hash(values), excluded)
+        return world, WorldDraw(map=arrays, valid=ok & fresh, values=values, seed=seed)
+
+    def level_draw(self, key: Array, level: Level) -> WorldDraw:
+        """The world of a reset under a curriculum: ``level`` when it is chosen, else a fresh
+        seed from ``key`` with its own values (the first of ``proposals`` seeds that is valid,
+        each redrawn up to :data:`HOLDOUT_TRIES` times away from a held-out split's values).
+        One world is built per proposal either way (a chosen level fills every proposal)."""
+        ranges = range_arrays({name: (low, high) for name, low, high in self.ranges})
+        excluded = jnp.asarray(np.asarray(self.exclude, np.uint32))
+        tries = HOLDOUT_TRIES if self.exclude else 1
+        seeds = jax.random.bits(key, (self.proposals, tries), jnp.uint32)
+
+        def fresh_seed(row: Array) -> Array:
+            values = jax.vmap(lambda s: world_values(world_key(s), ranges))(row)
+            held = jax.vmap(lambda i: is_excluded(
+                values_hash({k: v[i] for k, v in values.items()}), excluded))(
+                jnp.arange(tries))
+            return row[jnp.minimum(jnp.argmin(held), tries - 1)]
+
+        seeds = jax.vmap(fresh_seed)(seeds) if self.exclude else seeds[:, 0]
+        seeds = jnp.where(level.chosen, level.seed, seeds)
+        own = jax.vmap(lambda s: world_values(world_key(s), ranges))(seeds)
+        values = {name: jnp.where(level.chosen, level.values[name], own[name])
+                  for name in own}
+        _, draws = jax.vmap(self.built)(seeds, values)
+        return jax.tree.map(lambda x: x[jnp.argmax(draws.valid)], draws)
 
     @staticmethod
     def _fresh_key(key: Array, ranges: dict, excluded: Array) -> Array:
@@ -119,14 +195,15 @@ class WorldSource:
 
 def source_for(family_name: str, ranges: dict | None = None, robot_radius: float = 0.25,
                proposals: int = 1, reach: float | None = None, check_dilemma: bool = True,
-               seeds: tuple[int, int] | None = None, holdout: tuple[int, int] | None = None
-               ) -> WorldSource:
+               seeds: tuple[int, int] | None = None, holdout: tuple[int, int] | None = None,
+               levels: bool = False) -> WorldSource:
     """A :class:`WorldSource` of a family by name, with ``ranges`` ({name: (low, high)}) on its
     defaults (checked), for robots up to ``robot_radius`` m (``reach``: the planner's, default
     the family capacity's), checking the dilemma too by default (for files). ``seeds``: play
     the worlds of this split ``(first, count)``; ``holdout``: never draw a world of that split
     (its worlds' hashes excluded, under the same ranges: each proposal redraws held-out values
-    before building)."""
+    before building). ``levels``: a trainer may pick each episode's world
+    (:meth:`WorldSource.level_draw`)."""
     fam = family(family_name)
     checked = fam.ranges(ranges)
     capacity = fam.capacity if reach is None else dataclasses.replace(fam.capacity,
@@ -135,7 +212,8 @@ def source_for(family_name: str, ranges: dict | None = None, robot_radius: float
         int(h) for h in split_hashes(fam, checked, *holdout))
     return WorldSource(fam.name, tuple((k, lo, hi) for k, (lo, hi) in sorted(checked.items())),
                        capacity, float(robot_radius), int(proposals), bool(check_dilemma),
-                       None if seeds is None else (int(seeds[0]), int(seeds[1])), exclude)
+                       None if seeds is None else (int(seeds[0]), int(seeds[1])), exclude,
+                       bool(levels))
 
 
 def sample_maps(source: WorldSource, count: int, seed: int) -> list[tuple[dict, bool]]:

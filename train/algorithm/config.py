@@ -1,10 +1,11 @@
 """Training configuration: YAML files validated into frozen dataclasses.
 
-A config file has the sections ``env``, ``algorithm``, ``network``, ``evaluation`` and
-``logging`` plus ``seed`` and ``num_seeds`` (see ``train/configs/doorway.yaml``, and
-``docs/training.md`` for every key and the SocialGym 2.0 key it replaces). Unknown keys and bad
-values are errors naming the file, the key and the nearest valid key. ``--set a.b=value`` on the
-command line overrides one key (the value is read as YAML).
+A config file has the sections ``env``, ``algorithm``, ``network``, ``evaluation``,
+``levels`` (a curriculum over generated worlds) and ``logging`` plus ``seed`` and
+``num_seeds`` (see ``train/configs/doorway.yaml``, and ``docs/training.md`` for every key
+and the SocialGym 2.0 key it replaces). Unknown keys and bad values are errors naming the
+file, the key and the nearest valid key. ``--set a.b=value`` on the command line overrides
+one key (the value is read as YAML).
 """
 
 from __future__ import annotations
@@ -304,6 +305,45 @@ class EvaluationConfig:
             check_int(f"num_agents[{i}]", n)
 
 
+CURRICULA = ("dr", "plr", "accel", "learnability")
+
+
+@dataclasses.dataclass(frozen=True)
+class LevelsConfig:
+    """The curriculum over generated worlds (scenarios ``generated:<family>``;
+    :mod:`train.algorithm.level_buffer`). ``dr``: domain randomisation, a fresh world at every
+    episode. ``plr``: prioritised level replay (a buffer of ``buffer_size`` levels per family,
+    scored by positive value loss; an environment replays one with probability
+    ``replay_prob`` once the buffer is ``min_fill`` full, sampled by rank with
+    ``temperature`` and by staleness with weight ``staleness``). ``accel``: PLR whose replays
+    are edited with probability ``mutate_prob`` (``edits`` parameters each moved by up to
+    ``edit_scale`` of its range). ``learnability``: PLR's buffer scored by ``p (1 - p)``, p the
+    level's robot success (SFL)."""
+
+    method: str = "dr"
+    buffer_size: int = 256
+    replay_prob: float = 0.5
+    min_fill: float = 0.5
+    temperature: float = 0.3
+    staleness: float = 0.3
+    mutate_prob: float = 0.5
+    edits: int = 1
+    edit_scale: float = 0.2
+
+    def __post_init__(self) -> None:
+        check_choice("method", self.method, CURRICULA)
+        check_int("buffer_size", self.buffer_size)
+        check_int("edits", self.edits)
+        for name in ("replay_prob", "min_fill", "staleness", "mutate_prob", "edit_scale"):
+            check_range(name, getattr(self, name), 0.0, 1.0)
+        check_positive("temperature", self.temperature)
+
+    @property
+    def active(self) -> bool:
+        """Whether the trainer picks worlds (every method but ``dr``)."""
+        return self.method != "dr"
+
+
 @dataclasses.dataclass(frozen=True)
 class LoggingConfig:
     out: str = "runs/train"
@@ -321,6 +361,7 @@ class TrainConfig:
     algorithm: AlgorithmConfig = dataclasses.field(default_factory=AlgorithmConfig)
     network: NetworkConfig = dataclasses.field(default_factory=NetworkConfig)
     evaluation: EvaluationConfig = dataclasses.field(default_factory=EvaluationConfig)
+    levels: LevelsConfig = dataclasses.field(default_factory=LevelsConfig)
     logging: LoggingConfig = dataclasses.field(default_factory=LoggingConfig)
     seed: int = 0
     num_seeds: int = 1  # trained at once with vmap
@@ -338,7 +379,7 @@ class TrainConfig:
 
 
 SECTIONS = {"env": EnvSection, "algorithm": AlgorithmConfig, "network": NetworkConfig,
-            "evaluation": EvaluationConfig, "logging": LoggingConfig}
+            "evaluation": EvaluationConfig, "levels": LevelsConfig, "logging": LoggingConfig}
 # The evaluations of train.reproduce and train.ablation play the episodes of key
 # ``seed + EVALUATION_SEED_OFFSET``: never one of the training lanes' keys (``seed + i``, i below
 # the number of seeds).

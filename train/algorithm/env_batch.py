@@ -15,6 +15,7 @@ from jax import Array
 
 from sgjax.environment.env import SocialNavEnv
 from sgjax.environment.registry import make
+from sgjax.maps.generated.families import PREFIX as GENERATED
 from sgjax.terms.base import ConfigError
 from train.algorithm.config import TrainConfig
 
@@ -31,10 +32,20 @@ class EnvBatch:
                               f"least the number of scenarios ({count})")
         base, extra = divmod(config.algorithm.num_envs, count)
         self.sizes = tuple(base + (i < extra) for i in range(count))
-        pairs = [make(s, options=e.options, num_agents=e.curriculum[0][1],
-                      max_agents=e.slots) for s in e.scenarios]
+        # Under a curriculum of worlds the trainer picks each generated world (levels).
+        picked = [config.levels.active and s.startswith(GENERATED) for s in e.scenarios]
+        if config.levels.active and not any(picked):
+            raise ConfigError(f"levels.method {config.levels.method!r} picks generated worlds, "
+                              f"but env.scenarios {list(e.scenarios)} has none "
+                              f"({GENERATED}<family>)")
+        pairs = [make(s, options=e.options.replace(world_levels=True) if pick else e.options,
+                      num_agents=e.curriculum[0][1], max_agents=e.slots)
+                 for s, pick in zip(e.scenarios, picked, strict=True)]
         self.envs = tuple(env for env, _ in pairs)
         self.params = tuple(params for _, params in pairs)
+        # each scenario's world source when the trainer picks its worlds, else None
+        self.level_sources = tuple(env.config.world if pick else None
+                                   for env, pick in zip(self.envs, picked, strict=True))
         first = self.envs[0]
         for scenario, env in zip(e.scenarios, self.envs, strict=True):
             if env.observation_size != first.observation_size:
@@ -53,7 +64,8 @@ class EnvBatch:
     def _params(self, num_agents: Array) -> tuple:
         return tuple(p.replace(num_agents=num_agents) for p in self.params)
 
-    def _split(self, x: Array) -> list[Array]:
+    def split(self, x: Array) -> list[Array]:
+        """``x [E, ...]`` cut into the scenarios' shares ``[E_s, ...]``."""
         out, start = [], 0
         for size in self.sizes:
             out.append(x[start:start + size])
@@ -61,7 +73,7 @@ class EnvBatch:
         return out
 
     def reset(self, key: Array, num_agents: Array) -> tuple[Array, tuple]:
-        keys = self._split(jax.random.split(key, sum(self.sizes)))
+        keys = self.split(jax.random.split(key, sum(self.sizes)))
         obs, states = [], []
         for env, params, k in zip(self.envs, self._params(num_agents), keys, strict=True):
             o, s = jax.vmap(env.reset, in_axes=(0, None))(k, params)
@@ -71,10 +83,10 @@ class EnvBatch:
 
     def step(self, key: Array, states: tuple, actions: Array, num_agents: Array
              ) -> tuple[Array, tuple, Array, Array, Array, dict]:
-        keys = self._split(jax.random.split(key, sum(self.sizes)))
+        keys = self.split(jax.random.split(key, sum(self.sizes)))
         parts = []
         for env, params, k, s, a in zip(self.envs, self._params(num_agents), keys, states,
-                                        self._split(actions), strict=True):
+                                        self.split(actions), strict=True):
             obs, state, reward, term, trunc, info = env.step_batch(k, s, a, params)
             final = info["final_robots"]
             parts.append((obs, state, reward, term, trunc, {

@@ -20,13 +20,14 @@ from jax import Array
 from sgjax.evaluation.metrics import team_success
 from sgjax.kernels.row_chunks import chunk_size, update_flagged_rows
 from train.algorithm.actor import ActorLayout, agent_inputs, head_log_std
-from train.algorithm.config import AlgorithmConfig, NetworkConfig
+from train.algorithm.config import AlgorithmConfig, LevelsConfig, NetworkConfig
 from train.algorithm.env_batch import EnvBatch, share_rewards
 from train.algorithm.gae import gae
 from train.algorithm.lane_settings import LaneSettings
 from train.algorithm.networks import ActorCritic, log_prob, sample
 from train.algorithm.normalize import RunningStats
 from train.algorithm.state import Rollout, RunnerState, Transition
+from train.algorithm.world_curriculum import choose_levels, played_levels, record_levels
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -42,6 +43,7 @@ class RolloutParts:
     mappo: bool
     stage_steps: Array  # [stages] int32: the curriculum's first environment step of each stage
     stage_counts: Array  # [stages] int32: its robot count
+    levels: LevelsConfig = LevelsConfig()  # the curriculum over generated worlds
 
     @property
     def num_envs(self) -> int:
@@ -69,6 +71,7 @@ def env_step(parts: RolloutParts, runner: RunnerState, _: Any = None
     a, batch = parts.algorithm, parts.batch
     num_envs, slots = parts.num_envs, parts.slots
     key, k_act, k_env = jax.random.split(runner.key, 3)
+    played = played_levels(batch, runner.env_states) if parts.levels.active else None
     active = batch.active_slots(runner.env_states)  # [E, R]
     obs_stats = runner.obs_stats
     if a.normalize_observations:
@@ -118,13 +121,19 @@ def env_step(parts: RolloutParts, runner: RunnerState, _: Any = None
     episode_return = runner.episode_return + jnp.where(active, reward, 0.0)
     log = episode_logs(episode_done, info["final_present"], info["final_succeeded"],
                        episode_return)
+    ended = None
+    if played is not None:  # what a curriculum records of the episodes that ended
+        present = info["final_present"]
+        ended = {"done": episode_done, "played": played,
+                 "success": (jnp.sum(present & info["final_succeeded"], axis=1)
+                             / jnp.maximum(jnp.sum(present, axis=1), 1))}
     runner = runner.replace(
         obs_stats=obs_stats, return_stats=return_stats, returns=returns,
         episode_return=jnp.where(episode_done[:, None], 0.0, episode_return),
         env_states=states, obs=obs, carry=carry,
         starts=jnp.broadcast_to(episode_done[:, None], (num_envs, slots)),
         key=key, steps=runner.steps + num_envs)
-    return runner, (transition, log)
+    return runner, (transition, log, ended)
 
 
 def episode_logs(episode_done: Array, present: Array, succeeded: Array,
@@ -183,14 +192,30 @@ def critic_value(parts: RolloutParts, params: Any, carry: tuple, actor_in: Array
 
 def collect(parts: RolloutParts, runner: RunnerState) -> tuple[RunnerState, Rollout, dict]:
     """``num_steps`` steps of the whole batch (:func:`env_step`), then GAE. Returns the
-    advanced runner, the learning phase's data and the per-step logs ``[T]``."""
+    advanced runner, the learning phase's data and the per-step logs ``[T]``.
+
+    Under a curriculum over generated worlds (``parts.levels``), the levels of the next
+    episodes are chosen before the steps and the episodes that ended are scored and recorded
+    after GAE (:mod:`train.algorithm.world_curriculum`; its buffer statistics join the logs)."""
+    batch, levels = parts.batch, parts.levels
+    if levels.active:
+        key, k_levels = jax.random.split(runner.key)
+        buffers, states = choose_levels(batch, levels, k_levels, runner.levels,
+                                        runner.env_states, runner.steps)
+        runner = runner.replace(key=key, levels=buffers, env_states=states)
     memory = runner.carry
-    runner, (traj, logs) = jax.lax.scan(lambda r, x: env_step(parts, r, x), runner, None,
-                                        parts.algorithm.num_steps)
+    runner, (traj, logs, ended) = jax.lax.scan(lambda r, x: env_step(parts, r, x), runner,
+                                               None, parts.algorithm.num_steps)
     actor_in, critic_in = parts.inputs(runner.obs_stats, runner.obs)
     last_value = critic_value(parts, runner.params, runner.carry, actor_in, critic_in,
                               runner.starts.reshape(-1))
     settings, hyper = parts.settings, runner.hyper
     advantages, targets = gae(traj, last_value, settings.read(hyper, "gamma"),
                               settings.read(hyper, "gamma_lambda"))
+    if levels.active:
+        buffers, stats = record_levels(batch, levels, runner.levels, runner.steps, advantages,
+                                       traj.active, ended)
+        runner = runner.replace(levels=buffers)
+        steps = parts.algorithm.num_steps  # logs are per step, summed per update
+        logs = {**logs, **{name: jnp.full(steps, value / steps) for name, value in stats.items()}}
     return runner, Rollout(memory, traj, advantages, targets), logs

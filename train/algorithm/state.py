@@ -30,6 +30,9 @@ class RunnerState:
     # {LANE_SETTINGS name: float32, "gamma_lambda"}: this lane's algorithm numbers, which the
     # program reads for the settings its Trainer's ``varied`` names (LaneSettings.read)
     hyper: dict
+    # a curriculum over generated worlds: a LevelBuffer per scenario (None where the trainer
+    # does not pick worlds); () without one (train.algorithm.world_curriculum)
+    levels: tuple = ()
 
 
 @struct.dataclass

@@ -47,6 +47,7 @@ from train.algorithm.networks import ActorCritic, initial_carry, most_seen, othe
 from train.algorithm.normalize import RunningStats
 from train.algorithm.rollout import RolloutParts, collect
 from train.algorithm.state import Rollout, RunnerState
+from train.algorithm.world_curriculum import empty_buffers
 
 
 class Trainer:
@@ -99,7 +100,8 @@ class Trainer:
             batch=self.batch, network=self.network, network_config=config.network,
             layout=self.actor, algorithm=a, settings=self.settings, mappo=self.mappo,
             stage_steps=jnp.asarray([s for s, _ in stages], jnp.int32),
-            stage_counts=jnp.asarray([n for _, n in stages], jnp.int32))
+            stage_counts=jnp.asarray([n for _, n in stages], jnp.int32),
+            levels=config.levels)
         self.learner = Learner(self.network, self.optimizer, a, self.settings, self.num_agents,
                                self.batch.discrete, self.compact,
                                recurrent=config.network.kind == "gru")
@@ -174,7 +176,8 @@ class Trainer:
             params=params, opt_state=self.optimizer.init(params), obs_stats=obs_stats,
             return_stats=RunningStats.start(1), returns=zeros, episode_return=zeros,
             env_states=states, obs=obs, carry=carry, starts=starts, key=k_run, steps=steps,
-            term_weights=weights, obs_mask=mask, hyper=hyper)
+            term_weights=weights, obs_mask=mask, hyper=hyper,
+            levels=empty_buffers(self.batch, self.config.levels))
 
     # ------------------------------------------------------------------ updates
     def collect(self, runner: RunnerState) -> tuple[RunnerState, Rollout, dict]:

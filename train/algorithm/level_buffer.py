@@ -1,0 +1,219 @@
+"""A curriculum over generated worlds as pure functions: a replay buffer of levels per
+scenario (prioritised level replay, PLR), edited levels (ACCEL) and learnability scores (SFL).
+
+A level is a world's seed and parameter values (:class:`sgjax.environment.worlds.Level`: the
+environment builds it again exactly). Before every rollout, :func:`next_levels` picks the world
+of each environment's next episode: a level replayed from the buffer with probability
+``replay_prob`` once the buffer is ``min_fill`` full (sampled by rank of score and by
+staleness, as PLR does), under ``accel`` an edit of the replayed level with probability
+``mutate_prob`` (a few parameters moved within their ranges: a door widened or narrowed or
+moved, an arm turned), and otherwise a fresh world. After the rollout, :func:`episode_scores`
+scores every episode that ended and :func:`record` keeps the best-scoring levels.
+
+Scores (``LevelsConfig.method``):
+
+* ``plr`` and ``accel``: the positive value loss, the mean over the episode's steps of the
+  acting robots' mean positive GAE advantage (JaxUED's ``pvl``; the latest episode's score
+  replaces a replayed level's);
+* ``learnability``: ``p (1 - p)``, ``p`` the level's mean robot success over its plays (SFL's
+  learnability: highest where the policy succeeds half the time).
+
+Shapes: ``N`` buffer slots, ``E`` environments of the scenario, ``T`` rollout steps. Times are
+environment steps of the whole batch (``RunnerState.steps``)."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+from jax import Array
+
+from sgjax.environment.worlds import Level
+
+NEVER = jnp.float32(-jnp.inf)
+
+
+@struct.dataclass
+class LevelBuffer:
+    """One scenario's levels (``[N]`` slots) and the running scores of its environments'
+    current episodes (``[E]``)."""
+
+    seed: Array  # [N] uint32
+    values: dict  # {parameter: [N] float32}
+    score: Array  # [N] float32, -inf where empty
+    plays: Array  # [N] float32 episodes played on the level
+    success: Array  # [N] float32 mean robot success over those episodes
+    last_played: Array  # [N] int32 environment steps when it was last played
+    filled: Array  # [N] bool
+    episode_score: Array  # [E] float32 sum of the current episode's step scores so far
+    episode_steps: Array  # [E] float32 steps of it with an acting robot
+    replayed: Array  # [E] bool: the current rollout's next episode is a chosen level
+
+    @classmethod
+    def empty(cls, parameters: tuple[str, ...], size: int, num_envs: int) -> LevelBuffer:
+        """An empty buffer of ``size`` levels of a family with these ``parameters``, for
+        ``num_envs`` environments."""
+        zeros = jnp.zeros(size, jnp.float32)
+        return cls(seed=jnp.zeros(size, jnp.uint32),
+                   values={name: zeros for name in sorted(parameters)},
+                   score=jnp.full(size, NEVER), plays=zeros, success=zeros,
+                   last_played=jnp.zeros(size, jnp.int32), filled=jnp.zeros(size, bool),
+                   episode_score=jnp.zeros(num_envs, jnp.float32),
+                   episode_steps=jnp.zeros(num_envs, jnp.float32),
+                   replayed=jnp.zeros(num_envs, bool))
+
+    @property
+    def fill(self) -> Array:
+        """Share of slots holding a level (float32)."""
+        return jnp.mean(self.filled.astype(jnp.float32))
+
+
+def replay_weights(buffer: LevelBuffer, now: Array, temperature: float,
+                   staleness: float) -> Array:
+    """PLR's replay distribution ``[N]`` over the filled slots: ``(1 - staleness) x`` rank
+    prioritisation (weight ``(1 / rank) ^ (1 / temperature)``, rank 1 the highest score) plus
+    ``staleness x`` the steps since each level was last played, each normalised."""
+    order = jnp.argsort(jnp.where(buffer.filled, -buffer.score, jnp.inf))
+    rank = jnp.empty_like(order).at[order].set(jnp.arange(1, order.size + 1))
+    by_score = jnp.where(buffer.filled, (1.0 / rank) ** (1.0 / temperature), 0.0)
+    age = jnp.where(buffer.filled, (now - buffer.last_played).astype(jnp.float32), 0.0)
+    by_age = age / jnp.maximum(jnp.sum(age), 1e-9)
+    by_score = by_score / jnp.maximum(jnp.sum(by_score), 1e-30)
+    stale = jnp.where(jnp.sum(age) > 0, staleness, 0.0)
+    return (1.0 - stale) * by_score + stale * by_age
+
+
+def edit(key: Array, values: dict, ranges: dict[str, tuple[float, float]], edits: int,
+         scale: float) -> dict:
+    """ACCEL's mutation of one level's values: ``edits`` parameters (drawn with repeats
+    allowed; fixed ones, ``low == high``, never move) each moved by up to ``scale`` of its
+    range's width either way, clipped to the range."""
+    names = sorted(values)
+    low = jnp.asarray([ranges[n][0] for n in names], jnp.float32)
+    high = jnp.asarray([ranges[n][1] for n in names], jnp.float32)
+    vector = jnp.stack([values[n] for n in names])
+    k_which, k_step = jax.random.split(key)
+    movable = high > low
+    which = jax.random.choice(k_which, len(names), (edits,),
+                              p=movable / jnp.maximum(jnp.sum(movable), 1))
+    step = jax.random.uniform(k_step, (edits,), jnp.float32, -scale, scale)
+    vector = vector.at[which].add(step * (high - low)[which])
+    vector = jnp.clip(vector, low, high)
+    return {n: vector[i] for i, n in enumerate(names)}
+
+
+def next_levels(key: Array, buffer: LevelBuffer, now: Array, ranges: dict, *,
+                replay_prob: float, min_fill: float, temperature: float, staleness: float,
+                mutate_prob: float, edits: int, edit_scale: float
+                ) -> tuple[Level, LevelBuffer]:
+    """The level of each environment's next episode ``[E]`` (chosen, or unset for a fresh
+    world; see the module doc) and the buffer with the replayed levels' last-played times and
+    ``replayed`` set. ``mutate_prob`` 0: no edits (PLR)."""
+    num_envs = buffer.episode_score.shape[0]
+    k_replay, k_pick, k_mutate, k_edit = jax.random.split(key, 4)
+    ready = buffer.fill >= min_fill
+    replay = ready & (jax.random.uniform(k_replay, (num_envs,)) < replay_prob)
+    weights = replay_weights(buffer, now, temperature, staleness)
+    pick = jax.random.choice(k_pick, weights.size, (num_envs,), p=weights)
+    values = {name: v[pick] for name, v in buffer.values.items()}
+    mutate = replay & (jax.random.uniform(k_mutate, (num_envs,)) < mutate_prob)
+    if mutate_prob > 0:
+        edited = jax.vmap(lambda k, v: edit(k, v, ranges, edits, edit_scale))(
+            jax.random.split(k_edit, num_envs), values)
+        values = {name: jnp.where(mutate, edited[name], v) for name, v in values.items()}
+    level = Level(seed=buffer.seed[pick], values=values, chosen=replay)
+    played = jnp.where(replay & ~mutate, pick, weights.size)  # an edit is a new level
+    buffer = buffer.replace(last_played=buffer.last_played.at[played].set(now, mode="drop"),
+                            replayed=replay)
+    return level, buffer
+
+
+def step_scores(advantages: Array, active: Array, num_envs: int) -> tuple[Array, Array]:
+    """Each environment's positive value loss per step ``[T, E]`` (the mean over its acting
+    robots of ``max(advantage, 0)``) and whether any robot acted ``[T, E]``, from
+    ``advantages`` and ``active [T, E x R]``."""
+    steps = advantages.shape[0]
+    adv = advantages.reshape(steps, num_envs, -1)
+    acting = active.reshape(steps, num_envs, -1).astype(jnp.float32)
+    count = jnp.sum(acting, axis=2)
+    mean = jnp.sum(jnp.maximum(adv, 0.0) * acting, axis=2) / jnp.maximum(count, 1.0)
+    return mean, count > 0
+
+
+def episode_scores(buffer: LevelBuffer, scores: Array, stepped: Array, done: Array
+                   ) -> tuple[Array, LevelBuffer]:
+    """The score of every episode that ended in the rollout ``[T, E]`` (the mean of its step
+    ``scores [T, E]`` over the steps where a robot acted, ``stepped``, this rollout's and the
+    earlier ones'; 0 elsewhere) and the buffer with the running sums of the episodes still
+    going. ``done [T, E]``: the episode ended at that step."""
+
+    def one(carry: tuple, x: tuple) -> tuple:
+        total, count = carry
+        score, acted, ended = x
+        total = total + jnp.where(acted, score, 0.0)
+        count = count + acted
+        out = jnp.where(ended, total / jnp.maximum(count, 1.0), 0.0)
+        return (jnp.where(ended, 0.0, total), jnp.where(ended, 0.0, count)), out
+
+    (total, count), out = jax.lax.scan(one, (buffer.episode_score, buffer.episode_steps),
+                                       (scores, stepped.astype(jnp.float32), done))
+    return out, buffer.replace(episode_score=total, episode_steps=count)
+
+
+def record(buffer: LevelBuffer, now: Array, seed: Array, values: dict, valid: Array,
+           done: Array, score: Array, success: Array, learnability: bool,
+           candidates: int) -> LevelBuffer:
+    """The buffer after the episodes that ended in a rollout (``[T, E]`` each: the seed and
+    values of the level played, whether it was valid, ``done``, the episode's PVL ``score``
+    and its robots' ``success`` share): at most ``candidates`` of them (the first to end)
+    are recorded. A level already held gets its new score (under ``learnability``, its
+    success mean updated first); new valid levels replace the lowest scores when they score
+    higher. Levels are equal when their seeds and every value are."""
+    flat = lambda x: x.reshape(-1)  # noqa: E731
+    ended = flat(done) & flat(valid)
+    order = jnp.argsort(~ended, stable=True)[:candidates]
+    keep = ended[order]
+    c_seed = flat(seed)[order]
+    c_values = {n: flat(v)[order] for n, v in values.items()}
+    c_success = flat(success)[order]
+    c_score = flat(score)[order]
+
+    def same(seed_a: Array, values_a: dict, seed_b: Array, values_b: dict) -> Array:
+        eq = seed_a[:, None] == seed_b[None, :]
+        for n in values_a:
+            eq = eq & (values_a[n][:, None] == values_b[n][None, :])
+        return eq
+
+    held = (same(c_seed, c_values, buffer.seed, buffer.values) & buffer.filled[None, :]
+            & keep[:, None])
+    known = jnp.any(held, axis=1)
+    slot = jnp.where(known, jnp.argmax(held, axis=1), buffer.seed.size)
+
+    # Replayed levels: their success mean and score updated (the last episode's wins ties).
+    plays = buffer.plays.at[slot].add(1.0, mode="drop")
+    success_sum = (buffer.success * buffer.plays).at[slot].add(c_success, mode="drop")
+    success = success_sum / jnp.maximum(plays, 1.0)
+    if learnability:
+        score = jnp.where(plays > buffer.plays, success * (1.0 - success), buffer.score)
+    else:
+        score = buffer.score.at[slot].set(c_score, mode="drop")
+    last = buffer.last_played.at[slot].set(now, mode="drop")
+    buffer = buffer.replace(plays=plays, success=success, score=score, last_played=last)
+
+    # New levels: the first of each kind among the candidates, competing for the slots.
+    twin = same(c_seed, c_values, c_seed, c_values) & keep[None, :]
+    earlier = jnp.tril(twin, k=-1)
+    new = keep & ~known & ~jnp.any(earlier, axis=1)
+    new_score = c_success * (1.0 - c_success) if learnability else c_score
+    pool = jnp.concatenate([jnp.where(buffer.filled, buffer.score, NEVER),
+                            jnp.where(new, new_score, NEVER)])
+    top = jax.lax.top_k(pool, buffer.seed.size)[1]  # empty slots (-inf) rank last
+    join = lambda a, b: jnp.concatenate([a, b])[top]  # noqa: E731
+    return buffer.replace(
+        seed=join(buffer.seed, c_seed),
+        values={n: join(buffer.values[n], c_values[n]) for n in buffer.values},
+        score=pool[top],
+        plays=join(buffer.plays, jnp.ones_like(c_score)),
+        success=join(buffer.success, c_success),
+        last_played=join(buffer.last_played, jnp.full(c_score.shape, now, jnp.int32)),
+        filled=join(buffer.filled, new))

@@ -1,0 +1,95 @@
+"""The trainer's curriculum over generated worlds (``levels`` in a config): one level buffer
+per generated scenario of the environment batch, the levels of the next episodes written into
+the environments' states before a rollout (:func:`choose_levels`), and the episodes that ended
+in it scored and recorded after GAE (:func:`record_levels`). The buffers live in the runner
+state, so every lane (seed) keeps its own curriculum; :mod:`train.algorithm.level_buffer`
+holds the pure buffer functions."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+from jax import Array
+
+from train.algorithm.config import LevelsConfig
+from train.algorithm.env_batch import EnvBatch
+from train.algorithm.level_buffer import (
+    LevelBuffer,
+    episode_scores,
+    next_levels,
+    record,
+    step_scores,
+)
+
+
+def empty_buffers(batch: EnvBatch, levels: LevelsConfig) -> tuple[LevelBuffer | None, ...]:
+    """An empty buffer for every scenario whose worlds the trainer picks (None for the
+    others), or ``()`` without a curriculum."""
+    if not levels.active:
+        return ()
+    return tuple(None if source is None else LevelBuffer.empty(
+        tuple(source.family.parameters), levels.buffer_size, size)
+        for source, size in zip(batch.level_sources, batch.sizes, strict=True))
+
+
+def choose_levels(batch: EnvBatch, levels: LevelsConfig, key: Array, buffers: tuple,
+                  env_states: tuple, now: Array) -> tuple[tuple, tuple]:
+    """Every picked scenario's next levels written into its environments' states
+    (``EnvState.next_level``): ``(buffers, env_states)``."""
+    out_buffers, out_states = [], []
+    keys = jax.random.split(key, len(batch.sizes))
+    for source, buffer, state, k in zip(batch.level_sources, buffers, env_states, keys,
+                                        strict=True):
+        if source is None:
+            out_buffers.append(buffer)
+            out_states.append(state)
+            continue
+        ranges = {name: (low, high) for name, low, high in source.ranges}
+        level, buffer = next_levels(
+            k, buffer, now, ranges, replay_prob=levels.replay_prob, min_fill=levels.min_fill,
+            temperature=levels.temperature, staleness=levels.staleness,
+            mutate_prob=levels.mutate_prob if levels.method == "accel" else 0.0,
+            edits=levels.edits, edit_scale=levels.edit_scale)
+        out_buffers.append(buffer)
+        out_states.append(state.replace(next_level=level))
+    return tuple(out_buffers), tuple(out_states)
+
+
+def played_levels(batch: EnvBatch, env_states: tuple) -> tuple:
+    """The level each environment is playing, per picked scenario (``(seed, values, valid)``,
+    ``[E_s]`` each; None for the others): what a step's episode ends on."""
+    return tuple(None if source is None else (state.world.seed, state.world.values,
+                                              state.world.valid)
+                 for source, state in zip(batch.level_sources, env_states, strict=True))
+
+
+def record_levels(batch: EnvBatch, levels: LevelsConfig, buffers: tuple, now: Array,
+                  advantages: Array, active: Array, ended: dict) -> tuple[tuple, dict]:
+    """The buffers after a rollout: every episode that ended scored (its positive value
+    loss from ``advantages [T, B]`` over ``active [T, B]``) and recorded. ``ended``: the
+    rollout's ``{"done": [T, E], "success": [T, E], "played": per scenario [T, E_s]}``.
+    Returns the buffers and their statistics (means over the picked scenarios): ``fill``,
+    ``replayed`` (share of environments whose next episode was a chosen level) and
+    ``score`` (mean score of the held levels)."""
+    num_envs = sum(batch.sizes)
+    scores, stepped = step_scores(advantages, active, num_envs)
+    parts = zip(batch.level_sources, buffers, batch.split(scores.T), batch.split(stepped.T),
+                batch.split(ended["done"].T), batch.split(ended["success"].T), ended["played"],
+                strict=True)
+    out, stats = [], []
+    for source, buffer, score, acted, done, success, played in parts:
+        if source is None:
+            out.append(buffer)
+            continue
+        episode, buffer = episode_scores(buffer, score.T, acted.T, done.T)
+        seed, values, valid = played
+        buffer = record(buffer, now, seed, values, valid, done.T, episode, success.T,
+                        learnability=levels.method == "learnability",
+                        candidates=2 * buffer.episode_score.shape[0])
+        out.append(buffer)
+        held = jnp.where(buffer.filled, buffer.score, 0.0)
+        stats.append((buffer.fill, jnp.mean(buffer.replayed.astype(jnp.float32)),
+                      jnp.sum(held) / jnp.maximum(jnp.sum(buffer.filled), 1)))
+    means = [jnp.mean(jnp.stack(column)) for column in zip(*stats, strict=True)]
+    return tuple(out), dict(zip(("levels_fill", "levels_replayed", "levels_score"), means,
+                                strict=True))
