@@ -1,0 +1,111 @@
+"""``world_levels``: a trainer picks each episode's generated world. Every world is then a seed
+and parameter values (``WorldDraw.seed``), a reset plays the level ``EnvState.next_level``
+holds when it is chosen (the seed's own world, or one with edited values) and a fresh seed
+otherwise, the choice is used once, and ``step_batch`` equals ``vmap(step)`` with levels too."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import sgjax
+from sgjax.environment.worlds import Level
+
+
+@pytest.fixture(scope="module")
+def doorway():
+    return sgjax.make("generated:doorway", num_agents=2, time_limit=3.0, world_levels=True)
+
+
+def _same(a, b, tolerance=0.0):
+    for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b), strict=True):
+        np.testing.assert_allclose(np.asarray(x, np.float64), np.asarray(y, np.float64),
+                                   atol=tolerance, rtol=0)
+
+
+def _level(values: dict, seed: int, chosen: bool, count: int) -> Level:
+    level = Level(seed=jnp.uint32(seed), values=values, chosen=jnp.asarray(chosen))
+    return jax.tree.map(lambda x: jnp.broadcast_to(x, (count,) + jnp.shape(x)), level)
+
+
+def test_a_fresh_world_is_its_seeds_world_and_the_reset_key_fixes_it(doorway):
+    env, params = doorway
+    source = env.config.world
+    reset = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))
+    keys = jax.random.split(jax.random.key(3), 16)
+    _, states = reset(keys, params)
+    _, again = reset(keys, params)
+    _same(states, again)
+    seeds = np.asarray(states.world.seed)
+    assert len(set(seeds.tolist())) == 16
+    assert not np.asarray(states.next_level.chosen).any()  # nothing chosen yet
+    for i in (0, 7, 15):
+        own = source.of_seed(int(seeds[i]))  # eager: the same world up to float rounding
+        _same(own.map, jax.tree.map(lambda x, i=i: x[i], states.world.map), 1e-5)
+        _same(own.values, {k: v[i] for k, v in states.world.values.items()})
+
+
+@pytest.mark.slow
+def test_an_ended_episode_plays_the_chosen_level_once_then_fresh_worlds(doorway):
+    env, params = doorway
+    source = env.config.world
+    count = 4
+    edited = dict(source.of_seed(41).values)
+    edited["door_width"] = jnp.float32(1.55)  # an ACCEL-style edit of world 41
+    _, states = jax.vmap(env.reset, in_axes=(0, None))(
+        jax.random.split(jax.random.key(4), count), params)
+    chosen = jnp.asarray([True, True, False, True])
+    level = _level(edited, 41, True, count).replace(chosen=chosen)
+    states = states.replace(next_level=level)
+    step = jax.jit(lambda k, s: env.step_batch(k, s, jnp.ones((count, env.max_agents),
+                                                                jnp.int32), params))
+    episodes = np.zeros(count, int)
+    for t in range(80):
+        _, states, _, _, _, info = step(jax.random.split(jax.random.key(500 + t), count), states)
+        done = np.asarray(info["episode_done"])
+        seeds = np.asarray(states.world.seed)
+        for i in np.flatnonzero(done):
+            episodes[i] += 1
+            if episodes[i] == 1 and bool(chosen[i]):
+                assert seeds[i] == 41
+                assert float(states.world.values["door_width"][i]) == pytest.approx(1.55)
+                built = source.built(jnp.uint32(41), edited)[1]
+                _same(built.map, jax.tree.map(lambda x, i=i: x[i], states.world.map), 1e-5)
+            else:  # the choice was used: a fresh seed
+                assert seeds[i] != 41
+        assert not np.asarray(states.next_level.chosen)[done].any()
+    assert (episodes >= 2).all()
+
+
+@pytest.mark.slow
+def test_vmap_of_step_equals_step_batch_with_chosen_levels(doorway):
+    env, params = doorway
+    count = 3
+    _, states = jax.vmap(env.reset, in_axes=(0, None))(
+        jax.random.split(jax.random.key(5), count), params)
+    values = env.config.world.of_seed(9).values
+    states = states.replace(next_level=_level(values, 9, True, count).replace(
+        chosen=jnp.asarray([True, False, True])))
+    actions = jnp.ones((count, env.max_agents), jnp.int32)
+    batched = jax.jit(lambda k, s: env.step_batch(k, s, actions, params))
+    looped = jax.jit(jax.vmap(lambda k, s: env.step(k, s, jnp.ones(env.max_agents, jnp.int32),
+                                                    params)))
+    one, two = states, states
+    for t in range(35):
+        keys = jax.random.split(jax.random.key(300 + t), count)
+        out_one, out_two = batched(keys, one), looped(keys, two)
+        _same(out_one, out_two)
+        one, two = out_one[1], out_two[1]
+    assert (np.asarray(one.world.seed)[[0, 2]] == 9).all()
+
+
+def test_a_level_with_held_out_values_is_not_valid():
+    env, _ = sgjax.make("generated:doorway", num_agents=2, world_levels=True,
+                        world_holdout=[1000, 4])
+    source = env.config.world
+    held = source.of_seed(1001)
+    assert not bool(held.valid)  # a held-out world's values, whatever the seed
+    assert not bool(source.built(jnp.uint32(7), held.values)[1].valid)
+    assert bool(source.built(jnp.uint32(7), source.of_seed(7).values)[1].valid)
