@@ -25,6 +25,10 @@ takes them); a variant with its own network or settings trains as its own vmap::
     GRU: {network: {kind: gru}}
     own reward: {set: {algorithm.team_reward: 0.0}}
 
+A variant's ``levels`` (``dr``, ``plr``, ``accel``, ``learnability``) trains it under that
+curriculum over generated worlds, as a lane beside the others (the config's ``levels``
+section active; ``train/configs/variants/transfer_curriculum-methods.yaml``).
+
 ``--robots 4 7`` evaluates every lane at each count (one compiled evaluation) and prints a table
 per count.
 """
@@ -55,6 +59,7 @@ from sgjax.terms.base import ConfigError
 from sgjax.validation import check_keys, freeze, thaw
 from train.algorithm.actor import ActorWeights
 from train.algorithm.config import (
+    CURRICULA,
     EVALUATION_SEED_OFFSET,
     TrainConfig,
     as_trained,
@@ -82,18 +87,26 @@ class Variant:
     hide: tuple[str, ...] = ()
     network: tuple[tuple[str, Any], ...] = ()  # (key, value) of the network section to change
     settings: tuple[tuple[str, Any], ...] = ()  # ("section.key", value): other config keys
+    # a curriculum over generated worlds (dr, plr, accel, learnability) followed as a lane of
+    # the config's own (its levels section active); None: the config's method
+    levels: str | None = None
 
 
 def variant_inputs(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
-                   ) -> tuple[jax.Array, dict, jax.Array, list[tuple[str, int]]]:
-    """Keys, term weights and masks stacked over lanes (variant x seed), and the lane labels
-    (a variant's terms off and features hidden on top of the config's ``term_weights`` and
-    ``hide``)."""
+                   ) -> tuple[jax.Array, dict, jax.Array, dict, list[tuple[str, int]]]:
+    """Keys, term weights, masks and curriculum numbers stacked over lanes (variant x seed),
+    and the lane labels (a variant's terms off and features hidden on top of the config's
+    ``term_weights`` and ``hide``; its ``levels`` method's numbers,
+    :meth:`Trainer.curriculum_values`)."""
     names = trainer.batch.reward_term_names()
     configured = trainer.term_weights()
     hidden = trainer.config.algorithm.hide
-    keys, weights, masks, labels = [], [], [], []
+    keys, weights, masks, curricula, labels = [], [], [], [], []
     for label, variant in variants.items():
+        try:
+            curriculum = trainer.curriculum_values(variant.levels)
+        except ConfigError as err:
+            raise ConfigError(f"variant {label!r}: {err}") from None
         for off in variant.rewards_off:
             if off not in names:
                 raise ConfigError(f"variant {label!r}: no reward term {off!r}; this "
@@ -104,9 +117,11 @@ def variant_inputs(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
             weights.append({n: 0.0 if n in variant.rewards_off else float(configured[n])
                             for n in names})
             masks.append(mask)
+            curricula.append(curriculum)
             labels.append((label, seed))
     stacked = {n: jnp.asarray([w[n] for w in weights]) for n in names}
-    return jnp.stack(keys), stacked, jnp.asarray(np.stack(masks)), labels
+    lanes = {n: jnp.asarray([c[n] for c in curricula]) for n in curricula[0]}
+    return jnp.stack(keys), stacked, jnp.asarray(np.stack(masks)), lanes, labels
 
 
 def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int,
@@ -126,22 +141,22 @@ def train_variants(trainer: Trainer, variants: Mapping[str, Variant], seeds: int
     from it (the same trainer config and lanes, or an error naming the file); a run without
     ``resume`` deletes a file it finds, and the caller deletes it once the group's scores are
     kept."""
-    keys, weights, masks, labels = variant_inputs(trainer, variants, seeds)
+    keys, weights, masks, curricula, labels = variant_inputs(trainer, variants, seeds)
     if lanes is not None:
         index = np.asarray(lanes, int)
         if not len(index):
             raise ValueError("train_variants: no lanes to train")
         keys, masks = keys[index], masks[index]
-        weights = jax.tree.map(lambda x: x[index], weights)
+        weights, curricula = jax.tree.map(lambda x: x[index], (weights, curricula))
         labels = [labels[i] for i in index]
     updates = trainer.config.algorithm.num_updates
     count = len(labels)
     width = count if lanes_per_run is None else max(1, min(lanes_per_run, count))
     per_call = equal_calls(updates, SAVES_PER_RUN)
-    start = jax.jit(jax.vmap(trainer.init))
+    start = jax.jit(jax.vmap(lambda k, w, m, c: trainer.init(k, w, m, curriculum=c)))
     runs = [np.minimum(np.arange(first, first + width), count - 1)
             for first in range(0, count, width)]  # the last run padded
-    inputs = [jax.tree.map(lambda x, index=index: x[index], (keys, weights, masks))
+    inputs = [jax.tree.map(lambda x, index=index: x[index], (keys, weights, masks, curricula))
               for index in runs]
     file = PartialFile(partial, trainer.config, "group", resume=resume, saves=SAVES_PER_RUN, meta={
         "labels": [list(label) for label in labels], "width": width, "per_call": per_call,
@@ -222,7 +237,7 @@ def load_variants(path: str | Path) -> dict[str, Variant]:
     data = read_yaml(path.read_text()) or {}
     if not isinstance(data, Mapping) or not data:
         raise ConfigError(f"{path}: expected a mapping of variant names to settings")
-    fields = ("rewards_off", "hide", "network", "set")
+    fields = ("rewards_off", "hide", "network", "set", "levels")
     variants = {}
     for name, spec in data.items():
         spec = spec or {}
@@ -245,9 +260,14 @@ def load_variants(path: str | Path) -> dict[str, Variant]:
         if not isinstance(settings, Mapping) or not all(
                 isinstance(k, str) and "." in k for k in settings):
             raise ConfigError(f"{path}: {name}.set: expected a mapping of section.key: value")
+        levels = spec.get("levels")
+        if levels is not None and levels not in CURRICULA:
+            raise ConfigError(f"{path}: {name}.levels: expected one of {list(CURRICULA)}, "
+                              f"got {levels!r}")
         # values frozen (sgjax.validation.freeze): variants group by them
         variants[str(name)] = Variant(**lists, network=tuple(sorted(freeze(network).items())),
-                                      settings=tuple(sorted(freeze(settings).items())))
+                                      settings=tuple(sorted(freeze(settings).items())),
+                                      levels=levels)
     if BASELINE not in variants:
         raise ConfigError(f"{path}: no {BASELINE!r} variant (the others are compared to it)")
     return variants

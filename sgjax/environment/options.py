@@ -216,11 +216,13 @@ class WorldOptions:
     def __post_init__(self) -> None:
         object.__setattr__(self, "world_ranges", _range_rows(self.world_ranges))
         check_int("world_proposals", self.world_proposals)
+        if not isinstance(self.world_levels, bool):
+            raise ValueError(f"world_levels must be true or false, got {self.world_levels!r}")
         for name in ("world_seeds", "world_holdout"):
             value = getattr(self, name)
             if value is None:
                 continue
-            if (isinstance(value, str | bytes) or len(value) != 2
+            if (not isinstance(value, list | tuple) or len(value) != 2
                     or not all(isinstance(v, int) and not isinstance(v, bool) for v in value)
                     or value[0] < 0 or value[1] < 1 or value[0] + value[1] > 2**32):
                 raise ValueError(f"{name} must be [first, count] (integers, first >= 0, "

@@ -4,6 +4,7 @@ per environment, a new one at every episode, and checkpoints keep the ranges."""
 from __future__ import annotations
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 from test_train import tiny
@@ -68,3 +69,57 @@ def test_a_curriculum_needs_a_generated_scenario_and_valid_settings():
         tiny(levels={"method": "plrr"})
     with pytest.raises(ConfigError, match="levels: replay_prob must be in"):
         tiny(levels={"method": "plr", "replay_prob": 1.5})
+
+
+@pytest.mark.slow
+def test_curricula_train_as_lanes_of_one_program():
+    """DR, PLR and ACCEL lanes of one vmap: the DR lane never replays, the PLR lane replays
+    levels as they are, the ACCEL lane plays edits too."""
+    config = tiny(env={"scenarios": ["generated:doorway"], "curriculum": [[0, 2]],
+                       "time_limit": 1.0},
+                  levels={"method": "plr", "buffer_size": 8, "min_fill": 0.25,
+                          "replay_prob": 1.0, "mutate_prob": 1.0})
+    trainer = Trainer(config)
+    methods = ["dr", "plr", "accel"]
+    lanes = [trainer.curriculum_values(m) for m in methods]
+    assert [float(c["mutate_prob"]) for c in lanes] == [0.0, 0.0, 1.0]
+    curricula = {n: jnp.stack([c[n] for c in lanes]) for n in lanes[0]}
+    keys = jnp.stack([jax.random.PRNGKey(0)] * 3)
+    runners = jax.jit(jax.vmap(lambda k, c: trainer.init(k, curriculum=c)))(keys, curricula)
+    runners, logs = jax.jit(lambda r: trainer.update_chunk_lanes(r, 6))(runners)
+    replayed = np.asarray(logs["levels_replayed"])  # [lanes, updates]
+    assert replayed[0].max() == 0 and replayed[1].max() == 1 and replayed[2].max() == 1
+    buffers, nxt = runners.levels[0], runners.env_states[0].next_level
+    def levels(tree, lane, rows):
+        names = sorted(tree.values)
+        return {(int(tree.seed[lane, i]), *(float(tree.values[n][lane, i]) for n in names))
+                for i in rows}
+
+    for lane, edits in ((1, False), (2, True)):
+        held = levels(buffers, lane, np.flatnonzero(np.asarray(buffers.filled[lane])))
+        picked = levels(nxt, lane, range(trainer.num_envs))
+        assert np.asarray(nxt.chosen[lane]).all()
+        if edits:  # ACCEL: edited levels keep their parent's seed, not its values
+            assert {p[0] for p in picked} <= {h[0] for h in held}
+            assert len(picked - held) >= len(picked) // 2  # an edit clipped at a bound stays
+        else:
+            assert picked <= held
+
+
+def test_a_lane_curriculum_needs_a_curriculum_config():
+    from sgjax.terms.base import ConfigError
+    trainer = Trainer(tiny())
+    assert trainer.curriculum_values() == {}
+    with pytest.raises(ConfigError, match="levels.method 'plr' for a lane"):
+        trainer.curriculum_values("plr")
+
+
+def test_a_curriculum_variant_needs_a_curriculum_config_and_a_known_method(tmp_path):
+    from sgjax.terms.base import ConfigError
+    from train.ablation import Variant, load_variants, variant_inputs
+    with pytest.raises(ConfigError, match="variant 'plr': levels.method 'plr' for a lane"):
+        variant_inputs(Trainer(tiny()), {"plr": Variant(levels="plr")}, 1)
+    bad = tmp_path / "v.yaml"
+    bad.write_text("baseline: {levels: dr}\nfancy: {levels: plrr}\n")
+    with pytest.raises(ConfigError, match=r"fancy.levels: expected one of"):
+        load_variants(bad)

@@ -343,6 +343,18 @@ class LevelsConfig:
         """Whether the trainer picks worlds (every method but ``dr``)."""
         return self.method != "dr"
 
+    def lane_values(self, method: str | None = None) -> dict[str, float]:
+        """The numbers a lane's curriculum reads (``RunnerState.curriculum``) for ``method``
+        (default this config's) with this config's settings: ``replay_prob`` (0 under
+        ``dr``: the buffer is kept but never replayed), ``mutate_prob`` (0 but under
+        ``accel``) and ``learnability`` (1 under ``learnability``: the buffer's score). So
+        lanes of one program may follow different methods (``train.ablation``)."""
+        method = self.method if method is None else method
+        check_choice("levels.method", method, CURRICULA)
+        return {"replay_prob": 0.0 if method == "dr" else self.replay_prob,
+                "mutate_prob": self.mutate_prob if method == "accel" else 0.0,
+                "learnability": 1.0 if method == "learnability" else 0.0}
+
 
 @dataclasses.dataclass(frozen=True)
 class LoggingConfig:

@@ -30,7 +30,7 @@ from jax import Array
 
 from sgjax.environment.worlds import Level
 
-NEVER = jnp.float32(-jnp.inf)
+NEVER = -float("inf")  # an empty slot's score
 
 
 @struct.dataclass
@@ -103,12 +103,13 @@ def edit(key: Array, values: dict, ranges: dict[str, tuple[float, float]], edits
 
 
 def next_levels(key: Array, buffer: LevelBuffer, now: Array, ranges: dict, *,
-                replay_prob: float, min_fill: float, temperature: float, staleness: float,
-                mutate_prob: float, edits: int, edit_scale: float
+                replay_prob: Array | float, min_fill: float, temperature: float,
+                staleness: float, mutate_prob: Array | float, edits: int, edit_scale: float
                 ) -> tuple[Level, LevelBuffer]:
     """The level of each environment's next episode ``[E]`` (chosen, or unset for a fresh
     world; see the module doc) and the buffer with the replayed levels' last-played times and
-    ``replayed`` set. ``mutate_prob`` 0: no edits (PLR)."""
+    ``replayed`` set. ``replay_prob`` 0: never a replay (domain randomisation);
+    ``mutate_prob`` 0: no edits (PLR). Both may be traced (a lane's numbers)."""
     num_envs = buffer.episode_score.shape[0]
     k_replay, k_pick, k_mutate, k_edit = jax.random.split(key, 4)
     ready = buffer.fill >= min_fill
@@ -117,10 +118,9 @@ def next_levels(key: Array, buffer: LevelBuffer, now: Array, ranges: dict, *,
     pick = jax.random.choice(k_pick, weights.size, (num_envs,), p=weights)
     values = {name: v[pick] for name, v in buffer.values.items()}
     mutate = replay & (jax.random.uniform(k_mutate, (num_envs,)) < mutate_prob)
-    if mutate_prob > 0:
-        edited = jax.vmap(lambda k, v: edit(k, v, ranges, edits, edit_scale))(
-            jax.random.split(k_edit, num_envs), values)
-        values = {name: jnp.where(mutate, edited[name], v) for name, v in values.items()}
+    edited = jax.vmap(lambda k, v: edit(k, v, ranges, edits, edit_scale))(
+        jax.random.split(k_edit, num_envs), values)
+    values = {name: jnp.where(mutate, edited[name], v) for name, v in values.items()}
     level = Level(seed=buffer.seed[pick], values=values, chosen=replay)
     played = jnp.where(replay & ~mutate, pick, weights.size)  # an edit is a new level
     buffer = buffer.replace(last_played=buffer.last_played.at[played].set(now, mode="drop"),
@@ -161,14 +161,15 @@ def episode_scores(buffer: LevelBuffer, scores: Array, stepped: Array, done: Arr
 
 
 def record(buffer: LevelBuffer, now: Array, seed: Array, values: dict, valid: Array,
-           done: Array, score: Array, success: Array, learnability: bool,
+           done: Array, score: Array, success: Array, learnability: Array | bool,
            candidates: int) -> LevelBuffer:
     """The buffer after the episodes that ended in a rollout (``[T, E]`` each: the seed and
     values of the level played, whether it was valid, ``done``, the episode's PVL ``score``
     and its robots' ``success`` share): at most ``candidates`` of them (the first to end)
     are recorded. A level already held gets its new score (under ``learnability``, its
     success mean updated first); new valid levels replace the lowest scores when they score
-    higher. Levels are equal when their seeds and every value are."""
+    higher. Levels are equal when their seeds and every value are. ``learnability`` (a bool,
+    or a lane's traced one) scores by learnability instead of PVL."""
     flat = lambda x: x.reshape(-1)  # noqa: E731
     ended = flat(done) & flat(valid)
     order = jnp.argsort(~ended, stable=True)[:candidates]
@@ -193,10 +194,10 @@ def record(buffer: LevelBuffer, now: Array, seed: Array, values: dict, valid: Ar
     plays = buffer.plays.at[slot].add(1.0, mode="drop")
     success_sum = (buffer.success * buffer.plays).at[slot].add(c_success, mode="drop")
     success = success_sum / jnp.maximum(plays, 1.0)
-    if learnability:
-        score = jnp.where(plays > buffer.plays, success * (1.0 - success), buffer.score)
-    else:
-        score = buffer.score.at[slot].set(c_score, mode="drop")
+    learnability = jnp.asarray(learnability, bool)  # may be a lane's (traced) choice
+    score = jnp.where(learnability,
+                      jnp.where(plays > buffer.plays, success * (1.0 - success), buffer.score),
+                      buffer.score.at[slot].set(c_score, mode="drop"))
     last = buffer.last_played.at[slot].set(now, mode="drop")
     buffer = buffer.replace(plays=plays, success=success, score=score, last_played=last)
 
@@ -204,7 +205,7 @@ def record(buffer: LevelBuffer, now: Array, seed: Array, values: dict, valid: Ar
     twin = same(c_seed, c_values, c_seed, c_values) & keep[None, :]
     earlier = jnp.tril(twin, k=-1)
     new = keep & ~known & ~jnp.any(earlier, axis=1)
-    new_score = c_success * (1.0 - c_success) if learnability else c_score
+    new_score = jnp.where(learnability, c_success * (1.0 - c_success), c_score)
     pool = jnp.concatenate([jnp.where(buffer.filled, buffer.score, NEVER),
                             jnp.where(new, new_score, NEVER)])
     top = jax.lax.top_k(pool, buffer.seed.size)[1]  # empty slots (-inf) rank last

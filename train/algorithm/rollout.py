@@ -201,7 +201,7 @@ def collect(parts: RolloutParts, runner: RunnerState) -> tuple[RunnerState, Roll
     if levels.active:
         key, k_levels = jax.random.split(runner.key)
         buffers, states = choose_levels(batch, levels, k_levels, runner.levels,
-                                        runner.env_states, runner.steps)
+                                        runner.env_states, runner.steps, runner.curriculum)
         runner = runner.replace(key=key, levels=buffers, env_states=states)
     memory = runner.carry
     runner, (traj, logs, ended) = jax.lax.scan(lambda r, x: env_step(parts, r, x), runner,
@@ -213,8 +213,8 @@ def collect(parts: RolloutParts, runner: RunnerState) -> tuple[RunnerState, Roll
     advantages, targets = gae(traj, last_value, settings.read(hyper, "gamma"),
                               settings.read(hyper, "gamma_lambda"))
     if levels.active:
-        buffers, stats = record_levels(batch, levels, runner.levels, runner.steps, advantages,
-                                       traj.active, ended)
+        buffers, stats = record_levels(batch, runner.levels, runner.steps, advantages,
+                                       traj.active, ended, runner.curriculum)
         runner = runner.replace(levels=buffers)
         steps = parts.algorithm.num_steps  # logs are per step, summed per update
         logs = {**logs, **{name: jnp.full(steps, value / steps) for name, value in stats.items()}}

@@ -33,6 +33,9 @@ class RunnerState:
     # a curriculum over generated worlds: a LevelBuffer per scenario (None where the trainer
     # does not pick worlds); () without one (train.algorithm.world_curriculum)
     levels: tuple = ()
+    # this lane's curriculum numbers (LevelsConfig.lane_values: replay_prob, mutate_prob,
+    # learnability; float32), so lanes may follow different methods; {} without a curriculum
+    curriculum: dict = struct.field(default_factory=dict)
 
 
 @struct.dataclass

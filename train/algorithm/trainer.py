@@ -144,11 +144,13 @@ class Trainer:
 
     # ------------------------------------------------------------------ init
     def init(self, key: Array, term_weights: dict | None = None, obs_mask: Array | None = None,
-             hyper: dict | None = None) -> RunnerState:
+             hyper: dict | None = None, curriculum: dict | None = None) -> RunnerState:
         """A fresh run. ``term_weights`` ({reward term: multiplier}, default the config's),
-        ``obs_mask`` (``[D]``, default :meth:`observation_mask`) and ``hyper`` ({lane setting:
-        value}, default the config's) are arrays in the state, so a ``vmap`` over them trains
-        reward and observation ablations and hyper-parameter trials at once."""
+        ``obs_mask`` (``[D]``, default :meth:`observation_mask`), ``hyper`` ({lane setting:
+        value}, default the config's) and ``curriculum`` (a curriculum's numbers,
+        :meth:`curriculum_values`, default the config method's) are arrays in the state, so a
+        ``vmap`` over them trains reward and observation ablations, hyper-parameter trials and
+        curricula at once."""
         weights = self.term_weights()
         for name, value in (term_weights or {}).items():
             if name not in weights:
@@ -156,9 +158,28 @@ class Trainer:
                                   f"configuration pays {list(weights)}")
             weights[name] = jnp.asarray(value, jnp.float32)
         mask = jnp.asarray(self.observation_mask() if obs_mask is None else obs_mask)
-        return self._fresh_run(key, weights, mask, self.settings.with_values(hyper))
+        if curriculum is None:
+            curriculum = self.curriculum_values()
+        elif curriculum and not self.config.levels.active:
+            raise ConfigError("init(curriculum=...): this config has no curriculum over "
+                              "generated worlds (levels.method 'dr'); set levels.method")
+        return self._fresh_run(key, weights, mask, self.settings.with_values(hyper),
+                               dict(curriculum))
 
-    def _start(self, key: Array, weights: dict, mask: Array, hyper: dict) -> RunnerState:
+    def curriculum_values(self, method: str | None = None) -> dict[str, Array]:
+        """A lane's curriculum numbers for ``method`` (default the config's; float32,
+        :meth:`train.algorithm.config.LevelsConfig.lane_values`), ``{}`` without a
+        curriculum."""
+        if not self.config.levels.active:
+            if method not in (None, "dr"):
+                raise ConfigError(f"levels.method {method!r} for a lane: this config has no "
+                                  "curriculum over generated worlds (levels.method 'dr')")
+            return {}
+        return {name: jnp.float32(value)
+                for name, value in self.config.levels.lane_values(method).items()}
+
+    def _start(self, key: Array, weights: dict, mask: Array, hyper: dict,
+               curriculum: dict) -> RunnerState:
         """``init``'s body, compiled (``_fresh_run``): called eagerly, the network and
         environment initialisation would run op by op."""
         k_net, k_env, k_run = jax.random.split(key, 3)
@@ -177,7 +198,7 @@ class Trainer:
             return_stats=RunningStats.start(1), returns=zeros, episode_return=zeros,
             env_states=states, obs=obs, carry=carry, starts=starts, key=k_run, steps=steps,
             term_weights=weights, obs_mask=mask, hyper=hyper,
-            levels=empty_buffers(self.batch, self.config.levels))
+            levels=empty_buffers(self.batch, self.config.levels), curriculum=curriculum)
 
     # ------------------------------------------------------------------ updates
     def collect(self, runner: RunnerState) -> tuple[RunnerState, Rollout, dict]:

@@ -33,9 +33,10 @@ def empty_buffers(batch: EnvBatch, levels: LevelsConfig) -> tuple[LevelBuffer | 
 
 
 def choose_levels(batch: EnvBatch, levels: LevelsConfig, key: Array, buffers: tuple,
-                  env_states: tuple, now: Array) -> tuple[tuple, tuple]:
+                  env_states: tuple, now: Array, lane: dict) -> tuple[tuple, tuple]:
     """Every picked scenario's next levels written into its environments' states
-    (``EnvState.next_level``): ``(buffers, env_states)``."""
+    (``EnvState.next_level``): ``(buffers, env_states)``. ``lane``: the lane's
+    ``replay_prob`` and ``mutate_prob`` (:meth:`LevelsConfig.lane_values`)."""
     out_buffers, out_states = [], []
     keys = jax.random.split(key, len(batch.sizes))
     for source, buffer, state, k in zip(batch.level_sources, buffers, env_states, keys,
@@ -46,10 +47,9 @@ def choose_levels(batch: EnvBatch, levels: LevelsConfig, key: Array, buffers: tu
             continue
         ranges = {name: (low, high) for name, low, high in source.ranges}
         level, buffer = next_levels(
-            k, buffer, now, ranges, replay_prob=levels.replay_prob, min_fill=levels.min_fill,
+            k, buffer, now, ranges, replay_prob=lane["replay_prob"], min_fill=levels.min_fill,
             temperature=levels.temperature, staleness=levels.staleness,
-            mutate_prob=levels.mutate_prob if levels.method == "accel" else 0.0,
-            edits=levels.edits, edit_scale=levels.edit_scale)
+            mutate_prob=lane["mutate_prob"], edits=levels.edits, edit_scale=levels.edit_scale)
         out_buffers.append(buffer)
         out_states.append(state.replace(next_level=level))
     return tuple(out_buffers), tuple(out_states)
@@ -63,10 +63,11 @@ def played_levels(batch: EnvBatch, env_states: tuple) -> tuple:
                  for source, state in zip(batch.level_sources, env_states, strict=True))
 
 
-def record_levels(batch: EnvBatch, levels: LevelsConfig, buffers: tuple, now: Array,
-                  advantages: Array, active: Array, ended: dict) -> tuple[tuple, dict]:
+def record_levels(batch: EnvBatch, buffers: tuple, now: Array, advantages: Array,
+                  active: Array, ended: dict, lane: dict) -> tuple[tuple, dict]:
     """The buffers after a rollout: every episode that ended scored (its positive value
-    loss from ``advantages [T, B]`` over ``active [T, B]``) and recorded. ``ended``: the
+    loss from ``advantages [T, B]`` over ``active [T, B]``, or its learnability where the
+    lane's ``learnability`` is 1) and recorded. ``ended``: the
     rollout's ``{"done": [T, E], "success": [T, E], "played": per scenario [T, E_s]}``.
     Returns the buffers and their statistics (means over the picked scenarios): ``fill``,
     ``replayed`` (share of environments whose next episode was a chosen level) and
@@ -84,7 +85,7 @@ def record_levels(batch: EnvBatch, levels: LevelsConfig, buffers: tuple, now: Ar
         episode, buffer = episode_scores(buffer, score.T, acted.T, done.T)
         seed, values, valid = played
         buffer = record(buffer, now, seed, values, valid, done.T, episode, success.T,
-                        learnability=levels.method == "learnability",
+                        learnability=lane["learnability"] > 0.5,
                         candidates=2 * buffer.episode_score.shape[0])
         out.append(buffer)
         held = jnp.where(buffer.filled, buffer.score, 0.0)
