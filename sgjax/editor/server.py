@@ -171,9 +171,11 @@ class EditorHandler(BaseHTTPRequestHandler):
         from sgjax.dynamics.limits import PRESETS
 
         s = self.session
+        from sgjax.editor.generate import families
+
         return {"map": s.data, "file": s.file, "root": str(s.root), "autosave": s.autosaved(),
                 "import_report": s.import_report, "policies": list(BASELINES),
-                "robot_presets": sorted(PRESETS)}
+                "robot_presets": sorted(PRESETS), "families": families()}
 
     # --- POST ------------------------------------------------------------------------------
 
@@ -200,7 +202,8 @@ class EditorHandler(BaseHTTPRequestHandler):
             return
         actions = {"/api/check": self._check, "/api/routes": self._routes,
                    "/api/save": self._save, "/api/autosave": self._autosave,
-                   "/api/play": self._play, "/api/play/cancel": self._cancel}
+                   "/api/play": self._play, "/api/play/cancel": self._cancel,
+                   "/api/generate": self._generate}
         if path not in actions:
             self._json(404, {"error": f"no such API: {path}"})
             return
@@ -234,6 +237,12 @@ class EditorHandler(BaseHTTPRequestHandler):
         from sgjax.editor.play import play
 
         return 200, play(body)
+
+    def _generate(self, body: dict[str, Any]) -> tuple[int, dict[str, Any]]:
+        from sgjax.editor.generate import generate
+
+        with _map_work:
+            return 200, generate(body)
 
     def _cancel(self, body: dict[str, Any]) -> tuple[int, dict[str, Any]]:
         from sgjax.editor.play import cancel

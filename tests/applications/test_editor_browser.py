@@ -944,3 +944,32 @@ def test_the_autosave_message_clears_and_stop_cancels_a_batch(browser, doorway, 
     wait_for(browser, lambda d: "team_success" in text(d, "play-result"), timeout=120,
              what="the next batch")
     autosave.unlink()
+
+
+def test_generate_draws_a_family_world_to_edit_and_save(browser, scratch, tmp_path):
+    from sgjax.maps.check import check_map
+
+    open_page(browser, scratch.url, restore=False)
+    js(browser, "window.sgjaxEditor.setMap(arguments[0])",
+       {"name": "scratch", "description": "", "bounds": [-5, -5, 5, 5], "walls": [[0, 0, 1, 0]],
+        "nodes": [], "edges": [], "groups": []})
+    Select(browser.find_element(By.ID, "generate-family")).select_by_value("floorplan")
+    fields = browser.find_elements(By.CSS_SELECTOR, "#generate-parameters input")
+    names = {f.get_attribute("data-parameter") for f in fields}
+    assert {"room_size", "corridor"} <= names
+    set_field(browser, "generate-seed", 3)
+    browser.find_element(By.ID, "generate").click()
+    wait_for(browser, lambda d: text(d, "message").startswith("drew"), what="the world")
+    idle(browser)
+    drawn = get_map(browser)
+    assert drawn["name"] == "floorplan-3" and len(drawn["walls"]) > 4 and drawn["zones"]
+    screenshot(browser, tmp_path / "screenshots", "generated", docs=True)
+    browser.find_element(By.ID, "undo").click()  # the map before the draw
+    assert get_map(browser)["walls"] == [[0, 0, 1, 0]]
+    browser.find_element(By.ID, "redo").click()
+    assert get_map(browser) == drawn
+    set_field(browser, "filename", "drawn.json")
+    assert save(browser).startswith("saved")
+    saved = json.loads((scratch.root / "drawn.json").read_text())
+    assert saved["walls"] == drawn["walls"]
+    assert [p for p in check_map(saved) if p.severity == "error"] == []

@@ -411,3 +411,32 @@ def test_maps_check_of_50000_packed_walls_ends_within_seconds(tmp_path):
     assert "error: $.edges[0]: edge 0-1 crosses wall" in out.stdout
     assert "1 file(s): 2 error(s)" in out.stdout and "warning(s)" in out.stdout
     assert seconds < 60, f"sgjax maps check took {seconds:.0f} s on 50,000 packed walls"
+
+
+def test_generate_draws_a_family_world_by_its_seed_and_refuses_bad_requests_by_name(server):
+    from sgjax.environment.worlds import source_for
+
+    status, body = call(server + "/api/session")
+    families = {f["name"]: f for f in json.loads(body)["families"]}
+    assert set(families) == {"doorway", "hallway", "intersection", "roundabout", "open",
+                             "floorplan"}
+    assert families["doorway"]["parameters"]["door_width"]["unit"] == "m"
+    status, body = call(server + "/api/generate", {"family": "doorway", "seed": 7,
+                                                   "ranges": {"door_width": 1.4}})
+    answer = json.loads(body)
+    assert status == 200 and answer["valid"] and answer["seed"] == 7
+    assert answer["values"]["door_width"] == pytest.approx(1.4)
+    assert [p for p in check_map(answer["map"]) if p.severity == "error"] == []
+    parse_map(answer["map"])
+    # world 7 of these ranges, as the held-out splits and sgjax generalise name it
+    own = source_for("doorway", {"door_width": (1.4, 1.4)}).of_seed(7).values
+    assert {k: pytest.approx(float(v)) for k, v in own.items()} == answer["values"]
+    for request, words in (
+            ({"family": "maze", "seed": 0}, "'family' must be one of"),
+            ({"family": "doorway", "seed": -1}, "'seed' must be an integer"),
+            ({"family": "doorway", "seed": 1.5}, "'seed' must be an integer"),
+            ({"family": "doorway", "ranges": {"door_width": [9, 10]}}, "door_width range"),
+            ({"family": "doorway", "ranges": {"door_wdth": 1.0}}, "no parameter 'door_wdth'"),
+            ({"family": "doorway", "ranges": {"door_width": "wide"}}, "ranges.door_width")):
+        status, body = call(server + "/api/generate", request)
+        assert status == 422 and words in json.loads(body)["error"], (request, body)

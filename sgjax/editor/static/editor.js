@@ -44,7 +44,7 @@
     spaceDown: false,
     ready: false,
     sessionLoaded: false,
-    pending: { check: 0, save: 0, play: 0, routes: 0 },
+    pending: { check: 0, save: 0, play: 0, routes: 0, generate: 0 },
     checkTimer: null,
     autosaveTimer: null,
     checkSeq: 0,
@@ -417,6 +417,7 @@
       policy.append(opt);
     }
     if ((s.policies || []).includes("only_local")) policy.value = "only_local";
+    fillFamilies(s.families);
     const report = Array.isArray(s.import_report) ? s.import_report : [];
     $("import-report").replaceChildren(...report.map((line) => {
       const li = document.createElement("li");
@@ -615,6 +616,104 @@
     const hold = Math.round(1 / dt); // one second on the last frame, then again
     const t = Math.floor((performance.now() - pb.start) / 1000 / dt) % (length + hold);
     return Math.min(t, length - 1);
+  }
+
+  // ---------------------------------------------------------------- generate
+
+  // The Generate panel: a family's parameters as low / high fields (its default ranges), and
+  // the world of a seed drawn by the server (/api/generate) replacing the map (one undo step).
+  function fillGenerateFields() {
+    const fam = (state.families || []).find((f) => f.name === $("generate-family").value);
+    const table = $("generate-parameters");
+    table.replaceChildren();
+    if (!fam) return;
+    const head = document.createElement("tr");
+    for (const text of ["parameter", "low", "high", ""]) {
+      const th = document.createElement("th");
+      th.textContent = text;
+      head.append(th);
+    }
+    table.append(head);
+    for (const [name, p] of Object.entries(fam.parameters)) {
+      const row = document.createElement("tr");
+      const label = document.createElement("td");
+      label.textContent = name;
+      label.title = `${p.doc} (limits ${p.limits[0]} to ${p.limits[1]} ${p.unit})`;
+      row.append(label);
+      for (const [i, side] of [[0, "low"], [1, "high"]]) {
+        const cell = document.createElement("td");
+        const input = document.createElement("input");
+        input.type = "number";
+        input.step = "any";
+        input.value = String(p.default[i]);
+        input.dataset.parameter = name;
+        input.dataset.side = side;
+        input.setAttribute("aria-label", `${name} ${side}`);
+        cell.append(input);
+        row.append(cell);
+      }
+      const unit = document.createElement("td");
+      unit.textContent = p.unit;
+      unit.className = "muted";
+      row.append(unit);
+      table.append(row);
+    }
+    $("generate-info").textContent = fam.description;
+  }
+
+  function fillFamilies(list) {
+    state.families = Array.isArray(list) ? list : [];
+    const select = $("generate-family");
+    select.replaceChildren();
+    for (const fam of state.families) {
+      const opt = document.createElement("option");
+      opt.value = fam.name;
+      opt.textContent = fam.name;
+      select.append(opt);
+    }
+    $("generate-panel").hidden = state.families.length === 0;
+    fillGenerateFields();
+  }
+
+  function generateRanges() {
+    const ranges = {};
+    for (const input of $("generate-parameters").querySelectorAll("input[data-parameter]")) {
+      const name = input.dataset.parameter;
+      ranges[name] = ranges[name] || [null, null];
+      ranges[name][input.dataset.side === "low" ? 0 : 1] = Number(input.value);
+    }
+    return ranges;
+  }
+
+  async function generateWorld() {
+    if (state.pending.generate > 0) return;
+    const seed = Number($("generate-seed").value);
+    if (!Number.isInteger(seed) || seed < 0) {
+      message("generate: the seed must be a whole number, 0 or more", "error");
+      return;
+    }
+    state.pending.generate++;
+    $("generate").disabled = true;
+    $("generate-info").textContent = "drawing (the first world of a family compiles its generator)...";
+    try {
+      const family = $("generate-family").value;
+      const r = await api("/api/generate", { family, seed, ranges: generateRanges() });
+      if (!r.ok) {
+        $("generate-info").textContent = "";
+        message(`generate: ${r.data.error || r.status}`, "error");
+        return;
+      }
+      setMap(r.data.map);
+      fitView();
+      const values = Object.entries(r.data.values).map(([k, v]) => `${k} ${v.toFixed(2)}`).join(", ");
+      $("generate-info").textContent = `${family} world ${r.data.seed}: ${values}`;
+      message(r.data.valid ? `drew ${family} world ${r.data.seed} (undo brings the map back)`
+        : `drew ${family} world ${r.data.seed}, which fails the family's checks (see Problems)`,
+        r.data.valid ? "ok" : "error");
+    } finally {
+      state.pending.generate--;
+      $("generate").disabled = false;
+    }
   }
 
   // ---------------------------------------------------------------- panels
@@ -1492,6 +1591,12 @@
   $("save").addEventListener("click", () => save(false));
   $("play").addEventListener("click", play);
   $("play-stop").addEventListener("click", stop);
+  $("generate").addEventListener("click", generateWorld);
+  $("generate-next").addEventListener("click", () => {
+    $("generate-seed").value = String(Math.max(0, Math.floor(Number($("generate-seed").value) || 0)) + 1);
+    generateWorld();
+  });
+  $("generate-family").addEventListener("change", fillGenerateFields);
   $("bounds-fit").addEventListener("click", () => { if (state.map) boundsToContent(); });
   $("group-new").addEventListener("click", newGroup);
   $("group-phase").addEventListener("click", () => {
@@ -2018,7 +2123,7 @@
     routes: () => (state.routes ? clone(state.routes) : null), // the last /api/routes answer
     get ready() { return state.ready; },
     busy: () => state.checkTimer !== null || state.pending.check > 0 || state.pending.save > 0 ||
-      state.pending.play > 0 || state.pending.routes > 0,
+      state.pending.play > 0 || state.pending.routes > 0 || state.pending.generate > 0,
     fit: () => fitView(),
     setTool: (tool) => setTool(tool),
   };
