@@ -15,6 +15,14 @@ learning phases one lane after another).
         --lanes batched sequential
     python bench/train_throughput.py --num-envs 256 --robots 5 --compact off on
 
+``--scenario`` takes several (a fixed map beside generated worlds, at the same shapes) and
+``--levels`` the curricula over generated worlds to time on the generated ones (``dr``: a
+fresh world every episode; ``plr``, ``accel``, ``learnability``: the trainer picks the worlds
+from a level buffer)::
+
+    python bench/train_throughput.py --num-envs 256 --robots 5 \
+        --scenario doorway generated:doorway --levels dr accel
+
 ``--compact`` times the learning phase with ``algorithm.compact`` off (every robot slot
 computed, the inactive ones masked) and on (only the transitions that can learn), back to
 back.
@@ -29,7 +37,9 @@ import time
 import jax
 from compiled import compile_measured
 
-from train.algorithm.config import LANE_MODES, config_from_dict
+from sgjax.evaluation.provenance import cpu_model
+from sgjax.maps.generated.families import PREFIX as GENERATED
+from train.algorithm.config import CURRICULA, LANE_MODES, config_from_dict
 from train.algorithm.trainer import Trainer, seed_keys
 
 
@@ -53,7 +63,9 @@ def time_updates(config: dict, seeds: int, updates: int) -> tuple[float, float, 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--scenario", default="doorway")
+    parser.add_argument("--scenario", nargs="+", default=["doorway"])
+    parser.add_argument("--levels", nargs="+", default=["dr"], choices=list(CURRICULA),
+                        help="curricula timed on the generated scenarios")
     parser.add_argument("--num-envs", nargs="+", type=int, default=[64, 256, 1024])
     parser.add_argument("--robots", nargs="+", type=int, default=[4, 10])
     parser.add_argument("--seeds", nargs="+", type=int, default=[1],
@@ -68,27 +80,32 @@ def main() -> None:
                         choices=list(LANE_MODES),
                         help="algorithm.lanes: how the seed lanes run the learning phase")
     args = parser.parse_args()
-    print(f"jax {jax.__version__} on {jax.devices()[0].platform}, {args.scenario}, IPPO "
+    print(f"jax {jax.__version__} on {jax.devices()[0].platform} ({cpu_model()}), IPPO "
           f"{args.network}/{args.others}, 64 steps x 4 epochs x 4 minibatches per update")
-    print(f"{'compact':>8}{'lanes':>11}{'robots':>7}{'envs':>7}{'seeds':>6}"
-          f"{'agent-steps/s':>15}{'env-steps/s':>13}{'compile s':>11}"
+    print(f"{'scenario':>20}{'levels':>13}{'compact':>8}{'lanes':>11}{'robots':>7}{'envs':>7}"
+          f"{'seeds':>6}{'agent-steps/s':>15}{'env-steps/s':>13}{'compile s':>11}"
           f"{'peak MB':>9}{'lane cost':>11}")
-    for robots, envs, lanes, compact in itertools.product(args.robots, args.num_envs,
-                                                          args.lanes, args.compact):
+    runs = [(scenario, method) for scenario in args.scenario
+            for method in (args.levels if scenario.startswith(GENERATED) else ["-"])]
+    for (scenario, method), robots, envs, lanes, compact in itertools.product(
+            runs, args.robots, args.num_envs, args.lanes, args.compact):
         one_seed = None
         for seeds in args.seeds:
             config = {
-                "env": {"scenarios": [args.scenario], "curriculum": [[0, robots]]},
+                "env": {"scenarios": [scenario], "curriculum": [[0, robots]]},
                 "algorithm": {"num_envs": envs, "num_steps": 64, "total_steps": 10**8,
                               "lanes": lanes, "compact": compact == "on"},
                 "network": {"kind": args.network, "others_encoder": args.others}}
+            if method != "-":
+                config["levels"] = {"method": method}
             seconds, compile_s, peak = time_updates(config, seeds, args.updates)
             if seeds == 1:
                 one_seed = seconds
             lane = ("" if one_seed is None or seeds == 1
                     else f"{seconds / (seeds * one_seed):.2f}x")
             env_rate = seeds * args.updates * 64 * envs / seconds
-            print(f"{compact:>8}{lanes:>11}{robots:>7}{envs:>7}{seeds:>6}"
+            print(f"{scenario:>20}{method:>13}{compact:>8}{lanes:>11}{robots:>7}{envs:>7}"
+                  f"{seeds:>6}"
                   f"{env_rate * robots:>15,.0f}{env_rate:>13,.0f}{compile_s:>11.1f}"
                   f"{peak:>9.1f}{lane:>11}", flush=True)
 
