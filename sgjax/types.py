@@ -252,6 +252,7 @@ class EnvParams:
 
 def episode_params(state: EnvState, params: EnvParams) -> EnvParams:
     """The params an episode plays under: ``params`` with the episode's generated world as its
-    map (``state.world``, ``sgjax.environment.worlds``), or ``params`` itself on a fixed map.
+    map and its pedestrians' spawn slots (``state.world``, ``sgjax.environment.worlds``), or
+    ``params`` itself on a fixed map.
     Anything that reads the map beside the step (a controller, a metric) reads it from these."""
-    return params if state.world is None else params.replace(map=state.world.map)
+    return params if state.world is None else state.world.params_of(params)

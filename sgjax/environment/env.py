@@ -56,6 +56,7 @@ from sgjax.environment.physics import Commands
 from sgjax.environment.presets import OBSERVATION_PRESETS, REWARD_PRESETS
 from sgjax.environment.worlds import Level, WorldDraw, WorldSource
 from sgjax.humans.pedestrians import HumanConfig, HumanState, advance_waypoints, spawn_humans
+from sgjax.humans.slots import SpawnSlots
 from sgjax.kernels.geometry import safe_norm
 from sgjax.kernels.row_chunks import chunk_size, update_flagged_rows
 from sgjax.kernels.zone_books import start_zones, update_zones
@@ -272,7 +273,7 @@ class SocialNavEnv:
                     key_world, Level.unset(source.family.parameters) if level is None else level)
             elif world is None:
                 world = source.draw(key_world)
-            params = params.replace(map=world.map)
+            params = world.params_of(params)
         key_robots, key_humans = jax.random.split(key)
         fewest = jnp.where(params.min_agents > 0,
                            jnp.minimum(params.min_agents, params.num_agents), params.num_agents)
@@ -314,9 +315,12 @@ class SocialNavEnv:
     ) -> tuple[Array, EnvState]:
         num_robots = self.max_agents
         if self.config.world is not None and world is None:  # reset_to: the params' map
+            hp = params.humans
             world = WorldDraw(map=params.map, valid=jnp.asarray(True), values={
                 name: jnp.float32(jnp.nan) for name in self.config.world.family.parameters},
-                seed=jnp.uint32(0))
+                seed=jnp.uint32(0), humans=None if not self.config.world.human_radius else
+                SpawnSlots(x=hp.spawn_x, y=hp.spawn_y, nodes=hp.spawn_nodes,
+                           valid=hp.spawn_valid, node_valid=hp.node_valid))
         # Split only what is used: reset runs inside every auto-reset step.
         key_humans, key_zones, key_obs = key, key, key
         if self.config.uses_zones or self.config.observer.needs_key:

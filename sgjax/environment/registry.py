@@ -18,7 +18,7 @@ from sgjax.dynamics.planner import PlannerConfig, PlannerParams
 from sgjax.environment.env import EnvConfig, SocialNavEnv
 from sgjax.environment.options import MakeOptions
 from sgjax.environment.presets import resolve_terms
-from sgjax.environment.worlds import WorldSource, source_for
+from sgjax.environment.worlds import WorldDraw, WorldSource, source_for
 from sgjax.humans.hsfm import MAX_SUBSTEP as HSFM_MAX_SUBSTEP
 from sgjax.humans.map_params import human_params
 from sgjax.humans.pedestrians import HumanConfig, HumanParams, spawn_humans
@@ -98,7 +98,8 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
     planner_params = PlannerParams()
     reach = (max(planner_config.arc_lengths) + largest + planner_params.obstacle_margin
              + PLANNER_SLACK)
-    world, spec, map_arrays = _scenario_map(scenario, generated, is_spec, opts, largest, reach)
+    world, spec, map_arrays, template = _scenario_map(scenario, generated, is_spec, opts,
+                                                      largest, reach)
     action_dim = 3 if any(p.model == "omnidirectional" for p in presets) else 2
     config = EnvConfig(
         scenario=spec.name, max_agents=max_agents, action_mode=robot_opts.action_mode,
@@ -122,52 +123,59 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
         goal_tolerance=jnp.asarray(robot_opts.goal_tolerance, jnp.float32),
         min_agents=jnp.asarray(robot_opts.min_agents or 0, jnp.int32),
     )
+    if template is not None:  # a generated family: the template world's pedestrian slots too
+        params = template.params_of(params)
     _check_capacity(spec.source, params, max_agents, human_config)
     return SocialNavEnv(config, params), params
 
 
 def _scenario_map(scenario: Any, generated: bool, is_spec: bool, opts: MakeOptions,
                   largest: float, reach: float
-                  ) -> tuple[WorldSource | None, MapSpec, MapArrays]:
+                  ) -> tuple[WorldSource | None, MapSpec, MapArrays, WorldDraw | None]:
     """The scenario's map for robots up to ``largest`` m and a planner reaching ``reach`` m:
-    ``(world source or None, spec, arrays)``; a map spec or file is validated again for the
-    robots that will drive it."""
+    ``(world source or None, spec, arrays, template draw or None)``; a map spec or file is
+    validated again for the robots that will drive it."""
     if generated:
-        return _generated(scenario, opts, largest, reach)
+        source, spec, template = _generated(scenario, opts, largest, reach)
+        return source, spec, template.map, template
     if is_spec:
         spec = parse_map(scenario.to_json(), source=scenario.source, clearance=largest)
     else:
         spec = load(scenario, clearance=largest)
-    return None, spec, compile_map(spec, reach=reach)
+    return None, spec, compile_map(spec, reach=reach), None
 
 
 def _generated(name: str, opts: MakeOptions, largest: float, reach: float
-               ) -> tuple[WorldSource, MapSpec, MapArrays]:
+               ) -> tuple[WorldSource, MapSpec, WorldDraw]:
     """A generated world family as an environment's world source, with its template world (key
-    0: the default params' map, which fixes every shape) as a map spec and map arrays."""
+    0: the default params' map and pedestrian slots, which fix every shape) as a map spec and
+    its draw."""
     fam = family(name)
-    if opts.humans.slots:
-        raise ValueError(f"make({name!r}): generated worlds have no pedestrians yet "
-                         "(num_humans and max_humans must be 0)")
+    humans = opts.humans
+    if humans.slots:  # pedestrians: slots per world; no sampled wall points, no map routes
+        for option, value, refused in (("human_walls", humans.human_walls, "points"),
+                                       ("human_goals", humans.human_goals, "routes")):
+            if value == refused:
+                raise ValueError(f"make({name!r}): {option}={refused!r} needs a fixed map; "
+                                 f"generated worlds take the other {option} values")
     w = opts.worlds
     source = source_for(fam.name, w.ranges(), float(largest), w.world_proposals, float(reach),
                         check_dilemma=False, seeds=w.world_seeds, holdout=w.world_holdout,
-                        levels=w.world_levels)
-    template, values, arrays, ok = _template(source)
-    if not ok:
+                        levels=w.world_levels,
+                        human_radius=humans.human_radius if humans.slots else 0.0)
+    template, draw = _template(source)
+    if not bool(draw.valid):
         raise ValueError(f"make({name!r}): the world of key 0 fails the family's checks for "
                          f"robots of radius {largest} m (passages too narrow for them?); "
                          f"narrow the ranges (world_ranges)")
-    data = world_map(template, f"{GENERATED}{fam.name}", fam.description, values)
+    data = world_map(template, f"{GENERATED}{fam.name}", fam.description, draw.values)
     spec = parse_map(data, source=f"{GENERATED}{fam.name}", clearance=largest)
-    return source, spec, arrays
+    return source, spec, draw
 
 
-def _template(source: WorldSource) -> tuple[Any, dict, MapArrays, bool]:
-    """The world of key 0 (the first valid proposal, as a reset draws it): ``(world, values,
-    arrays, valid)`` on the host."""
-    world, draw = jax.jit(source.chosen)(jax.random.key(0))
-    return world, draw.values, draw.map, bool(draw.valid)
+def _template(source: WorldSource) -> tuple[Any, WorldDraw]:
+    """The world of key 0 (the first valid proposal, as a reset draws it) and its draw."""
+    return jax.jit(source.chosen)(jax.random.key(0))
 
 
 def _substeps(

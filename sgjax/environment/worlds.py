@@ -24,6 +24,7 @@ import numpy as np
 from flax import struct
 from jax import Array
 
+from sgjax.humans.slots import SpawnSlots, slot_grid_shape, world_spawn_slots
 from sgjax.maps.arrays import MapArrays
 from sgjax.maps.generated.checks import verdict
 from sgjax.maps.generated.compiled import world_arrays
@@ -48,6 +49,19 @@ class WorldDraw:
     valid: Array
     values: dict
     seed: Array
+    # the world's pedestrian spawn slots and node mask, when the environment has pedestrians
+    humans: SpawnSlots | None = None
+
+    def params_of(self, params: Any) -> Any:
+        """``params`` (``EnvParams``) with this world as the map, and its spawn slots and node
+        mask in the pedestrian params when it has them (:func:`sgjax.types.episode_params`)."""
+        params = params.replace(map=self.map)
+        if self.humans is None:
+            return params
+        h = self.humans
+        return params.replace(humans=params.humans.replace(
+            spawn_x=h.x, spawn_y=h.y, spawn_nodes=h.nodes, spawn_valid=h.valid,
+            node_valid=h.node_valid))
 
 
 @struct.dataclass
@@ -93,6 +107,18 @@ class WorldSource:
     # every world a seed and values, and a reset plays the Level the state holds when one is
     # chosen (a trainer's curriculum); False: worlds straight from the reset's key
     levels: bool = False
+    # m: the pedestrians' radius, whose spawn slots every world computes (0: no pedestrians)
+    human_radius: float = 0.0
+
+    def slots_of(self, world: World) -> SpawnSlots | None:
+        """The world's pedestrian spawn slots (:func:`sgjax.humans.slots.world_spawn_slots` on
+        the family's slot lattice), or None without pedestrians."""
+        if not self.human_radius:
+            return None
+        shape = slot_grid_shape(self.capacity.extent, self.human_radius)
+        return world_spawn_slots(world.walls, world.wall_valid, world.nodes, world.edges,
+                                 world.edge_valid, world.bounds, shape, self.human_radius,
+                                 world.node_valid)
 
     @property
     def family(self) -> Family:
@@ -115,7 +141,7 @@ class WorldSource:
                          check_dilemma=self.check_dilemma).valid
             fresh = ~is_excluded(values_hash(values), excluded)
             return world, WorldDraw(map=arrays, valid=ok & fresh, values=values,
-                                    seed=jnp.uint32(0))
+                                    seed=jnp.uint32(0), humans=self.slots_of(world))
 
         if key is None:  # one world by its seed (of_seed)
             world, drawn = propose(world_key(seed))
@@ -146,7 +172,8 @@ class WorldSource:
         ok = verdict(world, dist, arrays.next_hop, overflow, self.robot_radius,
                      route_nodes=capacity.route_nodes, check_dilemma=self.check_dilemma).valid
         fresh = ~is_excluded(values_hash(values), excluded)
-        return world, WorldDraw(map=arrays, valid=ok & fresh, values=values, seed=seed)
+        return world, WorldDraw(map=arrays, valid=ok & fresh, values=values, seed=seed,
+                                humans=self.slots_of(world))
 
     def level_draw(self, key: Array, level: Level) -> WorldDraw:
         """The world of a reset under a curriculum: ``level`` when it is chosen, else a fresh
@@ -196,14 +223,15 @@ class WorldSource:
 def source_for(family_name: str, ranges: dict | None = None, robot_radius: float = 0.25,
                proposals: int = 1, reach: float | None = None, check_dilemma: bool = True,
                seeds: tuple[int, int] | None = None, holdout: tuple[int, int] | None = None,
-               levels: bool = False) -> WorldSource:
+               levels: bool = False, human_radius: float = 0.0) -> WorldSource:
     """A :class:`WorldSource` of a family by name, with ``ranges`` ({name: (low, high)}) on its
     defaults (checked), for robots up to ``robot_radius`` m (``reach``: the planner's, default
     the family capacity's), checking the dilemma too by default (for files). ``seeds``: play
     the worlds of this split ``(first, count)``; ``holdout``: never draw a world of that split
     (its worlds' hashes excluded, under the same ranges: each proposal redraws held-out values
     before building). ``levels``: a trainer may pick each episode's world
-    (:meth:`WorldSource.level_draw`)."""
+    (:meth:`WorldSource.level_draw`). ``human_radius``: every world computes spawn slots for
+    pedestrians of this radius (m; 0: none)."""
     fam = family(family_name)
     checked = fam.ranges(ranges)
     capacity = fam.capacity if reach is None else dataclasses.replace(fam.capacity,
@@ -213,7 +241,7 @@ def source_for(family_name: str, ranges: dict | None = None, robot_radius: float
     return WorldSource(fam.name, tuple((k, lo, hi) for k, (lo, hi) in sorted(checked.items())),
                        capacity, float(robot_radius), int(proposals), bool(check_dilemma),
                        None if seeds is None else (int(seeds[0]), int(seeds[1])), exclude,
-                       bool(levels))
+                       bool(levels), float(human_radius))
 
 
 def sample_maps(source: WorldSource, count: int, seed: int) -> list[tuple[dict, bool]]:

@@ -113,6 +113,10 @@ class HumanParams:
     groups: GroupParams | None = None  # who walks with whom, and the group forces
     route_start: Array | None = None  # [P] int32 node rows: pedestrian routes ("routes" mode)
     route_goal: Array | None = None  # [P] int32
+    # a generated world's masks (the episode's, set at reset): which spawn slots are slots
+    # [S] and which node rows are nodes [N] (random goals are drawn among them); None: all
+    spawn_valid: Array | None = None
+    node_valid: Array | None = None
 
 
 @struct.dataclass
@@ -142,12 +146,19 @@ class HumanState:
         return jnp.stack([self.vx, self.vy], axis=-1)
 
 
-def _random_other_node(key: Array, current: Array, num_nodes: int) -> Array:
-    """A uniformly random node row different from ``current`` (when there are two or more)."""
+def _random_other_node(key: Array, current: Array, num_nodes: int,
+                       valid: Array | None = None) -> Array:
+    """A uniformly random node row different from ``current`` (when there are two or more),
+    among the ``valid [N]`` rows when given (a generated world's nodes; ``current`` itself
+    when no other is valid)."""
     if num_nodes < 2:
         return current
-    offset = jax.random.randint(key, current.shape, 1, num_nodes)
-    return (current + offset) % num_nodes
+    if valid is None:
+        offset = jax.random.randint(key, current.shape, 1, num_nodes)
+        return (current + offset) % num_nodes
+    other = valid[None, :] & (jnp.arange(num_nodes)[None, :] != current[:, None])
+    pick = jax.random.categorical(key, jnp.where(other, 0.0, -jnp.inf), axis=-1)
+    return jnp.where(jnp.any(other, axis=-1), pick, current).astype(current.dtype)
 
 
 def no_humans() -> HumanState:
@@ -179,6 +190,8 @@ def spawn_humans(
     gap_sq = (jnp.square(hp.spawn_x[:, None] - robot_x[None, :])
               + jnp.square(hp.spawn_y[:, None] - robot_y[None, :]))
     blocked = jnp.any(robot_present[None, :] & (gap_sq < jnp.square(reach)), axis=1)
+    if hp.spawn_valid is not None:  # a generated world's lattice: only its slots
+        blocked = blocked | ~hp.spawn_valid
     priority = jnp.where(blocked, -1.0, jax.random.uniform(k_slot, hp.spawn_x.shape))
     best, slot = jax.lax.top_k(priority, num)
     if config.goal_mode == "routes" and num:  # each on the free slot nearest its route's start
@@ -194,7 +207,7 @@ def spawn_humans(
     x, y = hp.spawn_x[slot] + jitter[0], hp.spawn_y[slot] + jitter[1]
     # Start toward whichever end of the slot's edge is on the shorter way to the goal.
     end_a, end_b = hp.spawn_nodes[slot, 0], hp.spawn_nodes[slot, 1]
-    goal = _random_other_node(k_goal, end_a, num_nodes)
+    goal = _random_other_node(k_goal, end_a, num_nodes, hp.node_valid)
     if config.goal_mode == "routes" and num:
         goal = route_goal
     if hp.groups is not None:
@@ -255,7 +268,7 @@ def advance_waypoints(
     if config.goal_mode in ("return", "routes"):
         fresh = humans.origin
     else:
-        fresh = _random_other_node(key, humans.target, m.node_x.shape[0])
+        fresh = _random_other_node(key, humans.target, m.node_x.shape[0], hp.node_valid)
     fresh = jnp.where(m.path_length[humans.target, fresh] >= 0.0, fresh, humans.origin)
     goal = jnp.where(at_goal, fresh, humans.goal)
     if hp.groups is not None:

@@ -85,14 +85,16 @@ def test_evaluation_plays_generated_worlds_and_reads_their_zones(doorway):
     assert np.all(np.isfinite(episodes.values["episode_length"]))
 
 
-def test_bad_families_ranges_and_pedestrians_are_refused_by_name():
+def test_bad_families_ranges_and_pedestrian_options_are_refused_by_name():
     with pytest.raises(ValueError, match="no world family 'dorway'.*doorway"):
         sgjax.make("generated:dorway")
     with pytest.raises(ValueError, match="no parameter 'door_widht'"):
         sgjax.make("generated:doorway", world_ranges={"door_widht": [1, 2]})
     with pytest.raises(ValueError, match="world_ranges: 'door_width': expected"):
         sgjax.make("generated:doorway", world_ranges={"door_width": [1, 2, 3]})
-    with pytest.raises(ValueError, match="no pedestrians yet"):
-        sgjax.make("generated:doorway", num_humans=2)
+    with pytest.raises(ValueError, match="human_walls='points' needs a fixed map"):
+        sgjax.make("generated:doorway", num_humans=2, human_walls="points")
+    with pytest.raises(ValueError, match="human_goals='routes' needs a fixed map"):
+        sgjax.make("generated:doorway", num_humans=2, human_goals="routes")
     env, _ = sgjax.make("generated:hallway", world_ranges={"corridor_width": 1.5})
     assert ("corridor_width", 1.5, 1.5) in env.config.world.ranges
