@@ -123,3 +123,29 @@ def test_a_curriculum_variant_needs_a_curriculum_config_and_a_known_method(tmp_p
     bad.write_text("baseline: {levels: dr}\nfancy: {levels: plrr}\n")
     with pytest.raises(ConfigError, match=r"fancy.levels: expected one of"):
         load_variants(bad)
+
+
+@pytest.mark.slow
+def test_a_checkpoint_saved_before_curricula_restores_and_other_gaps_still_fail(tmp_path,
+                                                                              monkeypatch):
+    from train.run import checkpoint
+
+    config = tiny(env={"scenarios": ["generated:doorway"], "curriculum": [[0, 2]],
+                       "time_limit": 1.0})
+    trainer = Trainer(config)
+    runner = jax.jit(jax.vmap(trainer.init))(seed_keys(config))
+    path = checkpoint.save(tmp_path / "c.msgpack", config, runner, {"steps": 0})
+    cfg, meta, raw = checkpoint.read(path)
+    old = {k: v for k, v in raw.items() if k not in ("levels", "curriculum")}
+    old["env_states"] = {i: {**{f: v for f, v in s.items() if f != "next_level"},
+                             "world": {f: v for f, v in s["world"].items()
+                                       if f not in ("seed", "humans")}}
+                         for i, s in raw["env_states"].items()}
+    monkeypatch.setattr(checkpoint, "read", lambda p: (cfg, meta, old))
+    restored, _ = checkpoint.restore(path, trainer)
+    for a, b in zip(jax.tree.leaves(restored), jax.tree.leaves(runner), strict=True):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    broken = {k: v for k, v in old.items() if k != "returns"}
+    monkeypatch.setattr(checkpoint, "read", lambda p: (cfg, meta, broken))
+    with pytest.raises(ValueError, match="does not fit this configuration.*returns"):
+        checkpoint.restore(path, trainer)

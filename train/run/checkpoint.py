@@ -98,11 +98,35 @@ def restore(path: str | Path, trainer: Any, contents: tuple | None = None
         seeds = trainer.config.num_seeds
         raw = {**raw, "hyper": {name: np.full(seeds, value, np.float32) for name, value
                                 in trainer.default_hyper().items()}}
+    raw = with_added_fields(raw, serialization.to_state_dict(template))
     try:
         runner = serialization.from_state_dict(template, raw)
     except (KeyError, ValueError) as err:
         raise ValueError(f"{resolve(path)}: does not fit this configuration ({err})") from err
     return jax.tree.map(jax.numpy.asarray, runner), meta
+
+
+# Fields the runner state gained on 2026-11-28 (curricula over generated worlds, pedestrians
+# in them): a checkpoint saved before lacks them, and held what these defaults say.
+ADDED_FIELDS = ("levels", "curriculum", "next_level", "seed", "humans")
+
+
+def with_added_fields(raw: Any, shapes: Any) -> Any:
+    """A checkpoint's raw state with the :data:`ADDED_FIELDS` it lacks, at the value a run
+    made before them held: zeros for arrays (``WorldDraw.seed``: no seed), empty for
+    containers (``RunnerState.levels``, ``curriculum``) and None (``EnvState.next_level``,
+    ``WorldDraw.humans``). ``shapes``: the state dict of the trainer's runner template
+    (``ShapeDtypeStruct`` leaves). Any other missing field stays missing (the checkpoint does
+    not fit: :func:`restore` says so)."""
+    if not isinstance(shapes, dict) or not isinstance(raw, dict):
+        return raw
+    out = dict(raw)
+    for name, shape in shapes.items():
+        if name in raw:
+            out[name] = with_added_fields(raw[name], shape)
+        elif name in ADDED_FIELDS:
+            out[name] = jax.tree.map(lambda s: np.zeros(s.shape, s.dtype), shape)
+    return out
 
 
 def resolve(path: str | Path) -> Path:
