@@ -47,7 +47,6 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import numpy as np
-from flax import serialization
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.evaluation.provenance import cpu_model, git_state, provenance
@@ -70,6 +69,7 @@ from train.algorithm.config import (
 from train.algorithm.env_batch import observation_mask
 from train.algorithm.trainer import Trainer
 from train.reports.result_schemas import ABLATION
+from train.run import checkpoint
 from train.run.loop import Call, equal_calls, train_in_calls
 from train.run.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
 from train.run.partial import SAVES_PER_RUN, PartialFile
@@ -194,7 +194,7 @@ def _lane_calls(template: Any, raw: dict) -> list[tuple[Any, dict]]:
     trained = []
     for number in range(len(raw)):
         entry = raw[str(number)]
-        runner = serialization.from_state_dict(template, entry["runner"])
+        runner = checkpoint.state_from_raw(template, entry["runner"])
         logs = {name: jnp.asarray(value) for name, value in entry["logs"].items()}
         trained.append((jax.tree.map(jnp.asarray, runner), logs))
     return trained

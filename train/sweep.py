@@ -73,6 +73,7 @@ from train.algorithm.env_batch import observation_mask
 from train.algorithm.lane_settings import LANE_SETTINGS
 from train.algorithm.trainer import Trainer
 from train.reports.result_schemas import SWEEP
+from train.run import checkpoint
 from train.run.loop import Call, train_in_calls
 from train.run.phases import Phases
 from train.run.search_space import (
@@ -574,7 +575,7 @@ class Sweep:
                 self.pending.setdefault(group_key(split_values(got[1])[1]), []).append(got)
         key = tuple((k, freeze(v)) for k, v in state["program"])
         group = self.group(key)
-        runners = serialization.from_state_dict(group.template(), payload["runners"])
+        runners = checkpoint.state_from_raw(group.template(), payload["runners"])
         runners = jax.tree.map(jnp.asarray, runners)
         seeds = self.space.seeds
         slots: list[Running | None] = []

@@ -159,6 +159,9 @@ def _generated(name: str, opts: MakeOptions, largest: float, reach: float
                 raise ValueError(f"make({name!r}): {option}={refused!r} needs a fixed map; "
                                  f"generated worlds take the other {option} values")
     w = opts.worlds
+    if w.world_levels and w.world_seeds is not None:
+        raise ValueError(f"make({name!r}): world_levels (a trainer picks each world) and "
+                         "world_seeds (play a split's worlds) exclude each other")
     source = source_for(fam.name, w.ranges(), float(largest), w.world_proposals, float(reach),
                         check_dilemma=False, seeds=w.world_seeds, holdout=w.world_holdout,
                         levels=w.world_levels,
@@ -243,7 +246,8 @@ def _check_capacity(source: str, params: EnvParams, max_agents: int,
     """Fail early if the map cannot place ``max_agents`` robots with distinct starts and goals,
     or ``max_humans`` pedestrians on free spawn slots beside them."""
     wanted = human_config.max_humans
-    slots = int(params.humans.spawn_x.shape[0])
+    valid = params.humans.spawn_valid  # a generated world's lattice is masked
+    slots = int(params.humans.spawn_x.shape[0] if valid is None else jnp.sum(valid))
     radius = float(params.humans.radius)
     if slots < wanted:
         raise ValueError(

@@ -155,10 +155,10 @@ class WorldSource:
             index = jax.random.randint(key, (self.proposals,), 0, count)
             keys = jax.vmap(world_key)(jnp.uint32(first) + index.astype(jnp.uint32))
         worlds, draws = jax.vmap(propose)(keys)
-        first = jnp.argmax(draws.valid)  # the first valid one, else 0
-        if self.seeds is not None:
-            draws = draws.replace(seed=jnp.uint32(first) + index.astype(jnp.uint32))
-        return jax.tree.map(lambda x: x[first], (worlds, draws))
+        if self.seeds is not None:  # a split's world is its seed
+            draws = draws.replace(seed=jnp.uint32(self.seeds[0]) + index.astype(jnp.uint32))
+        best = jnp.argmax(draws.valid)  # the first valid one, else 0
+        return jax.tree.map(lambda x: x[best], (worlds, draws))
 
     def built(self, seed: Array, values: dict) -> tuple[World, WorldDraw]:
         """The world of seed ``seed`` (uint32) built from ``values`` ({name: float32}, the
@@ -177,9 +177,11 @@ class WorldSource:
 
     def level_draw(self, key: Array, level: Level) -> WorldDraw:
         """The world of a reset under a curriculum: ``level`` when it is chosen, else a fresh
-        seed from ``key`` with its own values (the first of ``proposals`` seeds that is valid,
-        each redrawn up to :data:`HOLDOUT_TRIES` times away from a held-out split's values).
-        One world is built per proposal either way (a chosen level fills every proposal)."""
+        seed from ``key`` with its own values; of ``proposals`` candidates (the chosen level
+        first, then fresh seeds, each redrawn up to :data:`HOLDOUT_TRIES` times away from a
+        held-out split's values) the first valid one. With one proposal a chosen level that
+        fails the checks is played (flagged invalid: a curriculum never records it); with
+        more, the next fresh seed replaces it."""
         ranges = range_arrays({name: (low, high) for name, low, high in self.ranges})
         excluded = jnp.asarray(np.asarray(self.exclude, np.uint32))
         tries = HOLDOUT_TRIES if self.exclude else 1
@@ -193,10 +195,11 @@ class WorldSource:
             return row[jnp.minimum(jnp.argmin(held), tries - 1)]
 
         seeds = jax.vmap(fresh_seed)(seeds) if self.exclude else seeds[:, 0]
-        seeds = jnp.where(level.chosen, level.seed, seeds)
+        # a chosen level is proposal 0, fresh seeds the others: the fallback when it fails
+        chosen = (jnp.arange(self.proposals) == 0) & level.chosen
+        seeds = jnp.where(chosen, level.seed, seeds)
         own = jax.vmap(lambda s: world_values(world_key(s), ranges))(seeds)
-        values = {name: jnp.where(level.chosen, level.values[name], own[name])
-                  for name in own}
+        values = {name: jnp.where(chosen, level.values[name], own[name]) for name in own}
         _, draws = jax.vmap(self.built)(seeds, values)
         return jax.tree.map(lambda x: x[jnp.argmax(draws.valid)], draws)
 

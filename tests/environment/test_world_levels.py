@@ -109,3 +109,30 @@ def test_a_level_with_held_out_values_is_not_valid():
     assert not bool(held.valid)  # a held-out world's values, whatever the seed
     assert not bool(source.built(jnp.uint32(7), held.values)[1].valid)
     assert bool(source.built(jnp.uint32(7), source.of_seed(7).values)[1].valid)
+
+
+def test_a_splits_worlds_carry_their_seed_and_levels_refuse_a_split():
+    env, params = sgjax.make("generated:doorway", num_agents=2, world_seeds=[1000, 50])
+    _, states = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(
+        jax.random.split(jax.random.key(0), 8), params)
+    source = env.config.world
+    for seed, width in zip(np.asarray(states.world.seed),
+                           np.asarray(states.world.values["door_width"]), strict=True):
+        assert 1000 <= seed < 1050
+        assert float(source.of_seed(int(seed)).values["door_width"]) == pytest.approx(width)
+    with pytest.raises(ValueError, match="world_levels .* and world_seeds .* exclude"):
+        sgjax.make("generated:doorway", world_levels=True, world_seeds=[0, 10])
+
+
+def test_a_chosen_level_that_fails_the_checks_falls_back_to_a_fresh_world():
+    env, _ = sgjax.make("generated:doorway", num_agents=2, world_levels=True,
+                        world_proposals=2)
+    source = env.config.world
+    narrow = dict(source.of_seed(5).values)
+    narrow["door_width"] = jnp.float32(0.3)  # narrower than any robot: fails the checks
+    assert not bool(source.built(jnp.uint32(5), narrow)[1].valid)
+    level = Level(seed=jnp.uint32(5), values=narrow, chosen=jnp.asarray(True))
+    draw = jax.jit(source.level_draw)(jax.random.key(1), level)
+    assert bool(draw.valid) and int(draw.seed) != 5
+    good = Level(seed=jnp.uint32(5), values=source.of_seed(5).values, chosen=jnp.asarray(True))
+    assert int(jax.jit(source.level_draw)(jax.random.key(1), good).seed) == 5

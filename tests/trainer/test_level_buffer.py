@@ -125,9 +125,12 @@ def test_record_updates_held_levels_and_keeps_the_best_new_ones():
         a=[held_a, 0.1, 0.1, 0.2, 0.3], b=[held_b, 2.5, 2.5, 2.6, 2.7],
         done=[True, True, True, True, False], score=[5.0, 9.0, 9.0, -1.0, 50.0],
         success=[1.0, 0.5, 0.5, 0.5, 0.5], valid=[True, True, True, True, True])
-    out = record(buffer, jnp.int32(77), learnability=False, candidates=5, **events)
+    out, episodes, replays = record(buffer, jnp.int32(77), learnability=False, candidates=5,
+                                    **events)
+    assert float(episodes) == 4 and float(replays) == 1  # 101 was held
     seeds = np.asarray(out.seed)[np.asarray(out.filled)].tolist()
-    assert seeds.count(7) == 1  # a level played twice in a rollout is kept once
+    assert seeds.count(7) == 1  # a level played twice in a rollout is kept once...
+    assert float(np.asarray(out.plays)[np.asarray(out.filled)][seeds.index(7)]) == 2  # twice
     assert 9 not in seeds  # an episode still going is not recorded
     assert held_seed in seeds and 8 not in seeds  # 8 scores below the others: no slot
     i = seeds.index(held_seed)
@@ -141,7 +144,7 @@ def test_record_refuses_invalid_worlds_and_learnability_scores_success():
     buffer = LevelBuffer.empty(tuple(RANGES), 4, 3)
     events = _events(seeds=[1, 2, 3], a=[0.1, 0.2, 0.3], b=[2, 3, 4], done=[True] * 3,
                      score=[1.0, 1.0, 1.0], success=[0.5, 1.0, 0.25], valid=[True, True, False])
-    out = record(buffer, jnp.int32(5), learnability=True, candidates=3, **events)
+    out, _, _ = record(buffer, jnp.int32(5), learnability=True, candidates=3, **events)
     filled = np.asarray(out.filled)
     assert sorted(np.asarray(out.seed)[filled].tolist()) == [1, 2]
     by_seed = dict(zip(np.asarray(out.seed)[filled].tolist(),
@@ -150,7 +153,8 @@ def test_record_refuses_invalid_worlds_and_learnability_scores_success():
     # played again and failed: p = (0.5 + 0) / 2, learnability 0.25 x 0.75
     again = _events(seeds=[1, 1, 5], a=[0.1, 0.1, 0.9], b=[2, 2, 2], done=[True, False, False],
                     score=[0, 0, 0], success=[0.0, 0.0, 0.0])
-    out = record(out, jnp.int32(9), learnability=True, candidates=3, **again)
+    out, _, replays = record(out, jnp.int32(9), learnability=True, candidates=3, **again)
+    assert float(replays) == 1
     i = int(np.flatnonzero(np.asarray(out.filled) & (np.asarray(out.seed) == 1))[0])
     assert float(out.plays[i]) == 2 and float(out.score[i]) == pytest.approx(0.1875)
 
@@ -160,21 +164,24 @@ def test_next_levels_replay_only_from_a_filled_enough_buffer(key):
     kwargs = dict(min_fill=0.5, temperature=0.3, staleness=0.3, edits=1, edit_scale=0.2)
     k = jax.random.key(key)
     thin = _buffer(size=8, envs=16, filled=3, seed=key)
-    level, _ = next_levels(k, thin, jnp.int32(60), RANGES, replay_prob=1.0, mutate_prob=0.0,
-                           **kwargs)
+    level = next_levels(k, thin, jnp.int32(60), RANGES, replay_prob=1.0, mutate_prob=0.0,
+                        **kwargs)
+    assert not np.asarray(level.chosen).any()
+    empty = LevelBuffer.empty(tuple(RANGES), 8, 16)  # min_fill 0 never replays nothing
+    level = next_levels(k, empty, jnp.int32(60), RANGES, replay_prob=1.0, mutate_prob=0.0,
+                        **{**kwargs, "min_fill": 0.0})
     assert not np.asarray(level.chosen).any()
     full = _buffer(size=8, envs=16, filled=6, seed=key)
-    level, after = next_levels(k, full, jnp.int32(60), RANGES, replay_prob=1.0,
-                               mutate_prob=0.0, **kwargs)
+    level = next_levels(k, full, jnp.int32(60), RANGES, replay_prob=1.0, mutate_prob=0.0,
+                        **kwargs)
     assert np.asarray(level.chosen).all()
     slots = [int(np.flatnonzero(np.asarray(full.seed) == s)[0]) for s in np.asarray(level.seed)]
     assert all(bool(full.filled[s]) for s in slots)
     for name in RANGES:  # PLR replays the level as it is
         np.testing.assert_array_equal(np.asarray(level.values[name]),
                                       np.asarray(full.values[name])[slots])
-    assert all(int(after.last_played[s]) == 60 for s in slots)
-    edited, _ = next_levels(k, full, jnp.int32(60), RANGES, replay_prob=1.0, mutate_prob=1.0,
-                            **kwargs)
+    edited = next_levels(k, full, jnp.int32(60), RANGES, replay_prob=1.0, mutate_prob=1.0,
+                         **kwargs)
     changed = sum(not np.array_equal(np.asarray(edited.values[n]), np.asarray(level.values[n]))
                   for n in RANGES)
     assert changed >= 1 and np.array_equal(np.asarray(edited.seed), np.asarray(level.seed))

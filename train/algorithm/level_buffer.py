@@ -47,7 +47,6 @@ class LevelBuffer:
     filled: Array  # [N] bool
     episode_score: Array  # [E] float32 sum of the current episode's step scores so far
     episode_steps: Array  # [E] float32 steps of it with an acting robot
-    replayed: Array  # [E] bool: the current rollout's next episode is a chosen level
 
     @classmethod
     def empty(cls, parameters: tuple[str, ...], size: int, num_envs: int) -> LevelBuffer:
@@ -59,8 +58,7 @@ class LevelBuffer:
                    score=jnp.full(size, NEVER), plays=zeros, success=zeros,
                    last_played=jnp.zeros(size, jnp.int32), filled=jnp.zeros(size, bool),
                    episode_score=jnp.zeros(num_envs, jnp.float32),
-                   episode_steps=jnp.zeros(num_envs, jnp.float32),
-                   replayed=jnp.zeros(num_envs, bool))
+                   episode_steps=jnp.zeros(num_envs, jnp.float32))
 
     @property
     def fill(self) -> Array:
@@ -105,14 +103,15 @@ def edit(key: Array, values: dict, ranges: dict[str, tuple[float, float]], edits
 def next_levels(key: Array, buffer: LevelBuffer, now: Array, ranges: dict, *,
                 replay_prob: Array | float, min_fill: float, temperature: float,
                 staleness: float, mutate_prob: Array | float, edits: int, edit_scale: float
-                ) -> tuple[Level, LevelBuffer]:
+                ) -> Level:
     """The level of each environment's next episode ``[E]`` (chosen, or unset for a fresh
-    world; see the module doc) and the buffer with the replayed levels' last-played times and
-    ``replayed`` set. ``replay_prob`` 0: never a replay (domain randomisation);
-    ``mutate_prob`` 0: no edits (PLR). Both may be traced (a lane's numbers)."""
+    world; see the module doc). ``replay_prob`` 0: never a replay (domain randomisation);
+    ``mutate_prob`` 0: no edits (PLR). Both may be traced (a lane's numbers). A level's
+    last-played time is set when its episode ends (:func:`record`), not here: a pick may wait
+    several rollouts for its environment's episode to end."""
     num_envs = buffer.episode_score.shape[0]
     k_replay, k_pick, k_mutate, k_edit = jax.random.split(key, 4)
-    ready = buffer.fill >= min_fill
+    ready = (buffer.fill >= min_fill) & jnp.any(buffer.filled)
     replay = ready & (jax.random.uniform(k_replay, (num_envs,)) < replay_prob)
     weights = replay_weights(buffer, now, temperature, staleness)
     pick = jax.random.choice(k_pick, weights.size, (num_envs,), p=weights)
@@ -121,11 +120,7 @@ def next_levels(key: Array, buffer: LevelBuffer, now: Array, ranges: dict, *,
     edited = jax.vmap(lambda k, v: edit(k, v, ranges, edits, edit_scale))(
         jax.random.split(k_edit, num_envs), values)
     values = {name: jnp.where(mutate, edited[name], v) for name, v in values.items()}
-    level = Level(seed=buffer.seed[pick], values=values, chosen=replay)
-    played = jnp.where(replay & ~mutate, pick, weights.size)  # an edit is a new level
-    buffer = buffer.replace(last_played=buffer.last_played.at[played].set(now, mode="drop"),
-                            replayed=replay)
-    return level, buffer
+    return Level(seed=buffer.seed[pick], values=values, chosen=replay)
 
 
 def step_scores(advantages: Array, active: Array, num_envs: int) -> tuple[Array, Array]:
@@ -162,14 +157,17 @@ def episode_scores(buffer: LevelBuffer, scores: Array, stepped: Array, done: Arr
 
 def record(buffer: LevelBuffer, now: Array, seed: Array, values: dict, valid: Array,
            done: Array, score: Array, success: Array, learnability: Array | bool,
-           candidates: int) -> LevelBuffer:
+           candidates: int) -> tuple[LevelBuffer, Array, Array]:
     """The buffer after the episodes that ended in a rollout (``[T, E]`` each: the seed and
     values of the level played, whether it was valid, ``done``, the episode's PVL ``score``
     and its robots' ``success`` share): at most ``candidates`` of them (the first to end)
     are recorded. A level already held gets its new score (under ``learnability``, its
     success mean updated first); new valid levels replace the lowest scores when they score
-    higher. Levels are equal when their seeds and every value are. ``learnability`` (a bool,
-    or a lane's traced one) scores by learnability instead of PVL."""
+    higher. Levels are equal when their seeds and every value are; a level that ended several
+    episodes in the rollout counts them all (a held one's newest score is its last
+    candidate's; a new one's the mean of its episodes). ``learnability`` (a bool, or a lane's
+    traced one) scores by learnability instead of PVL. Returns the buffer, the episodes
+    recorded and how many of them replayed a held level (float32)."""
     flat = lambda x: x.reshape(-1)  # noqa: E731
     ended = flat(done) & flat(valid)
     order = jnp.argsort(~ended, stable=True)[:candidates]
@@ -190,31 +188,40 @@ def record(buffer: LevelBuffer, now: Array, seed: Array, values: dict, valid: Ar
     known = jnp.any(held, axis=1)
     slot = jnp.where(known, jnp.argmax(held, axis=1), buffer.seed.size)
 
-    # Replayed levels: their success mean and score updated (the last episode's wins ties).
+    # Replayed levels: their success mean and score updated (the last candidate's PVL).
+    size = buffer.seed.size
     plays = buffer.plays.at[slot].add(1.0, mode="drop")
     success_sum = (buffer.success * buffer.plays).at[slot].add(c_success, mode="drop")
     success = success_sum / jnp.maximum(plays, 1.0)
+    last_candidate = jnp.full(size, -1).at[slot].max(jnp.arange(slot.size), mode="drop")
+    newest = jnp.where(last_candidate >= 0, c_score[jnp.maximum(last_candidate, 0)],
+                       buffer.score)
     learnability = jnp.asarray(learnability, bool)  # may be a lane's (traced) choice
     score = jnp.where(learnability,
                       jnp.where(plays > buffer.plays, success * (1.0 - success), buffer.score),
-                      buffer.score.at[slot].set(c_score, mode="drop"))
+                      newest)
     last = buffer.last_played.at[slot].set(now, mode="drop")
     buffer = buffer.replace(plays=plays, success=success, score=score, last_played=last)
 
-    # New levels: the first of each kind among the candidates, competing for the slots.
-    twin = same(c_seed, c_values, c_seed, c_values) & keep[None, :]
+    # New levels: the first of each kind among the candidates (its twins' episodes pooled),
+    # competing for the slots.
+    twin = same(c_seed, c_values, c_seed, c_values) & keep[None, :] & keep[:, None]
     earlier = jnp.tril(twin, k=-1)
     new = keep & ~known & ~jnp.any(earlier, axis=1)
+    count = jnp.maximum(jnp.sum(twin, axis=1), 1).astype(jnp.float32)
+    c_success = jnp.sum(twin * c_success[None, :], axis=1) / count
+    c_score = jnp.sum(twin * c_score[None, :], axis=1) / count
     new_score = jnp.where(learnability, c_success * (1.0 - c_success), c_score)
     pool = jnp.concatenate([jnp.where(buffer.filled, buffer.score, NEVER),
                             jnp.where(new, new_score, NEVER)])
     top = jax.lax.top_k(pool, buffer.seed.size)[1]  # empty slots (-inf) rank last
     join = lambda a, b: jnp.concatenate([a, b])[top]  # noqa: E731
-    return buffer.replace(
+    buffer = buffer.replace(
         seed=join(buffer.seed, c_seed),
         values={n: join(buffer.values[n], c_values[n]) for n in buffer.values},
         score=pool[top],
-        plays=join(buffer.plays, jnp.ones_like(c_score)),
+        plays=join(buffer.plays, count),
         success=join(buffer.success, c_success),
         last_played=join(buffer.last_played, jnp.full(c_score.shape, now, jnp.int32)),
         filled=join(buffer.filled, new))
+    return buffer, jnp.sum(keep).astype(jnp.float32), jnp.sum(known).astype(jnp.float32)

@@ -35,7 +35,8 @@ def empty_buffers(batch: EnvBatch, levels: LevelsConfig) -> tuple[LevelBuffer | 
 def choose_levels(batch: EnvBatch, levels: LevelsConfig, key: Array, buffers: tuple,
                   env_states: tuple, now: Array, lane: dict) -> tuple[tuple, tuple]:
     """Every picked scenario's next levels written into its environments' states
-    (``EnvState.next_level``): ``(buffers, env_states)``. ``lane``: the lane's
+    (``EnvState.next_level``) where the last pick was played (an environment whose episode
+    has not ended since keeps its pick): ``(buffers, env_states)``. ``lane``: the lane's
     ``replay_prob`` and ``mutate_prob`` (:meth:`LevelsConfig.lane_values`)."""
     out_buffers, out_states = [], []
     keys = jax.random.split(key, len(batch.sizes))
@@ -46,10 +47,13 @@ def choose_levels(batch: EnvBatch, levels: LevelsConfig, key: Array, buffers: tu
             out_states.append(state)
             continue
         ranges = {name: (low, high) for name, low, high in source.ranges}
-        level, buffer = next_levels(
+        level = next_levels(
             k, buffer, now, ranges, replay_prob=lane["replay_prob"], min_fill=levels.min_fill,
             temperature=levels.temperature, staleness=levels.staleness,
             mutate_prob=lane["mutate_prob"], edits=levels.edits, edit_scale=levels.edit_scale)
+        pending = state.next_level.chosen  # [E]; every leaf of a Level is [E]
+        level = jax.tree.map(lambda old, new, pending=pending: jnp.where(pending, old, new),
+                             state.next_level, level)
         out_buffers.append(buffer)
         out_states.append(state.replace(next_level=level))
     return tuple(out_buffers), tuple(out_states)
@@ -70,8 +74,8 @@ def record_levels(batch: EnvBatch, buffers: tuple, now: Array, advantages: Array
     lane's ``learnability`` is 1) and recorded. ``ended``: the
     rollout's ``{"done": [T, E], "success": [T, E], "played": per scenario [T, E_s]}``.
     Returns the buffers and their statistics (means over the picked scenarios): ``fill``,
-    ``replayed`` (share of environments whose next episode was a chosen level) and
-    ``score`` (mean score of the held levels)."""
+    ``replayed`` (share of the episodes recorded in the rollout that replayed a held level)
+    and ``score`` (mean score of the held levels)."""
     num_envs = sum(batch.sizes)
     scores, stepped = step_scores(advantages, active, num_envs)
     parts = zip(batch.level_sources, buffers, batch.split(scores.T), batch.split(stepped.T),
@@ -84,12 +88,13 @@ def record_levels(batch: EnvBatch, buffers: tuple, now: Array, advantages: Array
             continue
         episode, buffer = episode_scores(buffer, score.T, acted.T, done.T)
         seed, values, valid = played
-        buffer = record(buffer, now, seed, values, valid, done.T, episode, success.T,
-                        learnability=lane["learnability"] > 0.5,
-                        candidates=2 * buffer.episode_score.shape[0])
+        buffer, episodes, replays = record(
+            buffer, now, seed, values, valid, done.T, episode, success.T,
+            learnability=lane["learnability"] > 0.5,
+            candidates=2 * buffer.episode_score.shape[0])
         out.append(buffer)
         held = jnp.where(buffer.filled, buffer.score, 0.0)
-        stats.append((buffer.fill, jnp.mean(buffer.replayed.astype(jnp.float32)),
+        stats.append((buffer.fill, replays / jnp.maximum(episodes, 1.0),
                       jnp.sum(held) / jnp.maximum(jnp.sum(buffer.filled), 1)))
     means = [jnp.mean(jnp.stack(column)) for column in zip(*stats, strict=True)]
     return tuple(out), dict(zip(("levels_fill", "levels_replayed", "levels_score"), means,

@@ -98,9 +98,8 @@ def restore(path: str | Path, trainer: Any, contents: tuple | None = None
         seeds = trainer.config.num_seeds
         raw = {**raw, "hyper": {name: np.full(seeds, value, np.float32) for name, value
                                 in trainer.default_hyper().items()}}
-    raw = with_added_fields(raw, serialization.to_state_dict(template))
     try:
-        runner = serialization.from_state_dict(template, raw)
+        runner = state_from_raw(template, raw)
     except (KeyError, ValueError) as err:
         raise ValueError(f"{resolve(path)}: does not fit this configuration ({err})") from err
     return jax.tree.map(jax.numpy.asarray, runner), meta
@@ -127,6 +126,14 @@ def with_added_fields(raw: Any, shapes: Any) -> Any:
         elif name in ADDED_FIELDS:
             out[name] = jax.tree.map(lambda s: np.zeros(s.shape, s.dtype), shape)
     return out
+
+
+def state_from_raw(template: Any, raw: Any) -> Any:
+    """A saved runner state (a checkpoint's, a partial file's) in ``template``'s structure
+    (a runner, or its ``jax.eval_shape``), the :data:`ADDED_FIELDS` it lacks filled
+    (:func:`with_added_fields`); flax's error where it does not fit otherwise."""
+    return serialization.from_state_dict(
+        template, with_added_fields(raw, serialization.to_state_dict(template)))
 
 
 def resolve(path: str | Path) -> Path:

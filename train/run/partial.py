@@ -16,7 +16,6 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
-from flax import serialization
 
 from train.algorithm.config import TrainConfig, as_trained
 from train.run import checkpoint
@@ -28,7 +27,7 @@ def shaped_like(template: Any) -> Callable[[dict], Any]:
     """A ``restore`` for :meth:`PartialFile.load`: the raw state in ``template``'s shapes (a
     ``jax.eval_shape`` tree), as arrays."""
     def restore(raw: dict) -> Any:
-        return jax.tree.map(jnp.asarray, serialization.from_state_dict(template, raw))
+        return jax.tree.map(jnp.asarray, checkpoint.state_from_raw(template, raw))
     return restore
 
 
