@@ -111,10 +111,7 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
         decision_period=robot_opts.decision_period, world=world,
     )
     params = EnvParams(
-        robots=robot_params(presets),
-        map=map_arrays,
-        planner=planner_params,
-        reward=reward_params,
+        robots=robot_params(presets), map=map_arrays, planner=planner_params, reward=reward_params,
         humans=human_params(spec, human_config, human_opts.num_humans, human_opts.human_radius,
                             human_opts.humans_see_robots, human_opts.human_groups),
         num_agents=jnp.asarray(robot_opts.num_agents, jnp.int32),
