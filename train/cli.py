@@ -47,6 +47,7 @@ from train.algorithm.config import (
     load_config,
 )
 from train.algorithm.trainer import Trainer, seed_keys
+from train.algorithm.world_curriculum import LEVEL_STATS
 from train.reports.curves import plot_learning_curves
 from train.reports.result_schemas import SEED_SPREAD
 from train.run import checkpoint
@@ -58,8 +59,6 @@ from train.run.socialgym_config import convert, is_socialgym_config, read_social
 COLUMNS = ("steps", "updates", "wall_s", "env_steps_per_s", "agent_steps_per_s", "num_agents",
            "episodes", "team_success", "robot_success", "mean_return", "policy_loss",
            "value_loss", "entropy", "approx_kl", "eval_team_success", "eval_robot_success")
-# a curriculum over generated worlds adds its buffers' statistics (world_curriculum)
-LEVEL_COLUMNS = ("levels_fill", "levels_replayed", "levels_score")
 
 
 class Logger:
@@ -152,7 +151,7 @@ class PeriodicWork:
         self.best = out / "checkpoints" / "best.msgpack"
         a, e, lg = config.algorithm, config.evaluation, config.logging
         self.logger = Logger(out, lg.tensorboard, append=resume,
-                             extra=LEVEL_COLUMNS if config.levels.active else ())
+                             extra=LEVEL_STATS if config.levels.active else ())
         self.progress = Progress(a.num_updates * a.steps_per_update, meta["steps"],
                                  lg.progress)
         self.next_eval = (meta["steps"] // e.every + 1) * e.every
@@ -288,7 +287,7 @@ def _row(logs: dict, meta: dict, wall: float, env_rate: float, trainer: Trainer)
         "mean_return": float(np.sum(logs["return_sum"])) / max(robots, 1.0),
         **{k: float(np.mean(logs[k])) for k in ("policy_loss", "value_loss", "entropy",
                                                 "approx_kl")},
-        **{k: float(np.mean(logs[k])) for k in LEVEL_COLUMNS if k in logs},
+        **{k: float(np.mean(logs[k])) for k in LEVEL_STATS if k in logs},
     }
 
 

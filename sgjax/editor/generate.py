@@ -9,11 +9,11 @@ once (a few seconds; the floor plan's longest), then a world takes milliseconds.
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Mapping
 from typing import Any
 
 from sgjax.editor.session import EditorError
+from sgjax.environment.options import WorldOptions
 from sgjax.maps.generated.families import FAMILIES, family
 
 SEEDS = 2**32  # world seeds are uint32
@@ -33,29 +33,12 @@ def families() -> list[dict[str, Any]]:
 
 
 def _ranges(name: str, value: Any) -> dict[str, tuple[float, float]]:
-    """The request's ``ranges`` ({parameter: [low, high] or a number}), checked by the family:
-    a 422 naming the parameter otherwise."""
-    if value is None:
-        return {}
-    if not isinstance(value, Mapping):
-        raise EditorError(422, "generate: 'ranges' must be an object of parameter: [low, high]")
-    out = {}
-    for key, pair in value.items():
-        if isinstance(pair, bool) or not (
-                isinstance(pair, int | float)
-                or (isinstance(pair, list) and len(pair) == 2
-                    and all(isinstance(v, int | float) and not isinstance(v, bool)
-                            for v in pair))):
-            raise EditorError(422, f"generate: ranges.{key}: expected [low, high] or a number, "
-                                   f"got {pair!r}")
-        values = [pair, pair] if isinstance(pair, int | float) else pair
-        if not all(math.isfinite(v) for v in values):
-            raise EditorError(422, f"generate: ranges.{key}: not a finite number: {pair!r}")
-        out[str(key)] = (float(values[0]), float(values[1]))
+    """The request's ``ranges`` ({parameter: [low, high] or a number}) read as ``make``'s
+    ``world_ranges`` and checked by the family: a 422 naming the parameter otherwise."""
     try:
-        return family(name).ranges(out)
+        return family(name).ranges(WorldOptions(world_ranges=value or {}).ranges())
     except ValueError as err:
-        raise EditorError(422, f"generate: {err}") from None
+        raise EditorError(422, f"generate: ranges: {err}") from None
 
 
 @functools.lru_cache(maxsize=16)

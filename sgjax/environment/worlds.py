@@ -124,39 +124,56 @@ class WorldSource:
     def family(self) -> Family:
         return family(self.family_name)
 
+    def _range_arrays(self) -> dict[str, Array]:
+        return range_arrays({name: (low, high) for name, low, high in self.ranges})
+
+    def _excluded(self) -> Array:
+        return jnp.asarray(np.asarray(self.exclude, np.uint32))
+
+    def _checked(self, world: World, values: dict, seed: Array) -> WorldDraw:
+        """The draw of a built ``world``: its map arrays, checked (``valid``; a world whose
+        values a held-out split holds is not valid), its pedestrian slots."""
+        capacity = self.capacity
+        arrays, dist, overflow = world_arrays(world, capacity)
+        ok = verdict(world, dist, arrays.next_hop, overflow, self.robot_radius,
+                     route_nodes=capacity.route_nodes, check_dilemma=self.check_dilemma).valid
+        fresh = ~is_excluded(values_hash(values), self._excluded())
+        return WorldDraw(map=arrays, valid=ok & fresh, values=values,
+                         seed=jnp.asarray(seed, jnp.uint32), humans=self.slots_of(world))
+
+    def _first_fresh(self, candidates: Array, values_of: Any) -> Array:
+        """Of ``candidates [T]`` (keys or seeds), the first whose values (``values_of``) no
+        held-out split holds, the first when all are held (its check then flags it): only
+        values are drawn, a world is built from the one kept."""
+        excluded = self._excluded()
+        held = jax.vmap(lambda c: is_excluded(values_hash(values_of(c)), excluded))(candidates)
+        return candidates[jnp.argmin(held)]
+
     def chosen(self, key: Array | None, seed: Array | None = None) -> tuple[World, WorldDraw]:
         """The world of ``key`` and its draw: ``proposals`` candidates (fresh worlds from the
         key, or worlds of the split ``seeds`` the key picks), the first valid one kept (the
         first candidate, flagged invalid, when none is); a world whose hash is in ``exclude``
         is not valid. With ``key`` None, world ``seed`` alone (:meth:`of_seed`)."""
-        ranges = range_arrays({name: (low, high) for name, low, high in self.ranges})
-        fam, capacity = self.family, self.capacity
-        excluded = jnp.asarray(np.asarray(self.exclude, np.uint32))
-
-        def propose(k: Array) -> tuple[World, WorldDraw]:
-            world, values = generate(fam, k, ranges)
-            arrays, dist, overflow = world_arrays(world, capacity)
-            ok = verdict(world, dist, arrays.next_hop, overflow, self.robot_radius,
-                         route_nodes=capacity.route_nodes,
-                         check_dilemma=self.check_dilemma).valid
-            fresh = ~is_excluded(values_hash(values), excluded)
-            return world, WorldDraw(map=arrays, valid=ok & fresh, values=values,
-                                    seed=jnp.uint32(0), humans=self.slots_of(world))
-
+        ranges = self._range_arrays()
+        own = lambda s: world_values(world_key(s), ranges)  # noqa: E731 (a seed's values)
         if key is None:  # one world by its seed (of_seed)
-            world, drawn = propose(world_key(seed))
-            return world, drawn.replace(seed=jnp.asarray(seed, jnp.uint32))
+            return self.built(seed, own(seed))
         if self.seeds is None:
             keys = jax.random.split(key, self.proposals)
             if self.exclude:  # each proposal skips held-out values before building anything
-                keys = jax.vmap(lambda k: self._fresh_key(k, ranges, excluded))(keys)
-        else:
+                keys = jax.vmap(lambda k: self._first_fresh(
+                    jax.random.split(k, HOLDOUT_TRIES), lambda c: world_values(c, ranges)))(keys)
+
+            def propose(k: Array) -> tuple[World, WorldDraw]:
+                world, values = generate(self.family, k, ranges)
+                return world, self._checked(world, values, jnp.uint32(0))
+
+            worlds, draws = jax.vmap(propose)(keys)
+        else:  # a split's worlds, by their seeds
             first, count = self.seeds
             index = jax.random.randint(key, (self.proposals,), 0, count)
-            keys = jax.vmap(world_key)(jnp.uint32(first) + index.astype(jnp.uint32))
-        worlds, draws = jax.vmap(propose)(keys)
-        if self.seeds is not None:  # a split's world is its seed
-            draws = draws.replace(seed=jnp.uint32(self.seeds[0]) + index.astype(jnp.uint32))
+            seeds = jnp.uint32(first) + index.astype(jnp.uint32)
+            worlds, draws = jax.vmap(lambda s: self.built(s, own(s)))(seeds)
         best = jnp.argmax(draws.valid)  # the first valid one, else 0
         return jax.tree.map(lambda x: x[best], (worlds, draws))
 
@@ -164,16 +181,9 @@ class WorldSource:
         """The world of seed ``seed`` (uint32) built from ``values`` ({name: float32}, the
         seed's own or edited ones) and its draw, checked (``valid``; a world whose values a
         held-out split holds is not valid)."""
-        capacity = self.capacity
-        excluded = jnp.asarray(np.asarray(self.exclude, np.uint32))
         seed = jnp.asarray(seed, jnp.uint32)
         world = self.family.build(values, jax.random.split(world_key(seed))[1])
-        arrays, dist, overflow = world_arrays(world, capacity)
-        ok = verdict(world, dist, arrays.next_hop, overflow, self.robot_radius,
-                     route_nodes=capacity.route_nodes, check_dilemma=self.check_dilemma).valid
-        fresh = ~is_excluded(values_hash(values), excluded)
-        return world, WorldDraw(map=arrays, valid=ok & fresh, values=values, seed=seed,
-                                humans=self.slots_of(world))
+        return world, self._checked(world, values, seed)
 
     def level_draw(self, key: Array, level: Level) -> WorldDraw:
         """The world of a reset under a curriculum: ``level`` when it is chosen, else a fresh
@@ -182,36 +192,19 @@ class WorldSource:
         held-out split's values) the first valid one. With one proposal a chosen level that
         fails the checks is played (flagged invalid: a curriculum never records it); with
         more, the next fresh seed replaces it."""
-        ranges = range_arrays({name: (low, high) for name, low, high in self.ranges})
-        excluded = jnp.asarray(np.asarray(self.exclude, np.uint32))
+        ranges = self._range_arrays()
+        own = lambda s: world_values(world_key(s), ranges)  # noqa: E731 (a seed's values)
         tries = HOLDOUT_TRIES if self.exclude else 1
         seeds = jax.random.bits(key, (self.proposals, tries), jnp.uint32)
-
-        def fresh_seed(row: Array) -> Array:
-            values = jax.vmap(lambda s: world_values(world_key(s), ranges))(row)
-            held = jax.vmap(lambda i: is_excluded(
-                values_hash({k: v[i] for k, v in values.items()}), excluded))(
-                jnp.arange(tries))
-            return row[jnp.minimum(jnp.argmin(held), tries - 1)]
-
-        seeds = jax.vmap(fresh_seed)(seeds) if self.exclude else seeds[:, 0]
+        seeds = (jax.vmap(lambda row: self._first_fresh(row, own))(seeds) if self.exclude
+                 else seeds[:, 0])
         # a chosen level is proposal 0, fresh seeds the others: the fallback when it fails
         chosen = (jnp.arange(self.proposals) == 0) & level.chosen
         seeds = jnp.where(chosen, level.seed, seeds)
-        own = jax.vmap(lambda s: world_values(world_key(s), ranges))(seeds)
-        values = {name: jnp.where(chosen, level.values[name], own[name]) for name in own}
+        values = {name: jnp.where(chosen, level.values[name], v)
+                  for name, v in jax.vmap(own)(seeds).items()}
         _, draws = jax.vmap(self.built)(seeds, values)
         return jax.tree.map(lambda x: x[jnp.argmax(draws.valid)], draws)
-
-    @staticmethod
-    def _fresh_key(key: Array, ranges: dict, excluded: Array) -> Array:
-        """Of :data:`HOLDOUT_TRIES` keys from ``key``, the first whose drawn values are not
-        excluded (the values alone are drawn: a world is built once, from the key kept; the
-        last key when every one is excluded, which its proposal's check then flags)."""
-        keys = jax.random.split(key, HOLDOUT_TRIES)
-        held = jax.vmap(lambda k: is_excluded(values_hash(world_values(k, ranges)),
-                                              excluded))(keys)
-        return keys[jnp.minimum(jnp.argmin(held), HOLDOUT_TRIES - 1)]
 
     def of_seed(self, seed: Array | int) -> WorldDraw:
         """World ``seed`` (built from ``world_key(seed)``, as a split of seeds plays it) under

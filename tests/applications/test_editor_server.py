@@ -437,6 +437,6 @@ def test_generate_draws_a_family_world_by_its_seed_and_refuses_bad_requests_by_n
             ({"family": "doorway", "seed": 1.5}, "'seed' must be an integer"),
             ({"family": "doorway", "ranges": {"door_width": [9, 10]}}, "door_width range"),
             ({"family": "doorway", "ranges": {"door_wdth": 1.0}}, "no parameter 'door_wdth'"),
-            ({"family": "doorway", "ranges": {"door_width": "wide"}}, "ranges.door_width")):
+            ({"family": "doorway", "ranges": {"door_width": "wide"}}, "'door_width': expected")):
         status, body = call(server + "/api/generate", request)
         assert status == 422 and words in json.loads(body)["error"], (request, body)

@@ -64,11 +64,12 @@ class EnvBatch:
     def _params(self, num_agents: Array) -> tuple:
         return tuple(p.replace(num_agents=num_agents) for p in self.params)
 
-    def split(self, x: Array) -> list[Array]:
-        """``x [E, ...]`` cut into the scenarios' shares ``[E_s, ...]``."""
+    def split(self, x: Array, axis: int = 0) -> list[Array]:
+        """``x`` cut along ``axis`` (its ``E`` environments) into the scenarios' shares
+        (``E_s`` each)."""
         out, start = [], 0
         for size in self.sizes:
-            out.append(x[start:start + size])
+            out.append(jax.lax.slice_in_dim(x, start, start + size, axis=axis))
             start += size
         return out
 

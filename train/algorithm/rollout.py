@@ -196,7 +196,8 @@ def collect(parts: RolloutParts, runner: RunnerState) -> tuple[RunnerState, Roll
 
     Under a curriculum over generated worlds (``parts.levels``), the levels of the next
     episodes are chosen before the steps and the episodes that ended are scored and recorded
-    after GAE (:mod:`train.algorithm.world_curriculum`; its buffer statistics join the logs)."""
+    after GAE (:mod:`train.algorithm.world_curriculum`; its buffer statistics join the logs as
+    scalars)."""
     batch, levels = parts.batch, parts.levels
     if levels.active:
         key, k_levels = jax.random.split(runner.key)
@@ -216,6 +217,5 @@ def collect(parts: RolloutParts, runner: RunnerState) -> tuple[RunnerState, Roll
         buffers, stats = record_levels(batch, runner.levels, runner.steps, advantages,
                                        traj.active, ended, runner.curriculum)
         runner = runner.replace(levels=buffers)
-        steps = parts.algorithm.num_steps  # logs are per step, summed per update
-        logs = {**logs, **{name: jnp.full(steps, value / steps) for name, value in stats.items()}}
+        logs = {**logs, **stats}  # scalars: an update's sum of them is themselves
     return runner, Rollout(memory, traj, advantages, targets), logs

@@ -21,6 +21,9 @@ from train.algorithm.level_buffer import (
     step_scores,
 )
 
+# The buffers' statistics an update logs (record_levels; progress.csv's extra columns)
+LEVEL_STATS = ("levels_fill", "levels_replayed", "levels_score")
+
 
 def empty_buffers(batch: EnvBatch, levels: LevelsConfig) -> tuple[LevelBuffer | None, ...]:
     """An empty buffer for every scenario whose worlds the trainer picks (None for the
@@ -78,18 +81,18 @@ def record_levels(batch: EnvBatch, buffers: tuple, now: Array, advantages: Array
     and ``score`` (mean score of the held levels)."""
     num_envs = sum(batch.sizes)
     scores, stepped = step_scores(advantages, active, num_envs)
-    parts = zip(batch.level_sources, buffers, batch.split(scores.T), batch.split(stepped.T),
-                batch.split(ended["done"].T), batch.split(ended["success"].T), ended["played"],
-                strict=True)
+    by_scenario = [batch.split(x, axis=1)  # [T, E_s] each
+                   for x in (scores, stepped, ended["done"], ended["success"])]
+    parts = zip(batch.level_sources, buffers, *by_scenario, ended["played"], strict=True)
     out, stats = [], []
     for source, buffer, score, acted, done, success, played in parts:
         if source is None:
             out.append(buffer)
             continue
-        episode, buffer = episode_scores(buffer, score.T, acted.T, done.T)
+        episode, buffer = episode_scores(buffer, score, acted, done)
         seed, values, valid = played
         buffer, episodes, replays = record(
-            buffer, now, seed, values, valid, done.T, episode, success.T,
+            buffer, now, seed, values, valid, done, episode, success,
             learnability=lane["learnability"] > 0.5,
             candidates=2 * buffer.episode_score.shape[0])
         out.append(buffer)
@@ -97,5 +100,4 @@ def record_levels(batch: EnvBatch, buffers: tuple, now: Array, advantages: Array
         stats.append((buffer.fill, replays / jnp.maximum(episodes, 1.0),
                       jnp.sum(held) / jnp.maximum(jnp.sum(buffer.filled), 1)))
     means = [jnp.mean(jnp.stack(column)) for column in zip(*stats, strict=True)]
-    return tuple(out), dict(zip(("levels_fill", "levels_replayed", "levels_score"), means,
-                                strict=True))
+    return tuple(out), dict(zip(LEVEL_STATS, means, strict=True))
