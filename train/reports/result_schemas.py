@@ -9,6 +9,9 @@ file at once (``docs/results/schema.json``).
 - ``sgjax.seed_spread/1``: ``RUN/eval/seed_spread.json`` of a training run of several seeds
   (every seed's team success on the final evaluation's episodes, the aggregate over seeds and
   each seed's paired difference against the baseline);
+- ``sgjax.transfer/1``: ``transfer.json`` of ``python -m train.transfer`` (trained runs on
+  held-out worlds: every seed's team success per episode on every map beside Only Local's, the
+  paired comparisons);
 - and sgjax's own ``sgjax.evaluate/1`` (:mod:`sgjax.evaluation.result_schema`).
 
 ``RESULT_SCHEMAS`` maps every version to its schema (draft 2020-12); ``schema_for(document)``
@@ -32,6 +35,7 @@ REPRODUCE = "sgjax.reproduce/1"
 ABLATION = "sgjax.ablation/1"
 SWEEP = "sgjax.sweep/1"
 SEED_SPREAD = "sgjax.seed_spread/1"
+TRANSFER = "sgjax.transfer/1"
 
 _PER_SEED_METRICS = {
     "type": "object",
@@ -157,10 +161,50 @@ SEED_SPREAD_SCHEMA: dict[str, Any] = {
     },
 }
 
+_EPISODES = {"type": "array", "items": NUMBER_OR_NULL}
+_PER_EPISODE = {"type": "object", "required": ["team_success", "collisions", "makespan"],
+                "additionalProperties": _EPISODES}
+_SEEDS_BY_EPISODE = {"type": "array", "items": _EPISODES, "minItems": 1}
+TRANSFER_SCHEMA: dict[str, Any] = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "title": "sgjax train.transfer transfer.json",
+    "type": "object",
+    "required": ["schema_version", "provenance", "arms", "reference", "margin", "robots",
+                 "episodes", "seed", "sets", "maps"],
+    "properties": {
+        "schema_version": {"const": TRANSFER},
+        "provenance": PROVENANCE_SCHEMA,
+        "arms": {"type": "object", "additionalProperties": {
+            "type": "object", "required": ["checkpoint", "sha256", "seeds", "trained_on",
+                                           "deterministic", "options"]}},
+        "reference": {"type": ["string", "null"]},
+        "margin": {"type": "number", "exclusiveMinimum": 0},
+        "robots": {"type": "integer", "minimum": 1},
+        "episodes": {"type": "integer", "minimum": 1},
+        "seed": {"type": "integer"},
+        "sets": {"type": "array", "items": {"type": "string"}},
+        "fingerprint": {"type": "string"},  # the settings that decide the episodes
+        # "<set>/<map>" -> the map's episodes: Only Local's [E], every arm's [S, E] per metric
+        "maps": {"type": "object", "additionalProperties": {
+            "type": "object",
+            "required": ["set", "name", "scenario", "worlds", "robots", "only_local", "arms",
+                         "paired"],
+            "properties": {
+                "robots": {"type": "integer", "minimum": 1},
+                "only_local": _PER_EPISODE,
+                "arms": {"type": "object", "additionalProperties": {
+                    "type": "object", "required": ["team_success", "collisions", "makespan"],
+                    "additionalProperties": _SEEDS_BY_EPISODE}},
+                "checkpoints": {"type": "object", "additionalProperties": {"type": "string"}},
+                "paired": {"type": "object", "additionalProperties": SUMMARY}}}},
+    },
+}
+
 
 RESULT_SCHEMAS: dict[str, dict[str, Any]] = {
     **evaluate_schema.RESULT_SCHEMAS, REPRODUCE: REPRODUCE_SCHEMA, ABLATION: ABLATION_SCHEMA,
-    SWEEP: SWEEP_SCHEMA, SEED_SPREAD: SEED_SPREAD_SCHEMA}
+    SWEEP: SWEEP_SCHEMA, SEED_SPREAD: SEED_SPREAD_SCHEMA,
+    TRANSFER: TRANSFER_SCHEMA}
 
 
 def schema_for(document: Any) -> dict[str, Any]:

@@ -1,0 +1,184 @@
+"""``python -m train.transfer``: trained runs judged on held-out maps beside Only Local, every
+arm's seeds on the same episodes, the result file and the tables generated from it."""
+
+import json
+from pathlib import Path
+
+import jax
+import numpy as np
+import pytest
+from provenance_checks import check_document
+from shared_data import SG2MAPS, require
+from test_train import tiny
+
+from sgjax.evaluation.evaluate import params_by_count, run_episodes
+from sgjax.maps.generated.families import family
+from train import transfer
+from train.algorithm.trainer import Trainer, seed_keys
+from train.run.checkpoint import load_checkpoint_policy, save
+
+OPEN = transfer.HeldOutMap("minigames", "open", "open", 2)
+
+
+def tiny_run(folder: Path, seed: int = 0, **env):
+    """A run folder holding an untrained two-seed checkpoint of the open map."""
+    config = tiny(seed=seed, num_seeds=2, env={"time_limit": 20.0, **env})
+    trainer = Trainer(config)
+    runner = jax.jit(jax.vmap(trainer.init))(seed_keys(config))
+    save(folder / "checkpoints" / "latest.msgpack", config, runner, {}, trainer.actor)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def arms(tmp_path_factory):
+    root = tmp_path_factory.mktemp("arms")
+    return [transfer.load_arm("a", tiny_run(root / "a", seed=0)),
+            transfer.load_arm("b", tiny_run(root / "b", seed=7))]
+
+
+@pytest.mark.slow
+def test_every_seed_of_every_arm_and_only_local_play_the_keyed_episodes(arms):
+    """Lane ``i`` of an arm on a map is the checkpoint's seed ``i`` played alone with the map's
+    key, and Only Local's row is Only Local played alone with it: the differences pair."""
+    result = transfer.judge_map(arms, OPEN, episodes=4, seed=3)
+    assert result["robots"] == 2
+    key = transfer.map_key(3, OPEN)
+    env, by_count = params_by_count("open", [2], options=transfer.map_options(arms[0], OPEN))
+    for arm in arms:
+        values = np.asarray(result["arms"][arm.name]["team_success"])
+        assert values.shape == (2, 4)
+        for index in range(2):
+            alone = run_episodes(env, by_count[2], load_checkpoint_policy(
+                arm.path, env, seed_index=index, deterministic=arm.deterministic), key, 4)
+            np.testing.assert_array_equal(values[index], alone.values["team_success"])
+            np.testing.assert_allclose(result["arms"][arm.name]["makespan"][index],
+                                       alone.values["makespan"], equal_nan=True)
+    local = run_episodes(env, by_count[2], "only_local", key, 4)
+    np.testing.assert_array_equal(result["only_local"]["team_success"],
+                                  local.values["team_success"])
+
+
+def test_a_maps_key_depends_on_the_map_alone():
+    other = transfer.HeldOutMap("minigames", "doorway", "doorway", 2)
+    same = jax.random.key_data(transfer.map_key(0, OPEN))
+    assert np.array_equal(same, jax.random.key_data(transfer.map_key(0, OPEN)))
+    assert not np.array_equal(same, jax.random.key_data(transfer.map_key(0, other)))
+    assert not np.array_equal(same, jax.random.key_data(transfer.map_key(1, OPEN)))
+
+
+def test_arms_trained_in_other_worlds_settings_are_refused(tmp_path, arms):
+    other = transfer.load_arm("slow", tiny_run(tmp_path / "slow", time_limit=30.0))
+    with pytest.raises(ValueError, match=r"'a' and 'slow'.*physics.time_limit"):
+        transfer.check_same_episodes([arms[0], other])
+    transfer.check_same_episodes(arms)  # their terms alone may differ
+
+
+def test_the_sets_hold_their_maps_and_extrapolate_beyond_the_training_ranges():
+    maps = transfer.held_out_maps(["minigames", "office", "generated_test", "generated_train",
+                                   "extrapolation"], robots=4)
+    keys = [m.key for m in maps]
+    assert len(keys) == len(set(keys))
+    assert [m.name for m in maps if m.set == "minigames"] == list(transfer.MINIGAMES)
+    test = {m.name: dict(m.worlds) for m in maps if m.set == "generated_test"}
+    assert set(test) == set(transfer.FAMILIES)
+    assert all(w["world_seeds"][0] == transfer.TEST_SEEDS[0] for w in test.values())
+    assert all(dict(m.worlds)["world_seeds"][0] == 0 for m in maps
+               if m.set == "generated_train")
+    for m in maps:
+        if m.set != "extrapolation":
+            continue
+        ranges = dict(m.worlds).get("world_ranges", {})
+        generator = family(m.scenario.split(":", 1)[1])
+        generator.ranges(ranges)  # within the family's limits
+        for name, (low, high) in ranges.items():
+            default_low, default_high = generator.parameters[name].default
+            assert high <= default_low or low >= default_high, (m.name, name)
+    assert any(m.robots > 5 for m in maps if m.set == "extrapolation")
+    with pytest.raises(ValueError, match="unknown set"):
+        transfer.held_out_maps(["minigame"], robots=4)
+    with pytest.raises(ValueError, match="--sg2maps: /nowhere"):
+        transfer.held_out_maps(["sg2maps"], robots=4, sg2maps=Path("/nowhere"))
+
+
+def test_a_socialgym_map_without_room_plays_the_most_robots_it_places(arms):
+    folder = require(SG2MAPS / "tmp_test4", "SocialGym 2.0's maps")
+    held = transfer.HeldOutMap("sg2maps", "tmp_test4", str(folder), 4, socialgym_folder=True)
+    assert transfer.fitted_robots(held, arms[0], transfer.scenario_of(held)) == 2
+
+
+def fake_document(seeds_b: int = 2) -> dict:
+    """A document of two arms on two maps with known per-episode values."""
+    rng = np.random.default_rng(0)
+    maps = {}
+    for set_name, name in (("generated_train", "doorway"), ("generated_test", "doorway")):
+        result = {"set": set_name, "name": name, "scenario": "generated:doorway",
+                  "worlds": {}, "robots": 4,
+                  "only_local": {"team_success": [0.0] * 40, "collisions": [1.0] * 40,
+                                 "makespan": [30.0] * 40},
+                  "arms": {"a": {m: rng.integers(0, 2, (2, 40)).astype(float).tolist()
+                                 for m in transfer.METRICS},
+                           "b": {m: np.ones((seeds_b, 40)).tolist()
+                                 for m in transfer.METRICS}}}
+        maps[f"{set_name}/{name}"] = result
+    return maps
+
+
+def test_the_paired_comparisons_and_the_summary_follow_the_episodes():
+    maps = fake_document()
+    paired = transfer.comparisons(maps["generated_test/doorway"], reference="a")
+    assert set(paired) == {"a - only_local", "b - only_local", "b - a"}
+    assert paired["b - only_local"]["mean"] == 1.0  # every episode 1 against 0
+    a = np.asarray(maps["generated_test/doorway"]["arms"]["a"]["team_success"])
+    assert paired["b - a"]["mean"] == pytest.approx(1.0 - a.mean())
+    assert paired["b - a"]["ci_low"] <= 1.0 - a.mean() <= paired["b - a"]["ci_high"]
+    with pytest.raises(ValueError, match="as many seeds"):
+        transfer.comparisons(fake_document(seeds_b=3)["generated_test/doorway"], "a")
+
+
+def test_the_result_file_follows_its_schema_and_its_tables_are_generated_from_it(
+        tmp_path, arms):
+    made = transfer.document(arms, fake_document(), ["generated_train", "generated_test"], 4,
+                             40, 0, "a", 0.05, seconds=1.0)
+    check_document(made)
+    text = transfer.tables(made)
+    assert "| doorway | 0.00 | " in text and "## Generalisation gap" in text
+    assert "| generated_test | b | 1.00 | 1 of 1 | 1 of 1 |" in text
+    source = tmp_path / "transfer.json"
+    source.write_text(json.dumps(made))
+    transfer.main(["--from-results", str(source)])
+    assert (tmp_path / "transfer.md").read_text() == text
+
+
+@pytest.mark.slow
+def test_a_resumed_run_plays_only_the_arms_added_or_retrained_since(tmp_path, arms):
+    expected = transfer.fingerprint(arms, 4, 0)
+    (tmp_path / transfer.PARTIAL).write_text(json.dumps({"fingerprint": expected,
+                                                        "maps": {"x/y": {"robots": 1}}}))
+    assert transfer.read_partial(tmp_path, expected) == {"x/y": {"robots": 1}}
+    with pytest.raises(ValueError, match="other settings"):
+        transfer.read_partial(tmp_path, transfer.fingerprint(arms, 5, 0))
+    first = transfer.judge(arms[:1], [OPEN], 4, 0, log=print)
+    both = transfer.judge(arms, [OPEN], 4, 0, log=print)
+    later = transfer.judge(arms, [OPEN], 4, 0, done=first, log=print)
+    assert later[OPEN.key] == both[OPEN.key]
+    assert later[OPEN.key]["checkpoints"] == {"a": arms[0].sha256, "b": arms[1].sha256}
+    assert transfer.judge(arms, [OPEN], 4, 0, done=later, log=None) == later  # nothing to play
+    marked = {**first[OPEN.key], "only_local": {m: [-1.0] * 4 for m in transfer.METRICS}}
+    kept = transfer.judge(arms[:1], [OPEN], 4, 0, done={OPEN.key: marked}, log=None)
+    assert kept[OPEN.key] == marked  # an unchanged arm and Only Local are not played again
+    retrained = {**marked, "checkpoints": {"a": "an older checkpoint"}}
+    again = transfer.judge(arms[:1], [OPEN], 4, 0, done={OPEN.key: retrained}, log=print)
+    assert again[OPEN.key]["arms"] == first[OPEN.key]["arms"]
+    assert again[OPEN.key]["only_local"] == marked["only_local"]
+
+
+@pytest.mark.parametrize("argv, message", [
+    ([], "at least one --arm"),
+    (["--arm", "a"], "expected NAME=RUN"),
+    (["--arm", "only_local=x"], "is taken"),
+    (["--arm", "a=/nowhere"], "no checkpoint at /nowhere"),
+    (["--arm", "a=/x", "--reference", "b"], "--reference 'b' is not one of the arms"),
+])
+def test_bad_arguments_name_what_is_wrong(argv, message):
+    with pytest.raises(SystemExit, match=message):
+        transfer.main(argv)

@@ -1,0 +1,614 @@
+"""Judge a transfer experiment: trained runs ("arms") on worlds they never trained on.
+
+Every arm is a training run of several seeds (``python -m train --set num_seeds=5``: the
+specialist of ``train/configs/transfer_doorway.yaml``, domain randomisation of
+``transfer_dr.yaml``, a curriculum of ``transfer_curriculum.yaml``). Each held-out **set** is a
+list of maps, each played at a fixed robot count; on every map every seed of every arm and
+Only Local play the same episodes (the same evaluation key: common random numbers), so their
+differences pair episode by episode::
+
+    python -m train.transfer --arm specialist=runs/transfer_doorway \\
+        --arm dr=runs/transfer_dr --arm curriculum=runs/transfer_curriculum \\
+        --reference specialist --episodes 100 --out docs/results/transfer
+
+Sets (``--sets``, all by default):
+
+* ``minigames``: the five shipped mini-games (``doorway`` ... ``open``);
+* ``office``: the shipped office floor;
+* ``sg2maps``: SocialGym 2.0's real map folders (``--sg2maps``, default ``../shared/sg2maps``),
+  imported as ``sgjax.maps.import_socialgym`` does; a map with no room for ``--robots`` robots
+  is played at the most it places (the table says so);
+* ``generated_test`` / ``generated_train``: each generated family's held-out test split
+  (world seeds ``TEST_SEEDS``, never drawn by a run made with ``world_holdout``) and its train
+  split (seeds ``0 ..``), under the families' default ranges: their difference is the
+  generalisation gap;
+* ``extrapolation``: parameters beyond the training ranges (narrower doors, longer and
+  narrower hallways, smaller roundabouts, more robots than training met).
+
+Whether a family or map was seen in training is read from each arm's config and marked.
+
+Outputs in ``--out``: ``transfer.json`` (schema ``sgjax.transfer/1``: every seed's team success
+per episode, every seed's mean collisions and makespan per map, Only Local's per episode, with
+provenance) and ``transfer.md`` (generated from it; ``--from-results`` writes it again):
+
+* every map's team success per arm (mean over seeds with a percentile-bootstrap interval over
+  seeds) beside Only Local's;
+* each arm against Only Local and each other arm against ``--reference``, paired over seeds
+  and episodes (:func:`sgjax.evaluation.statistics.paired_over_seeds_and_episodes`: seeds and
+  episodes resampled together, the two arms' seeds paired by index);
+* per set, the maps where each arm beats Only Local (its paired interval above 0) and where it
+  is within ``--margin`` of the reference (the interval's low end above ``-margin``).
+
+A run killed midway continues with ``--resume`` from ``transfer.partial.json`` (every finished
+map is kept). The partial file also lets arms arrive one by one: a later ``--resume`` with an
+arm added (or retrained) plays that arm alone on every map and keeps the others' values and
+Only Local's, on the same episodes. ``transfer.json`` is written at the end of every run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import functools
+import hashlib
+import json
+import math
+import time
+import zlib
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import jax
+import numpy as np
+
+from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
+from sgjax.environment.options import MakeOptions
+from sgjax.evaluation.policies import load_policy
+from sgjax.evaluation.provenance import provenance
+from sgjax.evaluation.report import markdown_table
+from sgjax.evaluation.runner import EpisodeRunner
+from sgjax.evaluation.statistics import paired_over_seeds_and_episodes, seed_aggregate
+from sgjax.evaluation.trained import TrainedEvaluation
+from sgjax.files import write_atomic
+from sgjax.maps.generated.families import PREFIX
+from sgjax.maps.generated.splits import TEST_SEEDS
+from train.algorithm.actor import ActorWeights, TrainedActor
+from train.reports.result_schemas import TRANSFER
+from train.run import checkpoint
+
+ROOT = Path(__file__).resolve().parents[1]
+SG2MAPS = ROOT.parent / "shared" / "sg2maps"
+MINIGAMES = ("doorway", "hallway", "intersection", "roundabout", "open")
+FAMILIES = ("doorway", "hallway", "intersection", "roundabout", "open", "floorplan")
+SETS = ("minigames", "office", "sg2maps", "generated_test", "generated_train", "extrapolation")
+SPLIT_WORLDS = 1000  # worlds in a generated split (its episodes draw among them)
+EXTRA_ROBOTS = 7  # "more robots than in training" (the transfer configs train with 3 to 5)
+# Parameter extrapolation: (name, family, ranges beyond the training defaults).
+EXTRAPOLATION: tuple[tuple[str, str, dict[str, tuple[float, float]]], ...] = (
+    ("doorway, narrow doors", "doorway", {"door_width": (0.7, 0.9)}),
+    ("doorway, thick walls", "doorway", {"wall_thickness": (1.5, 2.0)}),
+    ("hallway, long", "hallway", {"corridor_length": (10.0, 14.0)}),
+    ("hallway, narrow", "hallway", {"corridor_width": (0.7, 0.9)}),
+    ("roundabout, narrow ring", "roundabout", {"arm_width": (2.6, 3.5)}),
+    ("open, large arena", "open", {"arena_size": (16.0, 20.0)}),
+)
+METRICS = ("team_success", "collisions", "makespan")
+PARTIAL = "transfer.partial.json"
+RESAMPLES = 4000
+
+
+@dataclasses.dataclass(frozen=True)
+class HeldOutMap:
+    """One map of a held-out set: ``scenario`` (a shipped or generated name, or a SocialGym
+    2.0 map folder), played at ``robots`` robots in ``worlds`` (``sgjax.make``'s world
+    keywords: a split's seeds, extrapolated ranges)."""
+
+    set: str
+    name: str
+    scenario: str
+    robots: int
+    worlds: tuple[tuple[str, Any], ...] = ()
+    socialgym_folder: bool = False
+
+    @property
+    def key(self) -> str:
+        return f"{self.set}/{self.name}"
+
+
+def held_out_maps(sets: Sequence[str], robots: int, sg2maps: Path = SG2MAPS
+                  ) -> list[HeldOutMap]:
+    """Every map of ``sets`` (names of :data:`SETS`), in order."""
+    unknown = [s for s in sets if s not in SETS]
+    if unknown:
+        raise ValueError(f"--sets: unknown set(s) {unknown}; choose from {', '.join(SETS)}")
+    maps: list[HeldOutMap] = []
+    for name in sets:
+        if name == "minigames":
+            maps += [HeldOutMap(name, game, game, robots) for game in MINIGAMES]
+        elif name == "office":
+            maps.append(HeldOutMap(name, "office", "office", robots))
+        elif name == "sg2maps":
+            if not sg2maps.is_dir():
+                raise ValueError(f"--sg2maps: {sg2maps} is not a folder (SocialGym 2.0's map "
+                                 "folders, ../shared/sg2maps); leave the sg2maps set out or "
+                                 "give its path")
+            maps += [HeldOutMap(name, folder.name, str(folder), robots, socialgym_folder=True)
+                     for folder in sorted(sg2maps.iterdir()) if folder.is_dir()]
+        elif name in ("generated_test", "generated_train"):
+            first = TEST_SEEDS[0] if name == "generated_test" else 0
+            maps += [HeldOutMap(name, family, PREFIX + family, robots,
+                                (("world_seeds", (first, SPLIT_WORLDS)),))
+                     for family in FAMILIES]
+        else:
+            maps += [HeldOutMap(name, label, PREFIX + family, robots,
+                                (("world_ranges", ranges),
+                                 ("world_seeds", (TEST_SEEDS[0], SPLIT_WORLDS))))
+                     for label, family, ranges in EXTRAPOLATION]
+            maps.append(HeldOutMap(name, f"doorway, {EXTRA_ROBOTS} robots", PREFIX + "doorway",
+                                   EXTRA_ROBOTS,
+                                   (("world_seeds", (TEST_SEEDS[0], SPLIT_WORLDS)),)))
+    return maps
+
+
+@dataclasses.dataclass(frozen=True)
+class Arm:
+    """A trained run: its checkpoint, seed-batched acting weights ``[S, ...]``, actor spec,
+    training options, play mode and the scenarios it trained on."""
+
+    name: str
+    path: Path
+    actor: TrainedActor
+    weights: ActorWeights
+    options: MakeOptions
+    deterministic: bool
+    trained_on: tuple[str, ...]
+    sha256: str
+
+    @property
+    def seeds(self) -> int:
+        return self.weights.lanes
+
+
+def load_arm(name: str, spec: str | Path) -> Arm:
+    """The arm ``name`` from a run folder (its ``checkpoints/latest.msgpack``: the final
+    weights, not a checkpoint picked on training worlds) or a checkpoint file."""
+    path = Path(spec)
+    if path.is_dir():
+        path = path / "checkpoints" / "latest.msgpack"
+    if not path.is_file():
+        raise ValueError(f"--arm {name}={spec}: no checkpoint at {path}")
+    config, meta, raw = checkpoint.read(path)
+    layout = checkpoint.actor_layout(path, config, meta, raw)
+    return Arm(name=name, path=path, actor=TrainedActor(config.network, layout),
+               weights=checkpoint.stored_weights(raw), options=config.env.options,
+               deterministic=bool(config.evaluation.deterministic),
+               trained_on=tuple(config.env.scenarios),
+               sha256=hashlib.sha256(path.read_bytes()).hexdigest())
+
+
+def map_options(arm: Arm, held: HeldOutMap) -> MakeOptions:
+    """``arm``'s training options on ``held``: its worlds keywords in place of the arm's
+    (training's ranges, holdout and levels do not carry over), exactly ``held.robots``
+    robots."""
+    options = dataclasses.replace(arm.options, worlds=type(arm.options.worlds)())
+    return options.replace(**dict(held.worlds), num_agents=held.robots, min_agents=None,
+                           max_agents=None)
+
+
+def _shared_part(options: MakeOptions) -> dict[str, Any]:
+    """What decides the episodes (all but the observation and reward terms)."""
+    data = options.to_dict()
+    data.pop("terms")
+    return data
+
+
+def check_same_episodes(arms: Sequence[Arm]) -> None:
+    """Arms whose training options differ in anything but their terms would play different
+    episodes on the same key: refused, naming the arms and the keywords."""
+    first = _shared_part(arms[0].options)
+    for arm in arms[1:]:
+        other = _shared_part(arm.options)
+        differ = sorted(f"{section}.{key}" for section in first for key in first[section]
+                        if section != "worlds" and first[section][key] != other[section][key])
+        if differ:
+            raise ValueError(f"arms {arms[0].name!r} and {arm.name!r} were trained with "
+                             f"different make options ({', '.join(differ)}): they would not "
+                             "play the same episodes; judge them separately")
+
+
+def map_key(seed: int, held: HeldOutMap) -> jax.Array:
+    """The evaluation key of a map: ``seed`` folded with a hash of the map's key, so a map's
+    episodes do not depend on which other maps are judged."""
+    return jax.random.fold_in(jax.random.PRNGKey(seed), zlib.crc32(held.key.encode()))
+
+
+def scenario_of(held: HeldOutMap) -> Any:
+    """What ``sgjax.make`` takes for the map (a SocialGym 2.0 folder is imported)."""
+    if not held.socialgym_folder:
+        return held.scenario
+    from sgjax.maps.socialgym import import_socialgym
+
+    return import_socialgym(held.scenario)
+
+
+def fitted_robots(held: HeldOutMap, arm: Arm, scenario: Any) -> int:
+    """``held.robots``, or fewer where the map has no room for them (a SocialGym 2.0 map
+    whose starts and goals place fewer robots apart): the most it places, down to 1."""
+    from sgjax import make
+
+    for count in range(held.robots, 0, -1):
+        try:
+            make(scenario, options=map_options(arm, dataclasses.replace(held, robots=count)))
+            return count
+        except ValueError as err:
+            if "cannot place" not in str(err) or not held.socialgym_folder:
+                raise
+    raise ValueError(f"{held.scenario}: places no robot")
+
+
+def judge_map(arms: Sequence[Arm], held: HeldOutMap, episodes: int, seed: int,
+              earlier: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """Every arm's seeds and Only Local on ``episodes`` shared episodes of ``held``:
+    ``{"robots", "only_local": {metric: [E]}, "arms": {name: {metric: [S, E]}},
+    "checkpoints": {name: sha256}}``. An ``earlier`` result of the map (same episodes) lends
+    Only Local's values and those of every arm whose checkpoint is unchanged, so an arm that
+    finishes training later is judged alone."""
+    earlier = earlier or {}
+    scenario = scenario_of(held)
+    robots = earlier.get("robots") or fitted_robots(held, arms[0], scenario)
+    held = dataclasses.replace(held, robots=robots)
+    key = map_key(seed, held)
+    kept = {arm.name for arm in arms
+            if earlier.get("checkpoints", {}).get(arm.name) == arm.sha256}
+    out: dict[str, Any] = {"robots": robots,
+                           "arms": {n: earlier["arms"][n] for n in sorted(kept)},
+                           "checkpoints": {a.name: a.sha256 for a in arms}}
+    if "only_local" in earlier:
+        out["only_local"] = earlier["only_local"]
+    for arm in arms:
+        if arm.name in kept and "only_local" in out:
+            continue
+        evaluation = TrainedEvaluation(arm.actor, scenario, [robots], episodes,
+                                       map_options(arm, held), modes=arm.deterministic)
+        if arm.name not in kept:
+            values, _ = jax.device_get(evaluation.lanes(arm.weights, key, robots))
+            out["arms"][arm.name] = {m: np.asarray(values[m], float).tolist()
+                                     for m in METRICS}
+        if "only_local" not in out:
+            runner = EpisodeRunner(evaluation.env, load_policy("only_local", evaluation.env),
+                                   episodes, evaluation.num_steps)
+            alone, _ = jax.device_get(runner.run(key, evaluation.params[robots])[:2])
+            out["only_local"] = {m: np.asarray(alone[m], float).tolist() for m in METRICS}
+    out["arms"] = {arm.name: out["arms"][arm.name] for arm in arms}
+    return out
+
+
+def fingerprint(arms: Sequence[Arm], episodes: int, seed: int) -> str:
+    """What a partial file must match to be resumed: the settings that decide the episodes
+    (the arms' shared make options, episodes, seed); the arms themselves may change, each
+    judged again only where its checkpoint did."""
+    text = json.dumps({"options": _shared_part(arms[0].options), "episodes": episodes,
+                       "seed": seed}, sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def judge(arms: Sequence[Arm], maps: Sequence[HeldOutMap], episodes: int, seed: int,
+          done: dict[str, Any] | None = None, on_map: Callable[[str, dict], None] | None = None,
+          log: Callable[[str], None] = print) -> dict[str, Any]:
+    """:func:`judge_map` of every map whose result in ``done`` (``{map key: result}``) lacks
+    an arm or holds an arm's older checkpoint; ``on_map(key, result)`` after each. Returns
+    every map's result by key."""
+    check_same_episodes(arms)
+    wanted = {a.name: a.sha256 for a in arms}
+    results = dict(done or {})
+    for number, held in enumerate(maps, 1):
+        earlier = results.get(held.key)
+        if earlier is not None and earlier.get("checkpoints") == wanted:
+            continue
+        result = {"set": held.set, "name": held.name, "scenario": held.scenario,
+                  "worlds": {k: v for k, v in held.worlds},
+                  **judge_map(arms, held, episodes, seed, earlier)}
+        results[held.key] = result
+        if on_map is not None:
+            on_map(held.key, result)
+        log(f"[{number}/{len(maps)}] {held.key} ({result['robots']} robots): "
+            + ", ".join(f"{name} {_mean(v['team_success']):.2f}"
+                        for name, v in result["arms"].items())
+            + f", only_local {_mean(result['only_local']['team_success']):.2f}")
+    return results
+
+
+def _mean(values: Any) -> float:
+    x = np.asarray(values, float)
+    return float(np.nanmean(x)) if np.isfinite(x).any() else math.nan
+
+
+def seen_in_training(arm: Mapping[str, Any], result: Mapping[str, Any]) -> bool:
+    """Whether ``arm`` (its record in the result file) trained on the map's scenario (a
+    generated family counts as seen on its train split and held-out ones alike: the worlds
+    differ, the family does not)."""
+    return result["scenario"] in arm["trained_on"]
+
+
+def comparisons(result: Mapping[str, Any], reference: str | None) -> dict[str, dict]:
+    """Paired team-success differences on one map: ``"<arm> - only_local"`` for every arm,
+    ``"<arm> - <reference>"`` for every other arm (``Summary.as_dict``)."""
+    out = {}
+    arms = result["arms"]
+    base = np.asarray(result["only_local"]["team_success"], float)
+    for name, values in arms.items():
+        a = np.asarray(values["team_success"], float)
+        out[f"{name} - only_local"] = paired_over_seeds_and_episodes(
+            a, base, resamples=RESAMPLES).as_dict()
+        if reference is not None and name != reference:
+            b = np.asarray(arms[reference]["team_success"], float)
+            if a.shape != b.shape:  # seeds pair by index: unequal counts do not pair
+                raise ValueError(f"{name} ({a.shape[0]} seeds) and the reference {reference} "
+                                 f"({b.shape[0]} seeds): a paired comparison needs as many "
+                                 "seeds in each")
+            out[f"{name} - {reference}"] = paired_over_seeds_and_episodes(
+                a, b, resamples=RESAMPLES).as_dict()
+    return out
+
+
+def _points(summary: Mapping[str, Any]) -> str:
+    """A paired difference in percentage points: ``+12 [+4, +20]``."""
+    if summary["mean"] is None:
+        return "n/a"
+    return (f"{100 * summary['mean']:+.0f} [{100 * summary['ci_low']:+.0f}, "
+            f"{100 * summary['ci_high']:+.0f}]")
+
+
+def _seed_cell(values: Any) -> str:
+    """Team success over seeds: each seed's mean over the episodes, their mean [95%
+    percentile-bootstrap interval over seeds]."""
+    per_seed = np.array([_mean(row) for row in values], float)
+    agg = seed_aggregate(per_seed)
+    if math.isnan(agg["mean"]):
+        return "n/a"
+    if math.isnan(agg["mean_low"]):
+        return f"{agg['mean']:.2f}"
+    return f"{agg['mean']:.2f} [{agg['mean_low']:.2f}, {agg['mean_high']:.2f}]"
+
+
+def _per_seed_mean(values: Any) -> str:
+    per_seed = [_mean(row) for row in values]
+    finite = [v for v in per_seed if math.isfinite(v)]
+    return f"{np.mean(finite):.2f}" if finite else "n/a"
+
+
+def map_label(result: Mapping[str, Any], arms: Mapping[str, Any], robots: int) -> str:
+    """The map's name, with its robot count where it differs from the set's and a mark for
+    each arm that trained on its scenario."""
+    label = result["name"]
+    if result["robots"] != robots:
+        label += f" ({result['robots']} robots)"
+    seen = [name for name, arm in arms.items() if seen_in_training(arm, result)]
+    return label + (f" · trained on by {', '.join(seen)}" if seen else "")
+
+
+def _team(result: Mapping[str, Any], arm: str) -> float:
+    """``arm``'s team success on a map, over all its seeds and episodes."""
+    return _mean(result["arms"][arm]["team_success"])
+
+
+def set_section(name: str, results: Sequence[Mapping[str, Any]], document: Mapping[str, Any]
+                ) -> list[str]:
+    """A set's two tables: team success with the paired differences, then collisions and
+    makespan."""
+    arms, reference, robots = document["arms"], document["reference"], document["robots"]
+    names = list(arms)
+    others = [n for n in names if reference is not None and n != reference]
+    rows = [[map_label(r, arms, robots), f"{_mean(r['only_local']['team_success']):.2f}",
+             *(_seed_cell(r["arms"][n]["team_success"]) for n in names),
+             *(_points(r["paired"][f"{n} - only_local"]) for n in names),
+             *(_points(r["paired"][f"{n} - {reference}"]) for n in others)] for r in results]
+    costs = [[r["name"], *(_per_seed_mean(r["arms"][n]["collisions"]) for n in names),
+              *(_per_seed_mean(r["arms"][n]["makespan"]) for n in names)] for r in results]
+    return [f"## {name}", "",
+            *markdown_table(["map", "Only Local", *names,
+                             *(f"{n} - Only Local" for n in names),
+                             *(f"{n} - {reference}" for n in others)], rows), "",
+            "Collisions per episode and makespan (s), mean over seeds:", "",
+            *markdown_table(["map", *(f"{n} collisions" for n in names),
+                             *(f"{n} makespan" for n in names)], costs), ""]
+
+
+def summary_rows(name: str, results: Sequence[Mapping[str, Any]],
+                 document: Mapping[str, Any]) -> list[list[str]]:
+    """Per arm on one set: its mean team success over the maps, the maps where it beats Only
+    Local and those where it is within the margin of the reference."""
+    reference, margin = document["reference"], document["margin"]
+    rows = []
+    for arm in document["arms"]:
+        beats = sum(_above(r["paired"][f"{arm} - only_local"], 0.0) for r in results)
+        near = "" if reference is None or arm == reference else (
+            f"{sum(_above(r['paired'][f'{arm} - {reference}'], -margin) for r in results)}"
+            f" of {len(results)}")
+        rows.append([name, arm, f"{np.mean([_team(r, arm) for r in results]):.2f}",
+                     f"{beats} of {len(results)}", near])
+    return rows
+
+
+def tables(document: Mapping[str, Any]) -> str:
+    """``transfer.md`` from a ``sgjax.transfer/1`` document."""
+    arms, reference = document["arms"], document["reference"]
+    robots, margin = document["robots"], document["margin"]
+    text = [
+        "# Transfer: trained policies on worlds they never trained on", "",
+        f"{document['episodes']} episodes per map at {robots} robots (fewer where a map has no "
+        "room: marked), the same episodes for every seed of every arm and for Only Local. "
+        "Team success: the mean over seeds of each seed's mean [95% percentile-bootstrap "
+        "interval over seeds]. Paired differences in percentage points, mean [95% interval, "
+        "seeds and episodes resampled together]; an arm beats Only Local on a map where its "
+        f"interval lies above 0, and is within {margin:g} of the reference "
+        f"({reference}) where the interval's low end lies above -{100 * margin:g}. Arms: "
+        + "; ".join(f"**{n}** {a['seeds']} seeds trained on {', '.join(a['trained_on'])}"
+                    for n, a in arms.items()) + ".", ""]
+    summary = []
+    for name in document["sets"]:
+        results = [r for r in document["maps"].values() if r["set"] == name]
+        if results:
+            text += set_section(name, results, document)
+            summary += summary_rows(name, results, document)
+    gap = generalisation_gap(document)
+    if gap:
+        text += ["## Generalisation gap (train split - test split, team success points)", "",
+                 *markdown_table(["family", *arms], gap), ""]
+    text += ["## Summary", "", *markdown_table(
+        ["set", "arm", "mean team success", "beats Only Local",
+         f"within {margin:g} of {reference}"], summary), ""]
+    return "\n".join(text)
+
+
+def _above(summary: Mapping[str, Any], low: float) -> bool:
+    return summary["ci_low"] is not None and summary["ci_low"] > low
+
+
+def generalisation_gap(document: Mapping[str, Any]) -> list[list[str]]:
+    """Per family judged on both splits: each arm's team success on the train split less
+    the test split's (percentage points)."""
+    maps = document["maps"]
+    rows = []
+    for family in FAMILIES:
+        train = maps.get(f"generated_train/{family}")
+        test = maps.get(f"generated_test/{family}")
+        if train is not None and test is not None:
+            rows.append([family, *(f"{100 * (_team(train, n) - _team(test, n)):+.0f}"
+                                   for n in document["arms"])])
+    return rows
+
+
+def document(arms: Sequence[Arm], maps: Mapping[str, Any], sets: Sequence[str], robots: int,
+             episodes: int, seed: int, reference: str | None, margin: float,
+             seconds: float) -> dict[str, Any]:
+    """The ``sgjax.transfer/1`` document: every map's values and paired comparisons, the
+    arms' records and provenance."""
+    records = {a.name: {"checkpoint": str(a.path), "sha256": a.sha256, "seeds": a.seeds,
+                        "trained_on": list(a.trained_on), "deterministic": a.deterministic,
+                        "options": a.options.to_dict()} for a in arms}
+    judged = {key: {**r, "paired": comparisons(r, reference)} for key, r in maps.items()}
+    made = provenance({"arms": {a.name: a.sha256 for a in arms}, "episodes": episodes,
+                       "seed": seed, "sets": list(sets), "robots": robots},
+                      seeds={"evaluation": [seed]}, episodes_per_cell=episodes,
+                      seconds={"judge": seconds})
+    return {"schema_version": TRANSFER, "provenance": made, "arms": records,
+            "reference": reference, "margin": margin, "robots": robots, "episodes": episodes,
+            "seed": seed, "sets": list(sets), "maps": judged}
+
+
+def parser() -> argparse.ArgumentParser:
+    """The command line of ``python -m train.transfer``."""
+    parser = argparse.ArgumentParser(
+        prog="python -m train.transfer",
+        description="Judge trained runs on held-out worlds (generated splits, parameter "
+                    "extrapolation, the shipped maps, SocialGym 2.0's maps) beside Only "
+                    "Local, with paired intervals over seeds and episodes.")
+    parser.add_argument("--arm", action="append", default=[], metavar="NAME=RUN",
+                        help="a trained run (folder or checkpoint file) and its name "
+                             "(repeatable; every arm needs the same make options but terms)")
+    parser.add_argument("--reference", default=None,
+                        help="the arm the others are compared with (default: the first)")
+    parser.add_argument("--sets", nargs="+", default=list(SETS), choices=SETS,
+                        help="held-out sets to judge (default: all)")
+    parser.add_argument("--robots", type=int, default=4, help="robots per episode")
+    parser.add_argument("--episodes", type=int, default=100, help="episodes per map")
+    parser.add_argument("--seed", type=int, default=0, help="evaluation seed")
+    parser.add_argument("--margin", type=float, default=0.05,
+                        help="'within margin of the reference' (team success, 0-1)")
+    parser.add_argument("--sg2maps", default=str(SG2MAPS),
+                        help="SocialGym 2.0's map folders (the sg2maps set)")
+    parser.add_argument("--out", default=None, help="folder for transfer.json and .md")
+    parser.add_argument("--resume", action="store_true",
+                        help=f"keep the maps of <out>/{PARTIAL} (or <out>/transfer.json): "
+                             "only arms added or retrained since are played")
+    parser.add_argument("--from-results", default=None, metavar="TRANSFER_JSON",
+                        help="only write transfer.md again from a transfer.json")
+    add_cache_arguments(parser)
+    return parser
+
+
+def _arm_specs(values: Sequence[str]) -> dict[str, str]:
+    specs: dict[str, str] = {}
+    for value in values:
+        name, sep, path = value.partition("=")
+        if not sep or not name or not path:
+            raise ValueError(f"--arm {value!r}: expected NAME=RUN")
+        if name in specs or name == "only_local":
+            raise ValueError(f"--arm {value!r}: the name {name!r} is taken")
+        specs[name] = path
+    return specs
+
+
+def read_partial(out: Path, expected: str) -> dict[str, Any]:
+    """The finished maps of ``out``'s partial file, else of its ``transfer.json``, when made
+    with the same settings (``expected``: :func:`fingerprint`)."""
+    for path in (out / PARTIAL, out / "transfer.json"):
+        if path.is_file():
+            data = json.loads(path.read_text())
+            if data.get("fingerprint") != expected:
+                raise ValueError(f"{path}: made with other settings (episodes, seed or the "
+                                 "arms' make options); delete it or run without --resume")
+            return data["maps"]
+    return {}
+
+
+def main(argv: list[str] | None = None) -> None:
+    args = parser().parse_args(argv)
+    try:
+        if args.from_results is not None:
+            source = Path(args.from_results)
+            target = source.with_name("transfer.md")
+            write_atomic(target, tables(json.loads(source.read_text())))
+            print(f"wrote {target}")
+            return
+        cache_from_arguments(args)
+        specs = _arm_specs(args.arm)
+        if not specs:
+            raise ValueError("give at least one --arm NAME=RUN")
+        reference = args.reference or next(iter(specs))
+        if reference not in specs:
+            raise ValueError(f"--reference {reference!r} is not one of the arms "
+                             f"{', '.join(specs)}")
+        if args.robots < 1 or args.episodes < 1 or not 0 < args.margin < 1:
+            raise ValueError("--robots and --episodes must be at least 1, --margin in (0, 1)")
+        if args.resume and args.out is None:
+            raise ValueError("--resume needs --out")
+        arms = [load_arm(name, path) for name, path in specs.items()]
+        maps = held_out_maps(args.sets, args.robots, Path(args.sg2maps))
+        out = None if args.out is None else Path(args.out)
+        expected = fingerprint(arms, args.episodes, args.seed)
+        partial = None if out is None else out / PARTIAL
+        done = read_partial(out, expected) if args.resume and out is not None else {}
+        log = functools.partial(print, flush=True)
+        if done:
+            log(f"resuming {out}: {len(done)} map(s) judged before")
+
+        def keep(key: str, result: dict) -> None:
+            if partial is not None:
+                done[key] = result
+                out.mkdir(parents=True, exist_ok=True)
+                write_atomic(partial, json.dumps({"fingerprint": expected, "maps": done}))
+
+        start = time.perf_counter()
+        results = judge(arms, maps, args.episodes, args.seed, done, keep, log)
+        results = {m.key: results[m.key] for m in maps}
+        made = document(arms, results, args.sets, args.robots, args.episodes, args.seed,
+                        reference, args.margin, time.perf_counter() - start)
+        made["fingerprint"] = expected
+        text = tables(made)
+        if out is not None:
+            out.mkdir(parents=True, exist_ok=True)
+            write_atomic(out / "transfer.json", json.dumps(made, indent=1) + "\n")
+            write_atomic(out / "transfer.md", text)
+            if partial is not None:
+                partial.unlink(missing_ok=True)
+            log(f"wrote {out / 'transfer.json'}, {out / 'transfer.md'}")
+        print("\n" + text)
+    except ValueError as err:
+        raise SystemExit(f"transfer: {err}") from err
+
+
+if __name__ == "__main__":
+    main()
