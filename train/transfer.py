@@ -273,15 +273,20 @@ def judge_map(arms: Sequence[Arm], held: HeldOutMap, episodes: int, seed: int,
                                        map_options(arm, held), modes=arm.deterministic)
         if arm.name not in kept:
             values, _ = jax.device_get(evaluation.lanes(arm.weights, key, robots))
-            out["arms"][arm.name] = {m: np.asarray(values[m], float).tolist()
-                                     for m in METRICS}
+            out["arms"][arm.name] = {m: _stored(values[m]) for m in METRICS}
         if "only_local" not in out:
             runner = EpisodeRunner(evaluation.env, load_policy("only_local", evaluation.env),
                                    episodes, evaluation.num_steps)
             alone, _ = jax.device_get(runner.run(key, evaluation.params[robots])[:2])
-            out["only_local"] = {m: np.asarray(alone[m], float).tolist() for m in METRICS}
+            out["only_local"] = {m: _stored(alone[m]) for m in METRICS}
     out["arms"] = {arm.name: out["arms"][arm.name] for arm in arms}
     return out
+
+
+def _stored(values: Any) -> list:
+    """Per-episode values as the file keeps them: float32 values rounded to 4 decimals (their
+    precision), NaN as JSON's NaN."""
+    return np.round(np.asarray(values, np.float64), 4).tolist()
 
 
 def fingerprint(arms: Sequence[Arm], episodes: int, seed: int) -> str:
