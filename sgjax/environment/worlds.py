@@ -51,30 +51,38 @@ class WorldDraw:
     seed: Array
     # the world's pedestrian spawn slots and node mask, when the environment has pedestrians
     humans: SpawnSlots | None = None
+    # int32: the pedestrians of the episode in this world, -1 for the params' ``num_humans``
+    # (a trainer's level may carry its own: an ACCEL edit adds a group)
+    pedestrians: Array = dataclasses.field(default_factory=lambda: jnp.int32(-1))
 
     def params_of(self, params: Any) -> Any:
-        """``params`` (``EnvParams``) with this world as the map, and its spawn slots and node
-        mask in the pedestrian params when it has them (:func:`sgjax.types.episode_params`)."""
+        """``params`` (``EnvParams``) with this world as the map, and its spawn slots, node
+        mask and pedestrian count in the pedestrian params when it has them
+        (:func:`sgjax.types.episode_params`)."""
         params = params.replace(map=self.map)
         if self.humans is None:
             return params
         h = self.humans
+        count = jnp.where(self.pedestrians >= 0, self.pedestrians,
+                          params.humans.num_humans).astype(jnp.int32)
         return params.replace(humans=params.humans.replace(
             spawn_x=h.x, spawn_y=h.y, spawn_nodes=h.nodes, spawn_valid=h.valid,
-            node_valid=h.node_valid))
+            node_valid=h.node_valid, num_humans=count))
 
 
 @struct.dataclass
 class Level:
     """The world a trainer picks for an environment's next episode (``EnvState.next_level``):
     a seed (uint32, the build key ``world_key(seed)``), parameter values (``{name: float32}``,
-    which need not be the seed's own: an edited level) and ``chosen`` (bool: False lets the
-    reset draw a fresh seed, as it does without a curriculum). Leaves gain a leading ``[N]``
-    in a batch."""
+    which need not be the seed's own: an edited level), ``chosen`` (bool: False lets the
+    reset draw a fresh seed, as it does without a curriculum) and ``pedestrians`` (int32: the
+    episode's active pedestrians, at most the environment's ``max_humans``; -1 for the
+    params' ``num_humans``). Leaves gain a leading ``[N]`` in a batch."""
 
     seed: Array
     values: dict
     chosen: Array
+    pedestrians: Array
 
     @classmethod
     def unset(cls, parameters: Any) -> Level:
@@ -82,7 +90,7 @@ class Level:
         ``parameters`` (names)."""
         return cls(seed=jnp.uint32(0),
                    values={name: jnp.float32(jnp.nan) for name in sorted(parameters)},
-                   chosen=jnp.asarray(False))
+                   chosen=jnp.asarray(False), pedestrians=jnp.int32(-1))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -139,7 +147,8 @@ class WorldSource:
                      route_nodes=capacity.route_nodes, check_dilemma=self.check_dilemma).valid
         fresh = ~is_excluded(values_hash(values), self._excluded())
         return WorldDraw(map=arrays, valid=ok & fresh, values=values,
-                         seed=jnp.asarray(seed, jnp.uint32), humans=self.slots_of(world))
+                         seed=jnp.asarray(seed, jnp.uint32), humans=self.slots_of(world),
+                         pedestrians=jnp.int32(-1))
 
     def _first_fresh(self, candidates: Array, values_of: Any) -> Array:
         """Of ``candidates [T]`` (keys or seeds), the first whose values (``values_of``) no
@@ -191,7 +200,8 @@ class WorldSource:
         first, then fresh seeds, each redrawn up to :data:`HOLDOUT_TRIES` times away from a
         held-out split's values) the first valid one. With one proposal a chosen level that
         fails the checks is played (flagged invalid: a curriculum never records it); with
-        more, the next fresh seed replaces it."""
+        more, the next fresh seed replaces it. The draw's ``pedestrians`` is the chosen
+        level's where it is played, else -1 (the params' count)."""
         ranges = self._range_arrays()
         own = lambda s: world_values(world_key(s), ranges)  # noqa: E731 (a seed's values)
         tries = HOLDOUT_TRIES if self.exclude else 1
@@ -204,7 +214,10 @@ class WorldSource:
         values = {name: jnp.where(chosen, level.values[name], v)
                   for name, v in jax.vmap(own)(seeds).items()}
         _, draws = jax.vmap(self.built)(seeds, values)
-        return jax.tree.map(lambda x: x[jnp.argmax(draws.valid)], draws)
+        best = jnp.argmax(draws.valid)
+        draw = jax.tree.map(lambda x: x[best], draws)
+        return draw.replace(pedestrians=jnp.where(chosen[best], level.pedestrians,
+                                                  -1).astype(jnp.int32))
 
     def of_seed(self, seed: Array | int) -> WorldDraw:
         """World ``seed`` (built from ``world_key(seed)``, as a split of seeds plays it) under

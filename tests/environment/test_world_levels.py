@@ -25,8 +25,9 @@ def _same(a, b, tolerance=0.0):
                                    atol=tolerance, rtol=0)
 
 
-def _level(values: dict, seed: int, chosen: bool, count: int) -> Level:
-    level = Level(seed=jnp.uint32(seed), values=values, chosen=jnp.asarray(chosen))
+def _level(values: dict, seed: int, chosen: bool, count: int, pedestrians: int = -1) -> Level:
+    level = Level(seed=jnp.uint32(seed), values=values, chosen=jnp.asarray(chosen),
+                  pedestrians=jnp.int32(pedestrians))
     return jax.tree.map(lambda x: jnp.broadcast_to(x, (count,) + jnp.shape(x)), level)
 
 
@@ -131,8 +132,39 @@ def test_a_chosen_level_that_fails_the_checks_falls_back_to_a_fresh_world():
     narrow = dict(source.of_seed(5).values)
     narrow["door_width"] = jnp.float32(0.3)  # narrower than any robot: fails the checks
     assert not bool(source.built(jnp.uint32(5), narrow)[1].valid)
-    level = Level(seed=jnp.uint32(5), values=narrow, chosen=jnp.asarray(True))
+    level = Level(seed=jnp.uint32(5), values=narrow, chosen=jnp.asarray(True),
+                  pedestrians=jnp.int32(3))
     draw = jax.jit(source.level_draw)(jax.random.key(1), level)
     assert bool(draw.valid) and int(draw.seed) != 5
-    good = Level(seed=jnp.uint32(5), values=source.of_seed(5).values, chosen=jnp.asarray(True))
-    assert int(jax.jit(source.level_draw)(jax.random.key(1), good).seed) == 5
+    assert int(draw.pedestrians) == -1  # the fresh fallback has the environment's pedestrians
+    good = level.replace(values=source.of_seed(5).values)
+    played = jax.jit(source.level_draw)(jax.random.key(1), good)
+    assert int(played.seed) == 5 and int(played.pedestrians) == 3
+
+
+def test_a_chosen_levels_pedestrians_walk_in_its_episode_and_fresh_worlds_have_the_params():
+    """A level's pedestrian count (an ACCEL edit's added group) is the active pedestrians of
+    its episode, read by every step from its world; a fresh world keeps the params' count."""
+    env, params = sgjax.make("generated:open", num_agents=2, num_humans=2, max_humans=6,
+                             time_limit=1.0, world_levels=True)
+    count = 3
+    _, states = jax.vmap(env.reset, in_axes=(0, None))(
+        jax.random.split(jax.random.key(2), count), params)
+    assert (np.asarray(states.humans.active).sum(axis=1) == 2).all()
+    level = _level(env.config.world.of_seed(9).values, 9, True, count).replace(
+        chosen=jnp.asarray([True, False, True]), pedestrians=jnp.asarray([5, 5, 0], jnp.int32))
+    states = states.replace(next_level=level)
+    step = jax.jit(lambda k, s: env.step_batch(k, s, jnp.ones((count, env.max_agents),
+                                                                jnp.int32), params))
+    first = np.zeros(count, bool)
+    for t in range(12):
+        _, states, _, _, _, info = step(jax.random.split(jax.random.key(50 + t), count), states)
+        ended = np.asarray(info["episode_done"]) & ~first
+        first |= ended
+        active = np.asarray(states.humans.active).sum(axis=1)
+        episode = jax.vmap(env.params_in, in_axes=(0, None))(states, params)
+        for i in np.flatnonzero(ended):
+            want = [5, 2, 0][i]
+            assert active[i] == want and int(episode.humans.num_humans[i]) == want
+            assert int(states.world.pedestrians[i]) == [5, -1, 0][i]
+    assert first.all()

@@ -60,6 +60,29 @@ def test_a_curriculum_keeps_a_buffer_per_lane_and_replays_its_levels(method):
             assert (lane, int(states.next_level.seed[lane, env])) in held
 
 
+@pytest.mark.slow
+def test_accel_adds_pedestrian_groups_that_the_worlds_play():
+    config = tiny(env={"scenarios": ["generated:open"], "curriculum": [[0, 2]],
+                       "time_limit": 1.0, "num_humans": 1, "max_humans": 5},
+                  levels={"method": "accel", "buffer_size": 8, "min_fill": 0.25,
+                          "replay_prob": 1.0, "mutate_prob": 1.0, "pedestrian_group": 2})
+    trainer = Trainer(config)
+    runners = jax.jit(jax.vmap(trainer.init))(seed_keys(config))
+    update = jax.jit(lambda r: trainer.update_chunk_lanes(r, 1))
+    seen = set()
+    for _ in range(6):
+        runners, _ = update(runners)
+        states = runners.env_states[0]
+        count = np.asarray(states.world.pedestrians)
+        active = np.asarray(states.humans.active).sum(axis=-1)
+        np.testing.assert_array_equal(active, np.where(count >= 0, count, 1))
+        seen |= set(count.ravel().tolist())
+        buffer = runners.levels[0]
+        held = np.asarray(buffer.pedestrians)[np.asarray(buffer.filled)]
+        assert set(held.tolist()) <= {-1, 3, 5}  # 1 and whole groups of 2, capped at 5
+    assert seen <= {-1, 3, 5} and 3 in seen  # edited levels played with a group added
+
+
 def test_a_curriculum_needs_a_generated_scenario_and_valid_settings():
     from sgjax.terms.base import ConfigError
     with pytest.raises(ConfigError, match="levels.method 'plr' picks generated worlds"):

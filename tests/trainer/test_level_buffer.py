@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from train.algorithm.level_buffer import (
+    Crowd,
     LevelBuffer,
     edit,
     episode_scores,
@@ -57,7 +58,9 @@ def test_replay_weights_are_plrs_rank_and_staleness_mixture(key):
 def test_an_edit_moves_at_most_edits_parameters_within_their_ranges(key):
     values = {"a": jnp.float32(0.5), "b": jnp.float32(3.0), "fixed": jnp.float32(3.0)}
     edits = 1 + key % 2
-    out = {k: float(v) for k, v in edit(jax.random.key(key), values, RANGES, edits, 0.5).items()}
+    out, pedestrians = edit(jax.random.key(key), values, jnp.int32(-1), RANGES, edits, 0.5)
+    out = {k: float(v) for k, v in out.items()}
+    assert int(pedestrians) == -1  # no crowd: never a group
     moved = [k for k in values if out[k] != float(values[k])]
     assert len(moved) <= edits and "fixed" not in moved
     assert all(RANGES[k][0] <= out[k] <= RANGES[k][1] for k in out)
@@ -67,7 +70,7 @@ def test_an_edit_moves_at_most_edits_parameters_within_their_ranges(key):
 
 def test_edits_reach_every_movable_parameter_and_both_directions():
     values = {"a": jnp.float32(0.5), "b": jnp.float32(3.0), "fixed": jnp.float32(3.0)}
-    outs = jax.vmap(lambda k: edit(k, values, RANGES, 1, 0.2))(
+    outs, _ = jax.vmap(lambda k: edit(k, values, jnp.int32(-1), RANGES, 1, 0.2))(
         jax.random.split(jax.random.key(0), 200))
     for name in ("a", "b"):
         d = np.asarray(outs[name]) - float(values[name])
@@ -105,10 +108,12 @@ def test_step_scores_are_the_acting_robots_mean_positive_advantage():
     np.testing.assert_array_equal(np.asarray(stepped), [[True, True], [False, True]])
 
 
-def _events(seeds, a, b, done, score, success, valid=None):
+def _events(seeds, a, b, done, score, success, valid=None, pedestrians=None):
     shape = (1, len(seeds))
     arr = lambda x, t: jnp.asarray(np.asarray(x).reshape(shape), t)  # noqa: E731
     return dict(seed=arr(seeds, jnp.uint32),
+                pedestrians=arr(np.full(len(seeds), -1) if pedestrians is None
+                                else pedestrians, jnp.int32),
                 values={"a": arr(a, jnp.float32), "b": arr(b, jnp.float32),
                         "fixed": arr(np.full(len(seeds), 3.0), jnp.float32)},
                 valid=arr(np.ones(len(seeds), bool) if valid is None else valid, bool),
@@ -185,3 +190,65 @@ def test_next_levels_replay_only_from_a_filled_enough_buffer(key):
     changed = sum(not np.array_equal(np.asarray(edited.values[n]), np.asarray(level.values[n]))
                   for n in RANGES)
     assert changed >= 1 and np.array_equal(np.asarray(edited.seed), np.asarray(level.seed))
+
+
+CROWD = Crowd(group=3, base=2, capacity=8)
+
+
+@pytest.mark.parametrize("key", range(30))
+def test_an_edit_may_add_a_pedestrian_group_up_to_the_capacity(key):
+    values = {"a": jnp.float32(0.5), "b": jnp.float32(3.0), "fixed": jnp.float32(3.0)}
+    start = [-1, 2, 5, 7, 8][key % 5]
+    edits = 1 + key % 3
+    out, pedestrians = edit(jax.random.key(key), values, jnp.int32(start), RANGES, edits, 0.2,
+                            CROWD)
+    moved = sum(float(out[k]) != float(values[k]) for k in values)
+    count = CROWD.base if start < 0 else start  # -1: the environment's own
+    grown = {min(count + g * CROWD.group, CROWD.capacity) for g in range(1, edits + 1)
+             if count < CROWD.capacity}  # whole groups, capped; none once full
+    assert int(pedestrians) in {start} | grown
+    assert moved + (int(pedestrians) != start) <= edits
+
+
+def test_groups_are_added_as_often_as_a_parameter_is_moved():
+    values = {"a": jnp.float32(0.5), "b": jnp.float32(3.0), "fixed": jnp.float32(3.0)}
+    outs, pedestrians = jax.vmap(lambda k: edit(k, values, jnp.int32(-1), RANGES, 1, 0.2,
+                                                CROWD))(jax.random.split(jax.random.key(1), 600))
+    grown = np.asarray(pedestrians) == CROWD.base + CROWD.group
+    assert set(np.unique(np.asarray(pedestrians)).tolist()) == {-1, CROWD.base + CROWD.group}
+    assert 0.25 < grown.mean() < 0.42  # one choice of three (a, b, a group)
+    assert np.all(np.asarray(outs["a"])[grown] == 0.5)  # the group was the edit
+    _, never = jax.vmap(lambda k: edit(k, values, jnp.int32(-1), RANGES, 1, 0.2,
+                                       Crowd(group=3, base=8, capacity=8)))(
+        jax.random.split(jax.random.key(1), 100))
+    assert np.all(np.asarray(never) == -1)  # full: no group
+
+
+def test_a_replayed_level_keeps_its_pedestrians_and_a_fresh_one_has_the_environments():
+    kwargs = dict(min_fill=0.5, temperature=0.3, staleness=0.3, edits=1, edit_scale=0.2)
+    full = _buffer(size=8, envs=64, filled=8).replace(
+        pedestrians=jnp.arange(8, dtype=jnp.int32) % 3)
+    k = jax.random.key(0)
+    level = next_levels(k, full, jnp.int32(60), RANGES, replay_prob=0.5, mutate_prob=0.0,
+                        crowd=CROWD, **kwargs)
+    chosen = np.asarray(level.chosen)
+    slots = [int(np.flatnonzero(np.asarray(full.seed) == s)[0]) for s in np.asarray(level.seed)]
+    expect = np.where(chosen, np.asarray(full.pedestrians)[slots], -1)
+    np.testing.assert_array_equal(np.asarray(level.pedestrians), expect)
+    assert chosen.any() and (~chosen).any()
+    edited = next_levels(k, full, jnp.int32(60), RANGES, replay_prob=1.0, mutate_prob=1.0,
+                         crowd=CROWD, **kwargs)
+    assert (np.asarray(edited.pedestrians) > np.asarray(full.pedestrians)[
+        [int(np.flatnonzero(np.asarray(full.seed) == s)[0]) for s in
+         np.asarray(edited.seed)]]).any()
+
+
+def test_levels_that_differ_in_pedestrians_alone_are_two_levels():
+    buffer = LevelBuffer.empty(tuple(RANGES), 4, 3)
+    events = _events(seeds=[1, 1, 1], a=[0.1] * 3, b=[2.0] * 3, done=[True] * 3,
+                     score=[1.0, 2.0, 3.0], success=[0.5] * 3, pedestrians=[-1, 4, 4])
+    out, _, _ = record(buffer, jnp.int32(5), learnability=False, candidates=3, **events)
+    filled = np.asarray(out.filled)
+    assert sorted(np.asarray(out.pedestrians)[filled].tolist()) == [-1, 4]
+    four = int(np.flatnonzero(filled & (np.asarray(out.pedestrians) == 4))[0])
+    assert float(out.plays[four]) == 2 and float(out.score[four]) == pytest.approx(2.5)

@@ -316,8 +316,10 @@ class LevelsConfig:
     scored by positive value loss; an environment replays one with probability
     ``replay_prob`` once the buffer is ``min_fill`` full, sampled by rank with
     ``temperature`` and by staleness with weight ``staleness``). ``accel``: PLR whose replays
-    are edited with probability ``mutate_prob`` (``edits`` parameters each moved by up to
-    ``edit_scale`` of its range). ``learnability``: PLR's buffer scored by ``p (1 - p)``, p the
+    are edited with probability ``mutate_prob`` (``edits`` changes, each a parameter moved by
+    up to ``edit_scale`` of its range or, in an environment with room for more pedestrians
+    (``max_humans`` above ``num_humans``), a group of ``pedestrian_group`` of them added; 0:
+    never). ``learnability``: PLR's buffer scored by ``p (1 - p)``, p the
     level's robot success (SFL)."""
 
     method: str = "dr"
@@ -329,11 +331,13 @@ class LevelsConfig:
     mutate_prob: float = 0.5
     edits: int = 1
     edit_scale: float = 0.2
+    pedestrian_group: int = 2
 
     def __post_init__(self) -> None:
         check_choice("method", self.method, CURRICULA)
         check_int("buffer_size", self.buffer_size)
         check_int("edits", self.edits)
+        check_int("pedestrian_group", self.pedestrian_group, 0)
         for name in ("replay_prob", "min_fill", "staleness", "mutate_prob", "edit_scale"):
             check_range(name, getattr(self, name), 0.0, 1.0)
         check_positive("temperature", self.temperature)

@@ -7,7 +7,8 @@ of each environment's next episode: a level replayed from the buffer with probab
 ``replay_prob`` once the buffer is ``min_fill`` full (sampled by rank of score and by
 staleness, as PLR does), under ``accel`` an edit of the replayed level with probability
 ``mutate_prob`` (a few parameters moved within their ranges: a door widened or narrowed or
-moved, an arm turned), and otherwise a fresh world. After the rollout, :func:`episode_scores`
+moved, an arm turned; or, where the environment has room for pedestrians, a group of them
+added), and otherwise a fresh world. After the rollout, :func:`episode_scores`
 scores every episode that ended and :func:`record` keeps the best-scoring levels.
 
 Scores (``LevelsConfig.method``):
@@ -22,6 +23,8 @@ Shapes: ``N`` buffer slots, ``E`` environments of the scenario, ``T`` rollout st
 environment steps of the whole batch (``RunnerState.steps``)."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import jax
 import jax.numpy as jnp
@@ -40,6 +43,7 @@ class LevelBuffer:
 
     seed: Array  # [N] uint32
     values: dict  # {parameter: [N] float32}
+    pedestrians: Array  # [N] int32 the level's active pedestrians (-1: the environment's)
     score: Array  # [N] float32, -inf where empty
     plays: Array  # [N] float32 episodes played on the level
     success: Array  # [N] float32 mean robot success over those episodes
@@ -55,6 +59,7 @@ class LevelBuffer:
         zeros = jnp.zeros(size, jnp.float32)
         return cls(seed=jnp.zeros(size, jnp.uint32),
                    values={name: zeros for name in sorted(parameters)},
+                   pedestrians=jnp.full(size, -1, jnp.int32),
                    score=jnp.full(size, NEVER), plays=zeros, success=zeros,
                    last_played=jnp.zeros(size, jnp.int32), filled=jnp.zeros(size, bool),
                    episode_score=jnp.zeros(num_envs, jnp.float32),
@@ -81,34 +86,64 @@ def replay_weights(buffer: LevelBuffer, now: Array, temperature: float,
     return (1.0 - stale) * by_score + stale * by_age
 
 
-def edit(key: Array, values: dict, ranges: dict[str, tuple[float, float]], edits: int,
-         scale: float) -> dict:
-    """ACCEL's mutation of one level's values: ``edits`` parameters (drawn with repeats
-    allowed; fixed ones, ``low == high``, never move) each moved by up to ``scale`` of its
-    range's width either way, clipped to the range."""
+@dataclasses.dataclass(frozen=True)
+class Crowd:
+    """What an edit may do to a level's pedestrians: add ``group`` of them (0: never) to its
+    count (``base``, the environment's ``num_humans``, where the level has none of its own),
+    up to the environment's ``capacity`` (``max_humans``)."""
+
+    group: int = 0
+    base: int = 0
+    capacity: int = 0
+
+    @property
+    def can_grow(self) -> bool:
+        return self.group > 0 and self.capacity > self.base
+
+
+NO_CROWD = Crowd()
+
+
+def edit(key: Array, values: dict, pedestrians: Array, ranges: dict[str, tuple[float, float]],
+         edits: int, scale: float, crowd: Crowd = NO_CROWD) -> tuple[dict, Array]:
+    """ACCEL's mutation of one level: ``edits`` changes (drawn with repeats allowed), each a
+    parameter (fixed ones, ``low == high``, never move) moved by up to ``scale`` of its
+    range's width either way and clipped to the range, or, where ``crowd`` can grow, a group
+    of pedestrians added (one more choice beside the parameters, while the level is below
+    capacity). Returns the values and the pedestrian count (int32; -1, the environment's,
+    where no group was added)."""
     names = sorted(values)
     low = jnp.asarray([ranges[n][0] for n in names], jnp.float32)
     high = jnp.asarray([ranges[n][1] for n in names], jnp.float32)
     vector = jnp.stack([values[n] for n in names])
     k_which, k_step = jax.random.split(key)
-    movable = high > low
-    which = jax.random.choice(k_which, len(names), (edits,),
-                              p=movable / jnp.maximum(jnp.sum(movable), 1))
+    count = jnp.where(pedestrians >= 0, pedestrians, crowd.base)
+    grows = jnp.asarray(crowd.can_grow) & (count < crowd.capacity)
+    choices = jnp.concatenate([(high > low).astype(jnp.float32),
+                               grows.astype(jnp.float32)[None]])
+    which = jax.random.choice(k_which, len(names) + 1, (edits,),
+                              p=choices / jnp.maximum(jnp.sum(choices), 1))
     step = jax.random.uniform(k_step, (edits,), jnp.float32, -scale, scale)
-    vector = vector.at[which].add(step * (high - low)[which])
+    moved = which < len(names)
+    at = jnp.where(moved, which, 0)
+    vector = vector.at[at].add(jnp.where(moved, step * (high - low)[at], 0.0))
     vector = jnp.clip(vector, low, high)
-    return {n: vector[i] for i, n in enumerate(names)}
+    groups = jnp.sum(~moved)
+    pedestrians = jnp.where(groups > 0, jnp.minimum(count + groups * crowd.group,
+                                                    crowd.capacity), pedestrians)
+    return {n: vector[i] for i, n in enumerate(names)}, pedestrians.astype(jnp.int32)
 
 
 def next_levels(key: Array, buffer: LevelBuffer, now: Array, ranges: dict, *,
                 replay_prob: Array | float, min_fill: float, temperature: float,
-                staleness: float, mutate_prob: Array | float, edits: int, edit_scale: float
-                ) -> Level:
+                staleness: float, mutate_prob: Array | float, edits: int, edit_scale: float,
+                crowd: Crowd = NO_CROWD) -> Level:
     """The level of each environment's next episode ``[E]`` (chosen, or unset for a fresh
     world; see the module doc). ``replay_prob`` 0: never a replay (domain randomisation);
-    ``mutate_prob`` 0: no edits (PLR). Both may be traced (a lane's numbers). A level's
-    last-played time is set when its episode ends (:func:`record`), not here: a pick may wait
-    several rollouts for its environment's episode to end."""
+    ``mutate_prob`` 0: no edits (PLR). Both may be traced (a lane's numbers). ``crowd``: the
+    pedestrian groups an edit may add. A level's last-played time is set when its episode
+    ends (:func:`record`), not here: a pick may wait several rollouts for its environment's
+    episode to end."""
     num_envs = buffer.episode_score.shape[0]
     k_replay, k_pick, k_mutate, k_edit = jax.random.split(key, 4)
     ready = (buffer.fill >= min_fill) & jnp.any(buffer.filled)
@@ -116,11 +151,14 @@ def next_levels(key: Array, buffer: LevelBuffer, now: Array, ranges: dict, *,
     weights = replay_weights(buffer, now, temperature, staleness)
     pick = jax.random.choice(k_pick, weights.size, (num_envs,), p=weights)
     values = {name: v[pick] for name, v in buffer.values.items()}
+    pedestrians = buffer.pedestrians[pick]
     mutate = replay & (jax.random.uniform(k_mutate, (num_envs,)) < mutate_prob)
-    edited = jax.vmap(lambda k, v: edit(k, v, ranges, edits, edit_scale))(
-        jax.random.split(k_edit, num_envs), values)
+    edited, more = jax.vmap(lambda k, v, p: edit(k, v, p, ranges, edits, edit_scale, crowd))(
+        jax.random.split(k_edit, num_envs), values, pedestrians)
     values = {name: jnp.where(mutate, edited[name], v) for name, v in values.items()}
-    return Level(seed=buffer.seed[pick], values=values, chosen=replay)
+    pedestrians = jnp.where(mutate, more, pedestrians)
+    return Level(seed=buffer.seed[pick], values=values, chosen=replay,
+                 pedestrians=jnp.where(replay, pedestrians, -1).astype(jnp.int32))
 
 
 def step_scores(advantages: Array, active: Array, num_envs: int) -> tuple[Array, Array]:
@@ -155,15 +193,16 @@ def episode_scores(buffer: LevelBuffer, scores: Array, stepped: Array, done: Arr
     return out, buffer.replace(episode_score=total, episode_steps=count)
 
 
-def record(buffer: LevelBuffer, now: Array, seed: Array, values: dict, valid: Array,
-           done: Array, score: Array, success: Array, learnability: Array | bool,
-           candidates: int) -> tuple[LevelBuffer, Array, Array]:
-    """The buffer after the episodes that ended in a rollout (``[T, E]`` each: the seed and
-    values of the level played, whether it was valid, ``done``, the episode's PVL ``score``
-    and its robots' ``success`` share): at most ``candidates`` of them (the first to end)
-    are recorded. A level already held gets its new score (under ``learnability``, its
-    success mean updated first); new valid levels replace the lowest scores when they score
-    higher. Levels are equal when their seeds and every value are; a level that ended several
+def record(buffer: LevelBuffer, now: Array, seed: Array, values: dict, pedestrians: Array,
+           valid: Array, done: Array, score: Array, success: Array,
+           learnability: Array | bool, candidates: int) -> tuple[LevelBuffer, Array, Array]:
+    """The buffer after the episodes that ended in a rollout (``[T, E]`` each: the seed,
+    values and pedestrian count of the level played, whether it was valid, ``done``, the
+    episode's PVL ``score`` and its robots' ``success`` share): at most ``candidates`` of
+    them (the first to end) are recorded. A level already held gets its new score (under
+    ``learnability``, its success mean updated first); new valid levels replace the lowest
+    scores when they score higher. Levels are equal when their seeds, pedestrian counts and
+    every value are; a level that ended several
     episodes in the rollout counts them all (a held one's newest score is its last
     candidate's; a new one's the mean of its episodes). ``learnability`` (a bool, or a lane's
     traced one) scores by learnability instead of PVL. Returns the buffer, the episodes
@@ -173,18 +212,20 @@ def record(buffer: LevelBuffer, now: Array, seed: Array, values: dict, valid: Ar
     order = jnp.argsort(~ended, stable=True)[:candidates]
     keep = ended[order]
     c_seed = flat(seed)[order]
+    c_pedestrians = flat(pedestrians)[order]
     c_values = {n: flat(v)[order] for n, v in values.items()}
     c_success = flat(success)[order]
     c_score = flat(score)[order]
 
-    def same(seed_a: Array, values_a: dict, seed_b: Array, values_b: dict) -> Array:
-        eq = seed_a[:, None] == seed_b[None, :]
-        for n in values_a:
-            eq = eq & (values_a[n][:, None] == values_b[n][None, :])
+    def same(a: tuple[Array, Array, dict], b: tuple[Array, Array, dict]) -> Array:
+        eq = (a[0][:, None] == b[0][None, :]) & (a[1][:, None] == b[1][None, :])
+        for n in a[2]:
+            eq = eq & (a[2][n][:, None] == b[2][n][None, :])
         return eq
 
-    held = (same(c_seed, c_values, buffer.seed, buffer.values) & buffer.filled[None, :]
-            & keep[:, None])
+    candidate = (c_seed, c_pedestrians, c_values)
+    held = (same(candidate, (buffer.seed, buffer.pedestrians, buffer.values))
+            & buffer.filled[None, :] & keep[:, None])
     known = jnp.any(held, axis=1)
     slot = jnp.where(known, jnp.argmax(held, axis=1), buffer.seed.size)
 
@@ -205,7 +246,7 @@ def record(buffer: LevelBuffer, now: Array, seed: Array, values: dict, valid: Ar
 
     # New levels: the first of each kind among the candidates (its twins' episodes pooled),
     # competing for the slots.
-    twin = same(c_seed, c_values, c_seed, c_values) & keep[None, :] & keep[:, None]
+    twin = same(candidate, candidate) & keep[None, :] & keep[:, None]
     earlier = jnp.tril(twin, k=-1)
     new = keep & ~known & ~jnp.any(earlier, axis=1)
     count = jnp.maximum(jnp.sum(twin, axis=1), 1).astype(jnp.float32)
@@ -219,6 +260,7 @@ def record(buffer: LevelBuffer, now: Array, seed: Array, values: dict, valid: Ar
     buffer = buffer.replace(
         seed=join(buffer.seed, c_seed),
         values={n: join(buffer.values[n], c_values[n]) for n in buffer.values},
+        pedestrians=join(buffer.pedestrians, c_pedestrians),
         score=pool[top],
         plays=join(buffer.plays, count),
         success=join(buffer.success, c_success),

@@ -14,6 +14,7 @@ from jax import Array
 from train.algorithm.config import LevelsConfig
 from train.algorithm.env_batch import EnvBatch
 from train.algorithm.level_buffer import (
+    Crowd,
     LevelBuffer,
     episode_scores,
     next_levels,
@@ -35,6 +36,16 @@ def empty_buffers(batch: EnvBatch, levels: LevelsConfig) -> tuple[LevelBuffer | 
         for source, size in zip(batch.level_sources, batch.sizes, strict=True))
 
 
+def crowds(batch: EnvBatch, levels: LevelsConfig) -> tuple[Crowd, ...]:
+    """Per scenario of the batch, the pedestrian groups an ACCEL edit may add: groups of
+    ``levels.pedestrian_group`` on top of the scenario's ``num_humans``, up to its
+    ``max_humans`` (none in an environment without pedestrians)."""
+    return tuple(Crowd(group=levels.pedestrian_group,
+                       base=int(params.humans.num_humans) if env.config.humans.max_humans
+                       else 0, capacity=int(env.config.humans.max_humans))
+                 for env, params in zip(batch.envs, batch.params, strict=True))
+
+
 def choose_levels(batch: EnvBatch, levels: LevelsConfig, key: Array, buffers: tuple,
                   env_states: tuple, now: Array, lane: dict) -> tuple[tuple, tuple]:
     """Every picked scenario's next levels written into its environments' states
@@ -43,8 +54,8 @@ def choose_levels(batch: EnvBatch, levels: LevelsConfig, key: Array, buffers: tu
     ``replay_prob`` and ``mutate_prob`` (:meth:`LevelsConfig.lane_values`)."""
     out_buffers, out_states = [], []
     keys = jax.random.split(key, len(batch.sizes))
-    for source, buffer, state, k in zip(batch.level_sources, buffers, env_states, keys,
-                                        strict=True):
+    for source, buffer, state, k, crowd in zip(batch.level_sources, buffers, env_states, keys,
+                                               crowds(batch, levels), strict=True):
         if source is None:
             out_buffers.append(buffer)
             out_states.append(state)
@@ -53,7 +64,8 @@ def choose_levels(batch: EnvBatch, levels: LevelsConfig, key: Array, buffers: tu
         level = next_levels(
             k, buffer, now, ranges, replay_prob=lane["replay_prob"], min_fill=levels.min_fill,
             temperature=levels.temperature, staleness=levels.staleness,
-            mutate_prob=lane["mutate_prob"], edits=levels.edits, edit_scale=levels.edit_scale)
+            mutate_prob=lane["mutate_prob"], edits=levels.edits, edit_scale=levels.edit_scale,
+            crowd=crowd)
         pending = state.next_level.chosen  # [E]; every leaf of a Level is [E]
         level = jax.tree.map(lambda old, new, pending=pending: jnp.where(pending, old, new),
                              state.next_level, level)
@@ -63,10 +75,11 @@ def choose_levels(batch: EnvBatch, levels: LevelsConfig, key: Array, buffers: tu
 
 
 def played_levels(batch: EnvBatch, env_states: tuple) -> tuple:
-    """The level each environment is playing, per picked scenario (``(seed, values, valid)``,
-    ``[E_s]`` each; None for the others): what a step's episode ends on."""
+    """The level each environment is playing, per picked scenario (``(seed, values,
+    pedestrians, valid)``, ``[E_s]`` each; None for the others): what a step's episode ends
+    on."""
     return tuple(None if source is None else (state.world.seed, state.world.values,
-                                              state.world.valid)
+                                              state.world.pedestrians, state.world.valid)
                  for source, state in zip(batch.level_sources, env_states, strict=True))
 
 
@@ -90,9 +103,9 @@ def record_levels(batch: EnvBatch, buffers: tuple, now: Array, advantages: Array
             out.append(buffer)
             continue
         episode, buffer = episode_scores(buffer, score, acted, done)
-        seed, values, valid = played
+        seed, values, pedestrians, valid = played
         buffer, episodes, replays = record(
-            buffer, now, seed, values, valid, done, episode, success,
+            buffer, now, seed, values, pedestrians, valid, done, episode, success,
             learnability=lane["learnability"] > 0.5,
             candidates=2 * buffer.episode_score.shape[0])
         out.append(buffer)

@@ -107,12 +107,14 @@ def restore(path: str | Path, trainer: Any, contents: tuple | None = None
 
 # Fields the runner state gained on 2026-11-28 (curricula over generated worlds, pedestrians
 # in them): a checkpoint saved before lacks them, and held what these defaults say.
-ADDED_FIELDS = ("levels", "curriculum", "next_level", "seed", "humans")
+ADDED_FIELDS = ("levels", "curriculum", "next_level", "seed", "humans", "pedestrians")
+ADDED_FILL = {"pedestrians": -1}  # an array field's value before it existed, where not 0
 
 
 def with_added_fields(raw: Any, shapes: Any) -> Any:
     """A checkpoint's raw state with the :data:`ADDED_FIELDS` it lacks, at the value a run
-    made before them held: zeros for arrays (``WorldDraw.seed``: no seed), empty for
+    made before them held: zeros for arrays (``WorldDraw.seed``: no seed) but those of
+    :data:`ADDED_FILL` (``pedestrians``: -1, the environment's count), empty for
     containers (``RunnerState.levels``, ``curriculum``) and None (``EnvState.next_level``,
     ``WorldDraw.humans``). ``shapes``: the state dict of the trainer's runner template
     (``ShapeDtypeStruct`` leaves). Any other missing field stays missing (the checkpoint does
@@ -124,7 +126,8 @@ def with_added_fields(raw: Any, shapes: Any) -> Any:
         if name in raw:
             out[name] = with_added_fields(raw[name], shape)
         elif name in ADDED_FIELDS:
-            out[name] = jax.tree.map(lambda s: np.zeros(s.shape, s.dtype), shape)
+            fill = ADDED_FILL.get(name, 0)
+            out[name] = jax.tree.map(lambda s, f=fill: np.full(s.shape, f, s.dtype), shape)
     return out
 
 
