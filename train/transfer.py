@@ -39,10 +39,10 @@ provenance) and ``transfer.md`` (generated from it; ``--from-results`` writes it
 * per set, the maps where each arm beats Only Local (its paired interval above 0) and where it
   is within ``--margin`` of the reference (the interval's low end above ``-margin``).
 
-A run killed midway continues with ``--resume`` from ``transfer.partial.json`` (every finished
-map is kept). The partial file also lets arms arrive one by one: a later ``--resume`` with an
-arm added (or retrained) plays that arm alone on every map and keeps the others' values and
-Only Local's, on the same episodes. ``transfer.json`` is written at the end of every run.
+Both files are written again after every map (``pending`` lists the maps still to play), so
+a run killed midway continues with ``--resume`` from ``transfer.json``. It also lets arms
+arrive one by one: a later ``--resume`` with an arm added (or retrained) plays that arm alone
+on every map and keeps the others' values and Only Local's, on the same episodes.
 """
 
 from __future__ import annotations
@@ -94,7 +94,7 @@ EXTRAPOLATION: tuple[tuple[str, str, dict[str, tuple[float, float]]], ...] = (
     ("open, large arena", "open", {"arena_size": (16.0, 20.0)}),
 )
 METRICS = ("team_success", "collisions", "makespan")
-PARTIAL = "transfer.partial.json"
+PARTIAL = "transfer.partial.json"  # earlier versions' partial file (still read by --resume)
 RESAMPLES = 4000
 
 
@@ -451,6 +451,10 @@ def tables(document: Mapping[str, Any]) -> str:
         f"({reference}) where the interval's low end lies above -{100 * margin:g}. Arms: "
         + "; ".join(f"**{n}** {a['seeds']} seeds trained on {', '.join(a['trained_on'])}"
                     for n, a in arms.items()) + ".", ""]
+    pending = document.get("pending", [])
+    if pending:
+        text += [f"**In progress**: {len(pending)} map(s) still to play "
+                 f"({', '.join(pending[:6])}{', ...' if len(pending) > 6 else ''}).", ""]
     summary = []
     for name in document["sets"]:
         results = [r for r in document["maps"].values() if r["set"] == name]
@@ -526,8 +530,8 @@ def parser() -> argparse.ArgumentParser:
                         help="SocialGym 2.0's map folders (the sg2maps set)")
     parser.add_argument("--out", default=None, help="folder for transfer.json and .md")
     parser.add_argument("--resume", action="store_true",
-                        help=f"keep the maps of <out>/{PARTIAL} (or <out>/transfer.json): "
-                             "only arms added or retrained since are played")
+                        help="keep the maps of <out>/transfer.json: only maps not yet "
+                             "judged, and arms added or retrained since, are played")
     parser.add_argument("--from-results", default=None, metavar="TRANSFER_JSON",
                         help="only write transfer.md again from a transfer.json")
     add_cache_arguments(parser)
@@ -584,31 +588,37 @@ def main(argv: list[str] | None = None) -> None:
         maps = held_out_maps(args.sets, args.robots, Path(args.sg2maps))
         out = None if args.out is None else Path(args.out)
         expected = fingerprint(arms, args.episodes, args.seed)
-        partial = None if out is None else out / PARTIAL
         done = read_partial(out, expected) if args.resume and out is not None else {}
         log = functools.partial(print, flush=True)
         if done:
             log(f"resuming {out}: {len(done)} map(s) judged before")
 
-        def keep(key: str, result: dict) -> None:
-            if partial is not None:
-                done[key] = result
-                out.mkdir(parents=True, exist_ok=True)
-                write_atomic(partial, json.dumps({"fingerprint": expected, "maps": done}))
-
         start = time.perf_counter()
+
+        wanted = {arm.name: arm.sha256 for arm in arms}
+
+        def write(results: Mapping[str, Any]) -> str:  # the maps every arm has played
+            judged = {m.key: results[m.key] for m in maps
+                      if results.get(m.key, {}).get("checkpoints") == wanted}
+            made = document(arms, judged, args.sets, args.robots, args.episodes, args.seed,
+                            reference, args.margin, time.perf_counter() - start)
+            made["fingerprint"] = expected
+            made["pending"] = [m.key for m in maps if m.key not in judged]
+            text = tables(made)
+            if out is not None:
+                out.mkdir(parents=True, exist_ok=True)
+                write_atomic(out / "transfer.json", json.dumps(made, indent=1) + "\n")
+                write_atomic(out / "transfer.md", text)
+            return text
+
+        def keep(key: str, result: dict) -> None:
+            done[key] = result
+            write(done)
+
         results = judge(arms, maps, args.episodes, args.seed, done, keep, log)
-        results = {m.key: results[m.key] for m in maps}
-        made = document(arms, results, args.sets, args.robots, args.episodes, args.seed,
-                        reference, args.margin, time.perf_counter() - start)
-        made["fingerprint"] = expected
-        text = tables(made)
+        text = write(results)
         if out is not None:
-            out.mkdir(parents=True, exist_ok=True)
-            write_atomic(out / "transfer.json", json.dumps(made, indent=1) + "\n")
-            write_atomic(out / "transfer.md", text)
-            if partial is not None:
-                partial.unlink(missing_ok=True)
+            (out / PARTIAL).unlink(missing_ok=True)  # written by earlier versions
             log(f"wrote {out / 'transfer.json'}, {out / 'transfer.md'}")
         print("\n" + text)
     except ValueError as err:

@@ -182,3 +182,34 @@ def test_a_resumed_run_plays_only_the_arms_added_or_retrained_since(tmp_path, ar
 def test_bad_arguments_name_what_is_wrong(argv, message):
     with pytest.raises(SystemExit, match=message):
         transfer.main(argv)
+
+
+@pytest.mark.slow
+def test_the_command_writes_its_files_after_every_map_and_adds_an_arm_on_resume(
+        tmp_path, arms, monkeypatch, capsys):
+    other = transfer.HeldOutMap("minigames", "doorway", "doorway", 2)
+    monkeypatch.setattr(transfer, "held_out_maps", lambda sets, robots, sg2maps: [OPEN, other])
+    written = []
+    real = transfer.tables
+    monkeypatch.setattr(transfer, "tables", lambda d: written.append(list(d["pending"]))
+                        or real(d))
+    out = tmp_path / "out"
+    first = ["--arm", f"a={arms[0].path}", "--episodes", "2", "--out", str(out)]
+    transfer.main(first)
+    assert written[0] == [other.key] and written[-1] == []  # after each map, then at the end
+    document = json.loads((out / "transfer.json").read_text())
+    check_document(document)
+    assert list(document["maps"]) == [OPEN.key, other.key] and document["pending"] == []
+    assert (out / "transfer.md").read_text() == real(document)
+    played = []
+    judge_map = transfer.judge_map
+    monkeypatch.setattr(transfer, "judge_map", lambda arms_, held, *a: played.append(
+        [x.name for x in arms_]) or judge_map(arms_, held, *a))
+    transfer.main([*first, "--arm", f"b={arms[1].path}", "--resume"])
+    again = json.loads((out / "transfer.json").read_text())
+    assert set(again["maps"][OPEN.key]["arms"]) == {"a", "b"}
+    for key in (OPEN.key, other.key):  # a's values and Only Local's kept, b's added
+        assert again["maps"][key]["arms"]["a"] == document["maps"][key]["arms"]["a"]
+        assert again["maps"][key]["only_local"] == document["maps"][key]["only_local"]
+    assert "b - a" in again["maps"][OPEN.key]["paired"]
+    assert "resuming" in capsys.readouterr().out

@@ -184,6 +184,7 @@ TRANSFER_SCHEMA: dict[str, Any] = {
         "seed": {"type": "integer"},
         "sets": {"type": "array", "items": {"type": "string"}},
         "fingerprint": {"type": "string"},  # the settings that decide the episodes
+        "pending": {"type": "array", "items": {"type": "string"}},  # maps still to play
         # "<set>/<map>" -> the map's episodes: Only Local's [E], every arm's [S, E] per metric
         "maps": {"type": "object", "additionalProperties": {
             "type": "object",
