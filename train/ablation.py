@@ -214,11 +214,12 @@ def score_lanes(trainer: Trainer, runner: Any, scenario: str, counts: Sequence[i
 # The paper's Table 5 (intersection, 4 robots): a change from its PPO baseline, and the
 # percentage of seed runs that did better than the baseline. Its "entropy penalty" is
 # SocialGym's stuck detector (sgjax's ``stuck`` penalty), "thetas" the headings, and its
-# LSTM policy is a GRU here; its clipped goal distance is approximated by hiding the distance,
-# and its entropy reward multiplier has no sgjax counterpart.
+# LSTM policy is LSTM-PPO as sb3-contrib builds it (an LSTM of 256 over time in the actor and
+# in the critic; a GRU remains a network option); its clipped goal distance is approximated by
+# hiding the distance, and its entropy reward multiplier has no sgjax counterpart.
 PAPER_VARIANTS: dict[str, tuple[Variant, int | None]] = {
     "baseline": (Variant(), None),
-    "GRU (paper: LSTM)": (Variant(network=(("kind", "gru"),)), 76),
+    "LSTM-PPO": (Variant(network=(("kind", "lstm"), ("recurrent_size", 256))), 76),
     "no goal distance (paper: clipped)": (Variant(hide=("goal_distance",)), 0),
     "no collision penalty": (Variant(rewards_off=("collision",)), 84),
     "no existence penalty": (Variant(rewards_off=("existence",)), 44),

@@ -5,7 +5,8 @@ over seeds.
     python -m train.reproduce --seeds 3 --total-steps 2000000 --out runs/reproduce
 
 Baselines (the paper's section V): ``cadrl`` (the CADRL reward preset, MLP), ``cadrl_lstm``
-(the same with the LSTM-over-others encoder, the paper's CADRL(L)), ``any_order`` and
+(the same as LSTM-PPO, the paper's CADRL(L): sb3-contrib's RecurrentPPO with
+``MlpLstmPolicy``, an LSTM of 256 over time in the actor and in the critic), ``any_order`` and
 ``enforced_order`` (its conflict-zone rewards with the zone observations), and ``only_local``
 (always GO, not trained); ``--baselines`` may add the classical controllers ``orca``, ``dwa``
 and ``social_force`` (``sgjax.evaluation.controllers``, continuous actions, not trained) as extra
@@ -84,9 +85,10 @@ from train.run.phases import Phases
 
 BASELINES = {
     "cadrl": {"env": {"preset": "cadrl"}, "network": {}},
+    # the paper's CADRL(L): LSTM-PPO (RecurrentPPO's MlpLstmPolicy: an LSTM of 256 over time
+    # in the actor and in the critic), CADRL otherwise, so the pair varies the memory alone
     "cadrl_lstm": {"env": {"preset": "cadrl"},
-                   "network": {"others_encoder": "lstm", "encoder_size": 64,
-                               "shared_encoder": True}},
+                   "network": {"kind": "lstm", "recurrent_size": 256}},
     "any_order": {"env": {"preset": "any_order"}, "network": {}},
     "enforced_order": {"env": {"preset": "enforced_order"}, "network": {}},
     "only_local": None,

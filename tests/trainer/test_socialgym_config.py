@@ -96,7 +96,7 @@ def test_reproduce_socialgym_profile_is_listing_1_per_run_type(baseline):
         assert config.env.scenarios == (scenario,) and config.num_seeds == 3
         assert config.env.curriculum == ((0, 3), (35 * 3200, 4), (70 * 3200, 5))
         assert config.evaluation.deterministic and config.algorithm.total_steps == 250_000
-    assert config.network.kind == ("gru" if baseline == "cadrl_lstm" else "mlp")
+    assert config.network.kind == ("lstm" if baseline == "cadrl_lstm" else "mlp")
     zones = "zone_order" in str(config.env.options.terms.rewards)
     assert zones == (baseline in ("any_order", "enforced_order"))
     settings = only_local_options("socialgym", None).physics

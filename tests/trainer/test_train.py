@@ -22,7 +22,7 @@ from train.algorithm import losses, rollout
 from train.algorithm import trainer as trainer_module
 from train.algorithm.actor import ActorWeights
 from train.algorithm.config import config_from_dict, load_config
-from train.algorithm.networks import ResetGRU
+from train.algorithm.networks import ResetGRU, ResetLSTM
 from train.algorithm.state import Rollout
 from train.algorithm.trainer import Trainer, seed_keys
 from train.run import checkpoint
@@ -450,6 +450,67 @@ def test_gru_state_resets_at_episode_starts():
     assert not np.allclose(ys[:, 1], fresh[:, 1])  # robot 1 kept its memory
 
 
+def test_lstm_memory_resets_at_episode_starts_and_follows_torchs_lstm():
+    """``ResetLSTM`` is torch's ``nn.LSTM`` (sb3-contrib's RecurrentPPO): gates input, forget,
+    cell, output from the input and the hidden state, ``c' = f c + i g``, ``h' = o tanh(c')``,
+    checked against those equations in numpy; its carry ``[c, h]`` is zeroed at a start."""
+    size, features = 4, 5
+    lstm = ResetLSTM(size)
+    x = jax.random.normal(jax.random.PRNGKey(0), (3, 2, features))
+    starts = jnp.asarray([[True, False], [False, False], [False, False]])
+    params = lstm.init(jax.random.PRNGKey(1), jnp.zeros((2, 2 * size)), (x, starts))
+    carry = jax.random.normal(jax.random.PRNGKey(2), (2, 2 * size))
+    out_carry, ys = lstm.apply(params, carry, (x, starts))
+    cell = jax.tree.map(np.asarray, params["params"]["LSTMCell_0"])
+    sigmoid = lambda v: 1 / (1 + np.exp(-v))  # noqa: E731
+
+    def gate(name, inputs, hidden):
+        return inputs @ cell[f"i{name}"]["kernel"] + hidden @ cell[f"h{name}"]["kernel"] + cell[
+            f"h{name}"]["bias"]
+
+    c, h = np.asarray(carry[:, :size]), np.asarray(carry[:, size:])
+    for t in range(3):
+        fresh = np.asarray(starts[t])[:, None]
+        c, h = np.where(fresh, 0.0, c), np.where(fresh, 0.0, h)
+        xt = np.asarray(x[t])
+        i, f = sigmoid(gate("i", xt, h)), sigmoid(gate("f", xt, h))
+        g, o = np.tanh(gate("g", xt, h)), sigmoid(gate("o", xt, h))
+        c = f * c + i * g
+        h = o * np.tanh(c)
+        np.testing.assert_allclose(np.asarray(ys[t]), h, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(np.asarray(out_carry), np.concatenate([c, h], -1), rtol=1e-5,
+                               atol=1e-6)
+    _, fresh_ys = lstm.apply(params, jnp.zeros((2, 2 * size)), (x, starts))
+    assert np.allclose(ys[:, 0], fresh_ys[:, 0])  # robot 0 was reset at step 0
+    assert not np.allclose(ys[:, 1], fresh_ys[:, 1])  # robot 1 kept its memory
+
+
+def test_an_lstm_ppo_run_trains_and_its_checkpoint_acts(tmp_path):
+    """``network.kind: lstm``: the actor and the critic each carry ``[c, h]`` (twice
+    ``recurrent_size``), an update runs, and the saved actor acts with its own memory."""
+    from sgjax.evaluation.evaluate import policy_environment, run_episodes
+    from train.algorithm.networks import carry_size, initial_carry
+    from train.run.checkpoint import load_checkpoint_policy, save
+
+    config = tiny(network={"kind": "lstm", "recurrent_size": 8, "hidden": [16]},
+                  env={"time_limit": 5.0})
+    assert config.network.recurrent and carry_size(config.network) == 16
+    assert initial_carry(config.network, 3)[0].shape == (3, 16)
+    trainer = Trainer(config)
+    assert trainer.learner.recurrent
+    runner = trainer.init(jax.random.PRNGKey(0))
+    runner, logs = jax.jit(lambda r: trainer.update_chunk(r, 2))(runner)
+    assert all(np.all(np.isfinite(np.asarray(v))) for v in jax.tree.leaves(logs))
+    lanes = jax.tree.map(lambda x: x[None], runner)
+    path = save(tmp_path / "lstm.msgpack", config, lanes, {}, trainer.actor)
+    env, by_count = policy_environment("open", [2], None, config.env.options)
+    played = run_episodes(env, by_count[2], load_checkpoint_policy(path, env),
+                          jax.random.PRNGKey(1), 2)
+    assert np.isfinite(np.asarray(played.values["episode_length"])).all()
+    with pytest.raises(ValueError, match="kind"):
+        config_from_dict({"network": {"kind": "rnn"}})
+
+
 def test_team_reward_shares_the_mean_of_the_robots_that_acted():
     from train.algorithm.env_batch import share_rewards
 
@@ -467,7 +528,9 @@ COMPACT_NETWORKS = {
     "mlp": {"hidden": [32, 32]},
     "gru": {"kind": "gru", "recurrent_size": 16, "hidden": [16]},
     "lstm": {"others_encoder": "lstm", "encoder_size": 8},
+    "lstm_ppo": {"kind": "lstm", "recurrent_size": 8, "hidden": [16]},
 }
+RECURRENT = ("gru", "lstm_ppo")  # memories over time: minibatches of whole agent sequences
 
 
 def test_compact_auto_is_on_for_a_cpu_and_off_elsewhere(monkeypatch):
@@ -502,7 +565,7 @@ def test_compact_minibatch_gradient_equals_the_masked_one(name):
     units only (transitions; agent sequences for a GRU), are the masked minibatch's, for the
     same minibatch (the same agents); the chunks that hold no active unit are not run."""
     masked, compact, rollout = _compact_trainers(COMPACT_NETWORKS[name])
-    assert compact.learner.recurrent == (name == "gru")
+    assert compact.learner.recurrent == (name in RECURRENT)
     # a third of the rest inactive too, at random (as settled or parked robots)
     drop = jax.random.bernoulli(jax.random.PRNGKey(5), 0.33, rollout.traj.active.shape)
     rollout = rollout.replace(traj=rollout.traj.replace(active=rollout.traj.active & ~drop))
@@ -529,8 +592,9 @@ def test_compact_minibatch_gradient_equals_the_masked_one(name):
         first = np.asarray(compact.learner.unit_data(rollout, units[j])[1].active).any(axis=0)
         assert first[:count].all() and not first[count:].any()
         dense_active = np.asarray(dense[1].active[j])  # [T, U]
-        assert count == (dense_active.any(axis=0).sum() if name == "gru" else dense_active.sum())
-    assert units.shape[1] == (size if name == "gru"
+        assert count == (dense_active.any(axis=0).sum() if name in RECURRENT
+                         else dense_active.sum())
+    assert units.shape[1] == (size if name in RECURRENT
                               else size * compact.config.algorithm.num_steps)
 
 

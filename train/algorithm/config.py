@@ -256,13 +256,19 @@ def as_trained(config: dict[str, Any], backend: str | None = None) -> dict[str, 
     return {**config, "algorithm": algorithm}
 
 
+NETWORK_KINDS = ("mlp", "gru", "lstm")
+
+
 @dataclasses.dataclass(frozen=True)
 class NetworkConfig:
     """Actor and critic: an optional encoder pooling the ``others`` observation block
     (``attention``, or ``lstm`` over the bodies farthest first as in CADRL-LSTM), an optional
-    GRU (``kind: gru``, reset at episode ends), then an MLP."""
+    memory over time (``kind: gru`` or ``lstm``, reset at episode ends; ``lstm`` is LSTM-PPO
+    as sb3-contrib's RecurrentPPO builds it, an actor LSTM and a critic LSTM), then an MLP."""
 
-    kind: str = "mlp"  # mlp or gru
+    # mlp; gru (a dense layer, then a GRU over time); lstm (an LSTM over time on the
+    # observation, then the MLP: sb3-contrib's MlpLstmPolicy, LSTM-PPO)
+    kind: str = "mlp"
     hidden: tuple[int, ...] = (128, 128)
     activation: str = "tanh"  # tanh or relu
     recurrent_size: int = 128
@@ -273,8 +279,13 @@ class NetworkConfig:
     shared_encoder: bool = False
     agent_id: bool = False  # append a one-hot robot id to the observation
 
+    @property
+    def recurrent(self) -> bool:
+        """Whether the network keeps a memory over time (``gru`` or ``lstm``)."""
+        return self.kind != "mlp"
+
     def __post_init__(self) -> None:
-        for field, choices in (("kind", ("mlp", "gru")), ("activation", ("tanh", "relu")),
+        for field, choices in (("kind", NETWORK_KINDS), ("activation", ("tanh", "relu")),
                                ("others_encoder", ("none", "attention", "lstm"))):
             check_choice(field, getattr(self, field), choices)
         if not self.hidden:

@@ -142,9 +142,31 @@ class ResetGRU(nn.Module):
         return carry, y
 
 
+class ResetLSTM(nn.Module):
+    """An LSTM over ``[T, B, F]`` whose memory is zeroed where ``starts [T, B]``; the carry is
+    the cell and hidden states side by side, ``[B, 2 x size]`` (``c`` first), so that it
+    travels as one array like a GRU's. The gates are torch's ``nn.LSTM`` (input, forget, cell,
+    output; one bias per gate where torch keeps two that add up)."""
+
+    size: int
+
+    @functools.partial(nn.scan, variable_broadcast="params", in_axes=0, out_axes=0,
+                       split_rngs={"params": False})
+    @nn.compact
+    def __call__(self, carry: Array, inputs: tuple[Array, Array]) -> tuple[Array, Array]:
+        x, starts = inputs
+        carry = jnp.where(starts[:, None], jnp.zeros_like(carry), carry)
+        cell, hidden = carry[:, :self.size], carry[:, self.size:]
+        (cell, hidden), y = nn.LSTMCell(self.size, recurrent_kernel_init=orthogonal())(
+            (cell, hidden), x)
+        return jnp.concatenate([cell, hidden], axis=-1), y
+
+
 class Tower(nn.Module):
-    """Encoder, optional GRU and MLP: ``(carry [B, H], x [T, B, D], starts) -> (carry,
-    features [T, B, F])``."""
+    """Encoder, optional recurrence over time and MLP: ``(carry [B, H], x [T, B, D], starts)
+    -> (carry, features [T, B, F])``. ``gru``: a dense layer of ``recurrent_size`` then a GRU;
+    ``lstm``: an LSTM of ``recurrent_size`` straight on the (encoded) observation, as
+    sb3-contrib's ``MlpLstmPolicy`` puts it after its features extractor."""
 
     config: NetworkConfig
     layout: OthersLayout | None
@@ -159,6 +181,8 @@ class Tower(nn.Module):
         if c.kind == "gru":
             x = act(_dense(c.recurrent_size)(x))
             carry, x = ResetGRU(c.recurrent_size)(carry, (x, starts))
+        elif c.kind == "lstm":
+            carry, x = ResetLSTM(c.recurrent_size)(carry, (x, starts))
         for size in c.hidden:
             x = act(_dense(size)(x))
         return carry, x
@@ -229,9 +253,15 @@ class ActorCritic(nn.Module):
         return carry, (out if self.discrete else nn.tanh(out))
 
 
+def carry_size(config: NetworkConfig) -> int:
+    """The width of one tower's recurrent state: ``recurrent_size`` for a GRU, twice it for an
+    LSTM (cell and hidden), 1 (a dummy) for an MLP."""
+    return {"gru": config.recurrent_size, "lstm": 2 * config.recurrent_size}.get(config.kind, 1)
+
+
 def initial_carry(config: NetworkConfig, batch: int) -> tuple[Array, Array]:
     """Zero recurrent state for ``batch`` robots (a 1-wide dummy for MLPs)."""
-    size = config.recurrent_size if config.kind == "gru" else 1
+    size = carry_size(config)
     zeros = jnp.zeros((batch, size), jnp.float32)
     return zeros, zeros
 

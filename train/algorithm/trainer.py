@@ -104,7 +104,7 @@ class Trainer:
             levels=config.levels)
         self.learner = Learner(self.network, self.optimizer, a, self.settings, self.num_agents,
                                self.batch.discrete, self.compact,
-                               recurrent=config.network.kind == "gru")
+                               recurrent=config.network.recurrent)
         self._fresh_run = jax.jit(self._start)
 
     # ------------------------------------------------------------------ inputs

@@ -284,7 +284,9 @@ class _Conversion:
             "reward_clip": 10.0, **{SB3_TO_ALGORITHM[k]: ppo[k] for k in SB3_TO_ALGORITHM}}
         row("policy_algo_name", "algorithm.name ippo (PPO, one policy shared by the robots as "
             "SocialGym's agents shared one SB3 model)")
-        row("policy_algo_sb3_contrib", "network.kind gru (a GRU where sb3_contrib had an LSTM)"
+        row("policy_algo_sb3_contrib", "network.kind lstm, recurrent_size 256 (RecurrentPPO's "
+            "MlpLstmPolicy: an LSTM of 256 over time in the actor and another in the critic, "
+            "between the features extractor and the MLP, reset at episode starts)"
             if recurrent else "network.kind mlp")
         row("policy_name", "network: hidden [64, 64] tanh (SB3's MlpPolicy) over an LSTM encoder "
             "of the others (64 units, config_run's LSTMAgentObs), one encoder for the actor and "
@@ -296,7 +298,7 @@ class _Conversion:
             f"update{'' if minibatches == wanted else ', so fewer and larger ones'}), "
             f"update_epochs {ppo['n_epochs']}; VecNormalize -> normalized observations and "
             "rewards, clip 10")
-        network: dict[str, Any] = {"kind": "gru" if recurrent else "mlp", "hidden": [64, 64],
+        network: dict[str, Any] = {"kind": "lstm" if recurrent else "mlp", "hidden": [64, 64],
                                    "activation": "tanh", "others_encoder": "lstm",
                                    "encoder_size": 64, "shared_encoder": True}
         if recurrent:
