@@ -187,14 +187,14 @@ def test_bad_arguments_name_what_is_wrong(argv, message):
 @pytest.mark.slow
 def test_the_command_writes_its_files_after_every_map_and_adds_an_arm_on_resume(
         tmp_path, arms, monkeypatch, capsys):
-    other = transfer.HeldOutMap("minigames", "doorway", "doorway", 2)
+    other = transfer.HeldOutMap("office", "open", "open", 2)  # another key, the same program
     monkeypatch.setattr(transfer, "held_out_maps", lambda sets, robots, sg2maps: [OPEN, other])
     written = []
     real = transfer.tables
     monkeypatch.setattr(transfer, "tables", lambda d: written.append(list(d["pending"]))
                         or real(d))
     out = tmp_path / "out"
-    first = ["--arm", f"a={arms[0].path}", "--episodes", "2", "--out", str(out)]
+    first = ["--arm", f"a={arms[0].path}", "--episodes", "4", "--out", str(out)]
     transfer.main(first)
     assert written[0] == [other.key] and written[-1] == []  # after each map, then at the end
     document = json.loads((out / "transfer.json").read_text())
