@@ -94,7 +94,6 @@ EXTRAPOLATION: tuple[tuple[str, str, dict[str, tuple[float, float]]], ...] = (
     ("open, large arena", "open", {"arena_size": (16.0, 20.0)}),
 )
 METRICS = ("team_success", "collisions", "makespan")
-PARTIAL = "transfer.partial.json"  # earlier versions' partial file (still read by --resume)
 RESAMPLES = 4000
 
 
@@ -197,9 +196,12 @@ def map_options(arm: Arm, held: HeldOutMap) -> MakeOptions:
 
 
 def _shared_part(options: MakeOptions) -> dict[str, Any]:
-    """What decides the episodes (all but the observation and reward terms)."""
+    """What decides the episodes on a held-out map: the options but the observation and
+    reward terms and the worlds (training's ranges, held-out split and levels, which
+    :func:`map_options` replaces)."""
     data = options.to_dict()
     data.pop("terms")
+    data.pop("worlds")
     return data
 
 
@@ -210,7 +212,7 @@ def check_same_episodes(arms: Sequence[Arm]) -> None:
     for arm in arms[1:]:
         other = _shared_part(arm.options)
         differ = sorted(f"{section}.{key}" for section in first for key in first[section]
-                        if section != "worlds" and first[section][key] != other[section][key])
+                        if first[section][key] != other[section][key])
         if differ:
             raise ValueError(f"arms {arms[0].name!r} and {arm.name!r} were trained with "
                              f"different make options ({', '.join(differ)}): they would not "
@@ -266,11 +268,19 @@ def judge_map(arms: Sequence[Arm], held: HeldOutMap, episodes: int, seed: int,
                            "checkpoints": {a.name: a.sha256 for a in arms}}
     if "only_local" in earlier:
         out["only_local"] = earlier["only_local"]
+    draws = None
     for arm in arms:
         if arm.name in kept and "only_local" in out:
             continue
         evaluation = TrainedEvaluation(arm.actor, scenario, [robots], episodes,
                                        map_options(arm, held), modes=arm.deterministic)
+        # terms may split a reset's key otherwise (zones, noisy observations): other episodes
+        uses = (evaluation.env.config.uses_zones, evaluation.env.config.observer.needs_key)
+        if draws is not None and uses != draws[1]:
+            raise ValueError(f"{held.key}: arms {draws[0]!r} and {arm.name!r} draw their "
+                             "episodes differently (one's terms use conflict zones or a "
+                             "noisy observation, the other's not); judge them separately")
+        draws = draws or (arm.name, uses)
         if arm.name not in kept:
             values, _ = jax.device_get(evaluation.lanes(arm.weights, key, robots))
             out["arms"][arm.name] = {m: _stored(values[m]) for m in METRICS}
@@ -289,13 +299,13 @@ def _stored(values: Any) -> list:
     return np.round(np.asarray(values, np.float64), 4).tolist()
 
 
-def fingerprint(arms: Sequence[Arm], episodes: int, seed: int) -> str:
-    """What a partial file must match to be resumed: the settings that decide the episodes
-    (the arms' shared make options, episodes, seed); the arms themselves may change, each
-    judged again only where its checkpoint did."""
-    text = json.dumps({"options": _shared_part(arms[0].options), "episodes": episodes,
-                       "seed": seed}, sort_keys=True)
-    return hashlib.sha256(text.encode()).hexdigest()
+def settings(arms: Sequence[Arm], episodes: int, seed: int, robots: int) -> dict[str, Any]:
+    """The settings that decide a map's episodes, which a resumed run must share with the file
+    it continues: the arms' shared make options (:func:`_shared_part`), episodes, evaluation
+    seed and robots. The arms themselves may change: each is judged again only where its
+    checkpoint did."""
+    return {"options": _shared_part(arms[0].options), "episodes": int(episodes),
+            "seed": int(seed), "robots": int(robots)}
 
 
 def judge(arms: Sequence[Arm], maps: Sequence[HeldOutMap], episodes: int, seed: int,
@@ -530,7 +540,8 @@ def parser() -> argparse.ArgumentParser:
                         help="SocialGym 2.0's map folders (the sg2maps set)")
     parser.add_argument("--out", default=None, help="folder for transfer.json and .md")
     parser.add_argument("--resume", action="store_true",
-                        help="keep the maps of <out>/transfer.json: only maps not yet "
+                        help="keep the maps of <out>/transfer.json (made with the same "
+                             "episodes, seed, robots and make options): only maps not yet "
                              "judged, and arms added or retrained since, are played")
     parser.add_argument("--from-results", default=None, metavar="TRANSFER_JSON",
                         help="only write transfer.md again from a transfer.json")
@@ -550,17 +561,23 @@ def _arm_specs(values: Sequence[str]) -> dict[str, str]:
     return specs
 
 
-def read_partial(out: Path, expected: str) -> dict[str, Any]:
-    """The finished maps of ``out``'s partial file, else of its ``transfer.json``, when made
-    with the same settings (``expected``: :func:`fingerprint`)."""
-    for path in (out / PARTIAL, out / "transfer.json"):
-        if path.is_file():
-            data = json.loads(path.read_text())
-            if data.get("fingerprint") != expected:
-                raise ValueError(f"{path}: made with other settings (episodes, seed or the "
-                                 "arms' make options); delete it or run without --resume")
-            return data["maps"]
-    return {}
+def read_earlier(out: Path, wanted: Mapping[str, Any]) -> dict[str, Any]:
+    """Every map result of ``out/transfer.json`` (complete and incomplete: ``maps`` and
+    ``unfinished``) when it was made with the same :func:`settings` (``wanted``); an error
+    naming the setting that differs otherwise."""
+    path = out / "transfer.json"
+    if not path.is_file():
+        return {}
+    data = json.loads(path.read_text())
+    arms = list(data.get("arms", {}).values())
+    made = {"options": _shared_part(MakeOptions.from_dict(arms[0]["options"])) if arms
+            else None, "episodes": data.get("episodes"), "seed": data.get("seed"),
+            "robots": data.get("robots")}
+    differ = [name for name in wanted if made[name] != wanted[name]]
+    if differ:
+        raise ValueError(f"{path}: made with other {', '.join(differ)} (the episodes would "
+                         "differ); delete it or run without --resume")
+    return {**data.get("unfinished", {}), **data["maps"]}
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -587,8 +604,14 @@ def main(argv: list[str] | None = None) -> None:
         arms = [load_arm(name, path) for name, path in specs.items()]
         maps = held_out_maps(args.sets, args.robots, Path(args.sg2maps))
         out = None if args.out is None else Path(args.out)
-        expected = fingerprint(arms, args.episodes, args.seed)
-        done = read_partial(out, expected) if args.resume and out is not None else {}
+        reference_seeds = next(a.seeds for a in arms if a.name == reference)
+        for arm in arms:  # seeds pair by index with the reference's
+            if arm.seeds != reference_seeds:
+                raise ValueError(f"--arm {arm.name} has {arm.seeds} seeds and the reference "
+                                 f"{reference} {reference_seeds}: a paired comparison needs "
+                                 "as many seeds in each")
+        wanted_settings = settings(arms, args.episodes, args.seed, args.robots)
+        done = read_earlier(out, wanted_settings) if args.resume and out is not None else {}
         log = functools.partial(print, flush=True)
         if done:
             log(f"resuming {out}: {len(done)} map(s) judged before")
@@ -597,13 +620,14 @@ def main(argv: list[str] | None = None) -> None:
 
         wanted = {arm.name: arm.sha256 for arm in arms}
 
-        def write(results: Mapping[str, Any]) -> str:  # the maps every arm has played
+        def write(results: Mapping[str, Any]) -> str:  # tables of the maps every arm played
             judged = {m.key: results[m.key] for m in maps
                       if results.get(m.key, {}).get("checkpoints") == wanted}
             made = document(arms, judged, args.sets, args.robots, args.episodes, args.seed,
                             reference, args.margin, time.perf_counter() - start)
-            made["fingerprint"] = expected
             made["pending"] = [m.key for m in maps if m.key not in judged]
+            # kept for a later --resume: maps some arm has not played yet, other sets' maps
+            made["unfinished"] = {k: v for k, v in results.items() if k not in judged}
             text = tables(made)
             if out is not None:
                 out.mkdir(parents=True, exist_ok=True)
@@ -618,7 +642,6 @@ def main(argv: list[str] | None = None) -> None:
         results = judge(arms, maps, args.episodes, args.seed, done, keep, log)
         text = write(results)
         if out is not None:
-            (out / PARTIAL).unlink(missing_ok=True)  # written by earlier versions
             log(f"wrote {out / 'transfer.json'}, {out / 'transfer.md'}")
         print("\n" + text)
     except ValueError as err:

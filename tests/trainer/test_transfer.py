@@ -1,6 +1,7 @@
 """``python -m train.transfer``: trained runs judged on held-out maps beside Only Local, every
 arm's seeds on the same episodes, the result file and the tables generated from it."""
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -20,9 +21,9 @@ from train.run.checkpoint import load_checkpoint_policy, save
 OPEN = transfer.HeldOutMap("minigames", "open", "open", 2)
 
 
-def tiny_run(folder: Path, seed: int = 0, **env):
-    """A run folder holding an untrained two-seed checkpoint of the open map."""
-    config = tiny(seed=seed, num_seeds=2, env={"time_limit": 20.0, **env})
+def tiny_run(folder: Path, seed: int = 0, num_seeds: int = 2, **env):
+    """A run folder holding an untrained checkpoint of ``num_seeds`` seeds of the open map."""
+    config = tiny(seed=seed, num_seeds=num_seeds, env={"time_limit": 20.0, **env})
     trainer = Trainer(config)
     runner = jax.jit(jax.vmap(trainer.init))(seed_keys(config))
     save(folder / "checkpoints" / "latest.msgpack", config, runner, {}, trainer.actor)
@@ -151,12 +152,6 @@ def test_the_result_file_follows_its_schema_and_its_tables_are_generated_from_it
 
 @pytest.mark.slow
 def test_a_resumed_run_plays_only_the_arms_added_or_retrained_since(tmp_path, arms):
-    expected = transfer.fingerprint(arms, 4, 0)
-    (tmp_path / transfer.PARTIAL).write_text(json.dumps({"fingerprint": expected,
-                                                        "maps": {"x/y": {"robots": 1}}}))
-    assert transfer.read_partial(tmp_path, expected) == {"x/y": {"robots": 1}}
-    with pytest.raises(ValueError, match="other settings"):
-        transfer.read_partial(tmp_path, transfer.fingerprint(arms, 5, 0))
     first = transfer.judge(arms[:1], [OPEN], 4, 0, log=print)
     both = transfer.judge(arms, [OPEN], 4, 0, log=print)
     later = transfer.judge(arms, [OPEN], 4, 0, done=first, log=print)
@@ -170,6 +165,25 @@ def test_a_resumed_run_plays_only_the_arms_added_or_retrained_since(tmp_path, ar
     again = transfer.judge(arms[:1], [OPEN], 4, 0, done={OPEN.key: retrained}, log=print)
     assert again[OPEN.key]["arms"] == first[OPEN.key]["arms"]
     assert again[OPEN.key]["only_local"] == marked["only_local"]
+
+
+def test_a_resume_needs_the_same_settings_and_the_arms_as_many_seeds(tmp_path, arms):
+    wanted = transfer.settings(arms, 4, 0, 2)
+    assert transfer.read_earlier(tmp_path, wanted) == {}  # nothing yet
+    made = transfer.document(arms, {}, ["minigames"], 2, 4, 0, "a", 0.05, seconds=1.0)
+    (tmp_path / "transfer.json").write_text(json.dumps(
+        {**made, "unfinished": {"x/y": {"robots": 1}}}))
+    assert transfer.read_earlier(tmp_path, wanted) == {"x/y": {"robots": 1}}
+    for changed, name in ((transfer.settings(arms, 4, 0, 3), "robots"),
+                          (transfer.settings(arms, 5, 1, 2), "episodes, seed")):
+        with pytest.raises(ValueError, match=f"made with other {name}"):
+            transfer.read_earlier(tmp_path, changed)
+    # the first arm's own worlds keywords (training's holdout) do not count
+    held = dataclasses.replace(arms[0], options=arms[0].options.replace(world_holdout=None))
+    assert transfer.settings([held], 4, 0, 2) == wanted
+    three = tiny_run(tmp_path / "three", num_seeds=3)
+    with pytest.raises(SystemExit, match="has 3 seeds and the reference a 2"):
+        transfer.main(["--arm", f"a={arms[0].path}", "--arm", f"c={three}"])
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -201,10 +215,21 @@ def test_the_command_writes_its_files_after_every_map_and_adds_an_arm_on_resume(
     check_document(document)
     assert list(document["maps"]) == [OPEN.key, other.key] and document["pending"] == []
     assert (out / "transfer.md").read_text() == real(document)
-    played = []
     judge_map = transfer.judge_map
-    monkeypatch.setattr(transfer, "judge_map", lambda arms_, held, *a: played.append(
-        [x.name for x in arms_]) or judge_map(arms_, held, *a))
+
+    def killed_at_the_second(arms_, held, *a):
+        if held.key == other.key:
+            raise KeyboardInterrupt
+        return judge_map(arms_, held, *a)
+
+    monkeypatch.setattr(transfer, "judge_map", killed_at_the_second)
+    with pytest.raises(KeyboardInterrupt):  # b added, killed before its second map
+        transfer.main([*first, "--arm", f"b={arms[1].path}", "--resume"])
+    halfway = json.loads((out / "transfer.json").read_text())
+    assert list(halfway["maps"]) == [OPEN.key] and halfway["pending"] == [other.key]
+    assert halfway["unfinished"][other.key] == document["maps"][other.key] | {
+        "paired": halfway["unfinished"][other.key]["paired"]}  # a's values kept, not lost
+    monkeypatch.setattr(transfer, "judge_map", judge_map)
     transfer.main([*first, "--arm", f"b={arms[1].path}", "--resume"])
     again = json.loads((out / "transfer.json").read_text())
     assert set(again["maps"][OPEN.key]["arms"]) == {"a", "b"}

@@ -124,11 +124,12 @@ def edit(key: Array, values: dict, pedestrians: Array, ranges: dict[str, tuple[f
     which = jax.random.choice(k_which, len(names) + 1, (edits,),
                               p=choices / jnp.maximum(jnp.sum(choices), 1))
     step = jax.random.uniform(k_step, (edits,), jnp.float32, -scale, scale)
-    moved = which < len(names)
+    which = jnp.where(jnp.sum(choices) > 0, which, -1)  # nothing can change: no edit at all
+    moved = (which >= 0) & (which < len(names))
     at = jnp.where(moved, which, 0)
     vector = vector.at[at].add(jnp.where(moved, step * (high - low)[at], 0.0))
     vector = jnp.clip(vector, low, high)
-    groups = jnp.sum(~moved)
+    groups = jnp.sum(which == len(names))
     pedestrians = jnp.where(groups > 0, jnp.minimum(count + groups * crowd.group,
                                                     crowd.capacity), pedestrians)
     return {n: vector[i] for i, n in enumerate(names)}, pedestrians.astype(jnp.int32)

@@ -183,8 +183,10 @@ TRANSFER_SCHEMA: dict[str, Any] = {
         "episodes": {"type": "integer", "minimum": 1},
         "seed": {"type": "integer"},
         "sets": {"type": "array", "items": {"type": "string"}},
-        "fingerprint": {"type": "string"},  # the settings that decide the episodes
+        "fingerprint": {"type": "string"},  # a resume key of the first files, since unused
         "pending": {"type": "array", "items": {"type": "string"}},  # maps still to play
+        # maps some arm has not played yet (or of other sets), kept for a later --resume
+        "unfinished": {"type": "object"},
         # "<set>/<map>" -> the map's episodes: Only Local's [E], every arm's [S, E] per metric
         "maps": {"type": "object", "additionalProperties": {
             "type": "object",
