@@ -39,7 +39,7 @@ from compiled import compile_measured
 
 from sgjax.evaluation.provenance import cpu_model
 from sgjax.maps.generated.families import PREFIX as GENERATED
-from train.algorithm.config import CURRICULA, LANE_MODES, config_from_dict
+from train.algorithm.config import CURRICULA, LANE_MODES, NETWORK_KINDS, config_from_dict
 from train.algorithm.trainer import Trainer, seed_keys
 
 
@@ -71,9 +71,12 @@ def main() -> None:
     parser.add_argument("--seeds", nargs="+", type=int, default=[1],
                         help="numbers of seeds trained as lanes of one call")
     parser.add_argument("--updates", type=int, default=4, help="updates per timed call")
-    parser.add_argument("--network", default="mlp", choices=["mlp", "gru"])
+    parser.add_argument("--network", nargs="+", default=["mlp"], choices=list(NETWORK_KINDS),
+                        help="network.kind (lstm: LSTM-PPO, the reproduce benchmark's CADRL(L))")
+    parser.add_argument("--recurrent-size", type=int, default=128,
+                        help="network.recurrent_size of gru and lstm (256: CADRL(L))")
     parser.add_argument("--others", default="none", choices=["none", "attention", "lstm"],
-                        help="others encoder (lstm: the reproduce benchmark's CADRL(L))")
+                        help="others encoder (lstm: an LSTM over the others, SocialGym's)")
     parser.add_argument("--compact", nargs="+", default=["off"], choices=["off", "on"],
                         help="algorithm.compact: compute only the transitions that can learn")
     parser.add_argument("--lanes", nargs="+", default=["auto"],
@@ -81,21 +84,23 @@ def main() -> None:
                         help="algorithm.lanes: how the seed lanes run the learning phase")
     args = parser.parse_args()
     print(f"jax {jax.__version__} on {jax.devices()[0].platform} ({cpu_model()}), IPPO "
-          f"{args.network}/{args.others}, 64 steps x 4 epochs x 4 minibatches per update")
-    print(f"{'scenario':>20}{'levels':>13}{'compact':>8}{'lanes':>11}{'robots':>7}{'envs':>7}"
+          f"others encoder {args.others}, recurrent size {args.recurrent_size}, 64 steps x 4 "
+          "epochs x 4 minibatches per update")
+    print(f"{'scenario':>20}{'levels':>13}{'network':>8}{'compact':>8}{'lanes':>11}{'robots':>7}{'envs':>7}"
           f"{'seeds':>6}{'agent-steps/s':>15}{'env-steps/s':>13}{'compile s':>11}"
           f"{'peak MB':>9}{'lane cost':>11}")
     runs = [(scenario, method) for scenario in args.scenario
             for method in (args.levels if scenario.startswith(GENERATED) else ["-"])]
-    for (scenario, method), robots, envs, lanes, compact in itertools.product(
-            runs, args.robots, args.num_envs, args.lanes, args.compact):
+    for (scenario, method), network, robots, envs, lanes, compact in itertools.product(
+            runs, args.network, args.robots, args.num_envs, args.lanes, args.compact):
         one_seed = None
         for seeds in args.seeds:
             config = {
                 "env": {"scenarios": [scenario], "curriculum": [[0, robots]]},
                 "algorithm": {"num_envs": envs, "num_steps": 64, "total_steps": 10**8,
                               "lanes": lanes, "compact": compact == "on"},
-                "network": {"kind": args.network, "others_encoder": args.others}}
+                "network": {"kind": network, "others_encoder": args.others,
+                            "recurrent_size": args.recurrent_size}}
             if method != "-":
                 config["levels"] = {"method": method}
             seconds, compile_s, peak = time_updates(config, seeds, args.updates)
@@ -104,7 +109,7 @@ def main() -> None:
             lane = ("" if one_seed is None or seeds == 1
                     else f"{seconds / (seeds * one_seed):.2f}x")
             env_rate = seeds * args.updates * 64 * envs / seconds
-            print(f"{scenario:>20}{method:>13}{compact:>8}{lanes:>11}{robots:>7}{envs:>7}"
+            print(f"{scenario:>20}{method:>13}{network:>8}{compact:>8}{lanes:>11}{robots:>7}{envs:>7}"
                   f"{seeds:>6}"
                   f"{env_rate * robots:>15,.0f}{env_rate:>13,.0f}{compile_s:>11.1f}"
                   f"{peak:>9.1f}{lane:>11}", flush=True)
