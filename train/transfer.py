@@ -68,7 +68,12 @@ from sgjax.evaluation.policies import load_policy
 from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import markdown_table
 from sgjax.evaluation.runner import EpisodeRunner
-from sgjax.evaluation.statistics import paired_over_seeds_and_episodes, seed_aggregate
+from sgjax.evaluation.statistics import (
+    aggregate_over_cells,
+    improvement_over_cells,
+    paired_over_seeds_and_episodes,
+    seed_aggregate,
+)
 from sgjax.evaluation.trained import TrainedEvaluation
 from sgjax.files import write_atomic
 from sgjax.maps.generated.families import PREFIX
@@ -430,19 +435,33 @@ def set_section(name: str, results: Sequence[Mapping[str, Any]], document: Mappi
                              *(f"{n} makespan" for n in names)], costs), ""]
 
 
+def _per_seed(result: Mapping[str, Any], arm: str) -> np.ndarray:
+    """``arm``'s team success on a map, each seed's mean over the episodes ``[S]``."""
+    return np.array([_mean(row) for row in result["arms"][arm]["team_success"]], float)
+
+
 def summary_rows(name: str, results: Sequence[Mapping[str, Any]],
                  document: Mapping[str, Any]) -> list[list[str]]:
-    """Per arm on one set: its mean team success over the maps, the maps where it beats Only
-    Local and those where it is within the margin of the reference."""
+    """Per arm on one set: its team success over the maps (the mean and the interquartile
+    mean of every seed's score on every map, with stratified-bootstrap intervals: seeds
+    resampled within each map), the probability that it beats the reference on a map
+    (:func:`~sgjax.evaluation.statistics.improvement_over_cells`), the maps where it beats
+    Only Local and those where it is within the margin of the reference."""
     reference, margin = document["reference"], document["margin"]
+    cells = {arm: {r["name"]: _per_seed(r, arm) for r in results} for arm in document["arms"]}
     rows = []
     for arm in document["arms"]:
+        agg = aggregate_over_cells(cells[arm], resamples=RESAMPLES // 2)
         beats = sum(_above(r["paired"][f"{arm} - only_local"], 0.0) for r in results)
-        near = "" if reference is None or arm == reference else (
-            f"{sum(_above(r['paired'][f'{arm} - {reference}'], -margin) for r in results)}"
-            f" of {len(results)}")
-        rows.append([name, arm, f"{np.mean([_team(r, arm) for r in results]):.2f}",
-                     f"{beats} of {len(results)}", near])
+        near = better = ""
+        if reference is not None and arm != reference:
+            near = (f"{sum(_above(r['paired'][f'{arm} - {reference}'], -margin) for r in results)}"
+                    f" of {len(results)}")
+            p = improvement_over_cells(cells[arm], cells[reference], resamples=RESAMPLES // 2)
+            better = f"{p['probability']:.2f} [{p['low']:.2f}, {p['high']:.2f}]"
+        rows.append([name, arm, f"{agg['mean']:.2f} [{agg['mean_low']:.2f}, "
+                     f"{agg['mean_high']:.2f}]", f"{agg['iqm']:.2f} [{agg['iqm_low']:.2f}, "
+                     f"{agg['iqm_high']:.2f}]", better, f"{beats} of {len(results)}", near])
     return rows
 
 
@@ -458,7 +477,11 @@ def tables(document: Mapping[str, Any]) -> str:
         "interval over seeds]. Paired differences in percentage points, mean [95% interval, "
         "seeds and episodes resampled together]; an arm beats Only Local on a map where its "
         f"interval lies above 0, and is within {margin:g} of the reference "
-        f"({reference}) where the interval's low end lies above -{100 * margin:g}. Arms: "
+        f"({reference}) where the interval's low end lies above -{100 * margin:g}. The "
+        "summary: each arm's team success over a set's maps (the mean and the interquartile "
+        "mean of every seed's score on every map, 95% stratified-bootstrap intervals: seeds "
+        "resampled within each map) and its probability of beating the reference on a map "
+        "(rliable's probability of improvement, with its interval). Arms: "
         + "; ".join(f"**{n}** {a['seeds']} seeds trained on {', '.join(a['trained_on'])}"
                     for n, a in arms.items()) + ".", ""]
     pending = document.get("pending", [])
@@ -476,8 +499,8 @@ def tables(document: Mapping[str, Any]) -> str:
         text += ["## Generalisation gap (train split - test split, team success points)", "",
                  *markdown_table(["family", *arms], gap), ""]
     text += ["## Summary", "", *markdown_table(
-        ["set", "arm", "mean team success", "beats Only Local",
-         f"within {margin:g} of {reference}"], summary), ""]
+        ["set", "arm", "team success, mean", "IQM", f"P(arm > {reference})",
+         "beats Only Local", f"within {margin:g} of {reference}"], summary), ""]
     return "\n".join(text)
 
 

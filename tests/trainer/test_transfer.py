@@ -143,7 +143,13 @@ def test_the_result_file_follows_its_schema_and_its_tables_are_generated_from_it
     check_document(made)
     text = transfer.tables(made)
     assert "| doorway | 0.00 | " in text and "## Generalisation gap" in text
-    assert "| generated_test | b | 1.00 | 1 of 1 | 1 of 1 |" in text
+    row = next(line for line in text.splitlines() if line.startswith("| generated_test | b |"))
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[2:4] == ["1.00 [1.00, 1.00]"] * 2  # every run of b succeeded
+    a_seeds = np.nanmean(np.asarray(made["maps"]["generated_test/doorway"]["arms"]["a"][
+        "team_success"]), axis=1)
+    assert cells[4].startswith(f"{np.mean(a_seeds < 1.0):.2f} [")  # P(b > a) on the map
+    assert cells[5:] == ["1 of 1", "1 of 1"]
     source = tmp_path / "transfer.json"
     source.write_text(json.dumps(made))
     transfer.main(["--from-results", str(source)])
