@@ -81,6 +81,7 @@ from sgjax.maps.generated.splits import TEST_SEEDS
 from train.algorithm.actor import ActorWeights, TrainedActor
 from train.reports.result_schemas import TRANSFER
 from train.run import checkpoint
+from train.run.worst_worlds import worst_of_seeds
 
 ROOT = Path(__file__).resolve().parents[1]
 SG2MAPS = ROOT.parent / "shared" / "sg2maps"
@@ -339,6 +340,51 @@ def judge(arms: Sequence[Arm], maps: Sequence[HeldOutMap], episodes: int, seed: 
     return results
 
 
+def judge_worst(arms: Sequence[Arm], robots: int, worlds: int, alphas: Sequence[float],
+                seed: int, earlier: Mapping[str, Any] | None = None,
+                log: Callable[[str], None] = print) -> dict[str, Any]:
+    """Every arm's worst-alpha team success per generated family over ``worlds`` held-out
+    worlds (:func:`train.run.worst_worlds.worst_of_seeds`): ``{"worlds", "alphas", "arms":
+    {name: {"sha256", "families": {family: {alpha: [S]}}}}}``. An ``earlier`` result of the
+    same ``worlds`` and ``alphas`` lends the arms whose checkpoint is unchanged."""
+    keys = [f"{a:g}" for a in alphas]
+    same = (earlier is not None and earlier.get("worlds") == worlds
+            and earlier.get("alphas") == keys)
+    out: dict[str, Any] = {"worlds": int(worlds), "alphas": keys, "arms": {}}
+    for arm in arms:
+        old = (earlier or {}).get("arms", {}).get(arm.name, {}) if same else {}
+        if old.get("sha256") == arm.sha256:
+            out["arms"][arm.name] = old
+            continue
+        families = {}
+        for family in FAMILIES:
+            held = HeldOutMap("generated_test", family, PREFIX + family, robots)
+            families[family] = worst_of_seeds(arm.path, arm.seeds, arm.deterministic,
+                                              map_options(arm, held), family, robots, worlds,
+                                              alphas, seed)
+            log(f"worst of {worlds} {family} worlds, {arm.name}: " + ", ".join(
+                f"{k}: {_mean(v):.2f}" for k, v in families[family].items()))
+        out["arms"][arm.name] = {"sha256": arm.sha256, "families": families}
+    return out
+
+
+def worst_section(worst: Mapping[str, Any]) -> list[str]:
+    """The worst-case table: per family, each arm's worst-alpha team success (mean over seeds
+    [95% percentile-bootstrap interval over seeds]) for every alpha."""
+    arms = worst["arms"]
+    header = ["family", *(f"{name} worst {100 * float(a):g}%" for name in arms
+                          for a in worst["alphas"])]
+    rows = [[family, *(_seed_cell([[v] for v in arms[name]["families"][family][a]])
+                       for name in arms for a in worst["alphas"])]
+            for family in FAMILIES if all(family in arms[n]["families"] for n in arms)]
+    return [f"## Worst case over {worst['worlds']:,} held-out worlds per family", "",
+            "Each seed plays every world of the family's test split twice (rollout keys A and "
+            "B); its score is rollout B's team success on the worlds rollout A scored lowest "
+            "(SFL's worst alpha%: ranking and scoring on one rollout would pick worlds for "
+            "their bad luck). Mean over seeds [95% percentile-bootstrap interval over seeds].",
+            "", *markdown_table(header, rows), ""]
+
+
 def _mean(values: Any) -> float:
     x = np.asarray(values, float)
     return float(np.nanmean(x)) if np.isfinite(x).any() else math.nan
@@ -498,6 +544,8 @@ def tables(document: Mapping[str, Any]) -> str:
     if gap:
         text += ["## Generalisation gap (train split - test split, team success points)", "",
                  *markdown_table(["family", *arms], gap), ""]
+    if document.get("worst"):
+        text += worst_section(document["worst"])
     text += ["## Summary", "", *markdown_table(
         ["set", "arm", "team success, mean", "IQM", f"P(arm > {reference})",
          "beats Only Local", f"within {margin:g} of {reference}"], summary), ""]
@@ -559,6 +607,12 @@ def parser() -> argparse.ArgumentParser:
     parser.add_argument("--seed", type=int, default=0, help="evaluation seed")
     parser.add_argument("--margin", type=float, default=0.05,
                         help="'within margin of the reference' (team success, 0-1)")
+    parser.add_argument("--worst-worlds", type=int, default=0, metavar="N",
+                        help="also play N held-out worlds of every generated family twice per "
+                             "seed of every arm and report the worst alpha%% (SFL's worst "
+                             "case; a compile per seed and family; default 0: off)")
+    parser.add_argument("--alpha", type=float, nargs="+", default=[0.1],
+                        help="the worst-case fractions (with --worst-worlds)")
     parser.add_argument("--sg2maps", default=str(SG2MAPS),
                         help="SocialGym 2.0's map folders (the sg2maps set)")
     parser.add_argument("--out", default=None, help="folder for transfer.json and .md")
@@ -635,6 +689,11 @@ def main(argv: list[str] | None = None) -> None:
                                  "as many seeds in each")
         wanted_settings = settings(arms, args.episodes, args.seed, args.robots)
         done = read_earlier(out, wanted_settings) if args.resume and out is not None else {}
+        earlier_worst = (json.loads((out / "transfer.json").read_text()).get("worst")
+                         if done and out is not None else None)
+        if args.worst_worlds < 0 or not all(0 < a <= 1 for a in args.alpha):
+            raise ValueError("--worst-worlds must be at least 0 and every --alpha in (0, 1]")
+        worst = earlier_worst
         log = functools.partial(print, flush=True)
         if done:
             log(f"resuming {out}: {len(done)} map(s) judged before")
@@ -649,6 +708,8 @@ def main(argv: list[str] | None = None) -> None:
             made = document(arms, judged, args.sets, args.robots, args.episodes, args.seed,
                             reference, args.margin, time.perf_counter() - start)
             made["pending"] = [m.key for m in maps if m.key not in judged]
+            if worst is not None:
+                made["worst"] = worst
             # kept for a later --resume: maps some arm has not played yet, other sets' maps
             made["unfinished"] = {k: v for k, v in results.items() if k not in judged}
             text = tables(made)
@@ -663,6 +724,9 @@ def main(argv: list[str] | None = None) -> None:
             write(done)
 
         results = judge(arms, maps, args.episodes, args.seed, done, keep, log)
+        if args.worst_worlds:
+            worst = judge_worst(arms, args.robots, args.worst_worlds, args.alpha, args.seed,
+                                earlier_worst, log)
         text = write(results)
         if out is not None:
             log(f"wrote {out / 'transfer.json'}, {out / 'transfer.md'}")

@@ -244,3 +244,27 @@ def test_the_command_writes_its_files_after_every_map_and_adds_an_arm_on_resume(
         assert again["maps"][key]["only_local"] == document["maps"][key]["only_local"]
     assert "b - a" in again["maps"][OPEN.key]["paired"]
     assert "resuming" in capsys.readouterr().out
+
+
+@pytest.mark.slow
+def test_the_worst_case_per_seed_is_kept_on_resume_and_tabled(arms, monkeypatch):
+    monkeypatch.setattr(transfer, "FAMILIES", ("open",))
+    worst = transfer.judge_worst(arms[:1], 2, 4, [0.5, 1.0], 0, log=print)
+    values = worst["arms"]["a"]["families"]["open"]
+    assert worst["alphas"] == ["0.5", "1"] and set(values) == {"0.5", "1"}
+    assert all(len(v) == 2 and all(0.0 <= x <= 1.0 for x in v) for v in values.values())
+    assert all(lo <= hi for lo, hi in zip(values["0.5"], values["1"], strict=True))  # worst first
+
+    def never(*args, **kwargs):
+        raise AssertionError("an unchanged arm is not played again")
+
+    monkeypatch.setattr(transfer, "worst_of_seeds", never)
+    assert transfer.judge_worst(arms[:1], 2, 4, [0.5, 1.0], 0, earlier=worst) == worst
+    with pytest.raises(AssertionError, match="not played again"):  # other worlds: played
+        transfer.judge_worst(arms[:1], 2, 8, [0.5, 1.0], 0, earlier=worst)
+    made = transfer.document(arms[:1], {}, ["generated_test"], 2, 4, 0, "a", 0.05, 1.0)
+    made["worst"] = worst
+    check_document(made)
+    text = transfer.tables(made)
+    assert "## Worst case over 4 held-out worlds per family" in text
+    assert "| family | a worst 50% | a worst 100% |" in text
