@@ -426,11 +426,15 @@ def _points(summary: Mapping[str, Any]) -> str:
             f"{100 * summary['ci_high']:+.0f}]")
 
 
+def _seed_means(values: Any) -> np.ndarray:
+    """Each seed's mean over its episodes (``values [S, E]``, NaN-aware): ``[S]``."""
+    return np.array([_mean(row) for row in values], float)
+
+
 def _seed_cell(values: Any) -> str:
     """Team success over seeds: each seed's mean over the episodes, their mean [95%
     percentile-bootstrap interval over seeds]."""
-    per_seed = np.array([_mean(row) for row in values], float)
-    agg = seed_aggregate(per_seed)
+    agg = seed_aggregate(_seed_means(values))
     if math.isnan(agg["mean"]):
         return "n/a"
     if math.isnan(agg["mean_low"]):
@@ -439,9 +443,8 @@ def _seed_cell(values: Any) -> str:
 
 
 def _per_seed_mean(values: Any) -> str:
-    per_seed = [_mean(row) for row in values]
-    finite = [v for v in per_seed if math.isfinite(v)]
-    return f"{np.mean(finite):.2f}" if finite else "n/a"
+    mean = _mean(_seed_means(values))
+    return "n/a" if math.isnan(mean) else f"{mean:.2f}"
 
 
 def map_label(result: Mapping[str, Any], arms: Mapping[str, Any], robots: int) -> str:
@@ -481,11 +484,6 @@ def set_section(name: str, results: Sequence[Mapping[str, Any]], document: Mappi
                              *(f"{n} makespan" for n in names)], costs), ""]
 
 
-def _per_seed(result: Mapping[str, Any], arm: str) -> np.ndarray:
-    """``arm``'s team success on a map, each seed's mean over the episodes ``[S]``."""
-    return np.array([_mean(row) for row in result["arms"][arm]["team_success"]], float)
-
-
 def summary_rows(name: str, results: Sequence[Mapping[str, Any]],
                  document: Mapping[str, Any]) -> list[list[str]]:
     """Per arm on one set: its team success over the maps (the mean and the interquartile
@@ -494,7 +492,8 @@ def summary_rows(name: str, results: Sequence[Mapping[str, Any]],
     (:func:`~sgjax.evaluation.statistics.improvement_over_cells`), the maps where it beats
     Only Local and those where it is within the margin of the reference."""
     reference, margin = document["reference"], document["margin"]
-    cells = {arm: {r["name"]: _per_seed(r, arm) for r in results} for arm in document["arms"]}
+    cells = {arm: {r["name"]: _seed_means(r["arms"][arm]["team_success"]) for r in results}
+             for arm in document["arms"]}
     rows = []
     for arm in document["arms"]:
         agg = aggregate_over_cells(cells[arm], resamples=RESAMPLES // 2)

@@ -147,8 +147,7 @@ class WorldSource:
                      route_nodes=capacity.route_nodes, check_dilemma=self.check_dilemma).valid
         fresh = ~is_excluded(values_hash(values), self._excluded())
         return WorldDraw(map=arrays, valid=ok & fresh, values=values,
-                         seed=jnp.asarray(seed, jnp.uint32), humans=self.slots_of(world),
-                         pedestrians=jnp.int32(-1))
+                         seed=jnp.asarray(seed, jnp.uint32), humans=self.slots_of(world))
 
     def _first_fresh(self, candidates: Array, values_of: Any) -> Array:
         """Of ``candidates [T]`` (keys or seeds), the first whose values (``values_of``) no
