@@ -9,7 +9,8 @@ differences pair episode by episode::
 
     python -m train.transfer --arm specialist=runs/transfer_doorway \\
         --arm dr=runs/transfer_dr --arm curriculum=runs/transfer_curriculum \\
-        --reference specialist --episodes 100 --out docs/results/transfer
+        --reference specialist --own-specialist specialist \\
+        --own-specialist runs/transfer_hallway --episodes 100 --out docs/results/transfer
 
 Sets (``--sets``, all by default):
 
@@ -25,7 +26,9 @@ Sets (``--sets``, all by default):
 * ``extrapolation``: parameters beyond the training ranges (narrower doors, longer and
   narrower hallways, smaller roundabouts, more robots than training met).
 
-Whether a family or map was seen in training is read from each arm's config and marked.
+Whether a family or map was seen in training is read from each arm's config and marked. A
+shipped map's **own specialist** (``--own-specialist``: an arm's name, or a run trained on that
+map alone, played there only) is compared with every arm on its map.
 
 Outputs in ``--out``: ``transfer.json`` (schema ``sgjax.transfer/1``: every seed's team success
 per episode, every seed's mean collisions and makespan per map, Only Local's per episode, with
@@ -100,6 +103,7 @@ EXTRAPOLATION: tuple[tuple[str, str, dict[str, tuple[float, float]]], ...] = (
     ("open, large arena", "open", {"arena_size": (16.0, 20.0)}),
 )
 METRICS = ("team_success", "collisions", "makespan")
+OWN = "own specialist"  # a map's own specialist in comparisons' names
 RESAMPLES = 4000
 
 
@@ -256,13 +260,18 @@ def fitted_robots(held: HeldOutMap, arm: Arm, scenario: Any) -> int:
 
 
 def judge_map(arms: Sequence[Arm], held: HeldOutMap, episodes: int, seed: int,
-              earlier: Mapping[str, Any] | None = None) -> dict[str, Any]:
+              earlier: Mapping[str, Any] | None = None, own: Arm | None = None
+              ) -> dict[str, Any]:
     """Every arm's seeds and Only Local on ``episodes`` shared episodes of ``held``:
     ``{"robots", "only_local": {metric: [E]}, "arms": {name: {metric: [S, E]}},
-    "checkpoints": {name: sha256}}``. An ``earlier`` result of the map (same episodes) lends
-    Only Local's values and those of every arm whose checkpoint is unchanged, so an arm that
-    finishes training later is judged alone."""
+    "checkpoints": {name: sha256}}``, and ``"own_specialist"``: the name of the map's own
+    specialist (``own``, a run trained on this map alone: one of ``arms`` or played here
+    beside them, its values under ``arms`` too). An ``earlier`` result of the map (same
+    episodes) lends Only Local's values and those of every arm whose checkpoint is
+    unchanged, so an arm that finishes training later is judged alone."""
     earlier = earlier or {}
+    if own is not None and own.name not in {arm.name for arm in arms}:
+        arms = [*arms, own]
     scenario = scenario_of(held)
     robots = earlier.get("robots") or fitted_robots(held, arms[0], scenario)
     held = dataclasses.replace(held, robots=robots)
@@ -296,6 +305,8 @@ def judge_map(arms: Sequence[Arm], held: HeldOutMap, episodes: int, seed: int,
             alone, _ = jax.device_get(runner.run(key, evaluation.params[robots])[:2])
             out["only_local"] = {m: _stored(alone[m]) for m in METRICS}
     out["arms"] = {arm.name: out["arms"][arm.name] for arm in arms}
+    if own is not None:
+        out["own_specialist"] = own.name
     return out
 
 
@@ -314,22 +325,58 @@ def settings(arms: Sequence[Arm], episodes: int, seed: int, robots: int) -> dict
             "seed": int(seed), "robots": int(robots)}
 
 
+def own_specialists(chosen: Sequence[Arm], maps: Sequence[HeldOutMap]) -> dict[str, Arm]:
+    """Each shipped map's own specialist, by map key: the ``chosen`` run (an arm or a run
+    played beside the arms) trained on that map's scenario alone (maps of the ``minigames``
+    and ``office`` sets). A run trained on anything else, or two runs for one map, are
+    refused."""
+    shipped: dict[str, list[str]] = {}
+    for held in maps:
+        if held.set in ("minigames", "office"):
+            shipped.setdefault(held.scenario, []).append(held.key)
+    own: dict[str, Arm] = {}
+    for arm in chosen:
+        alone = arm.trained_on[0] if len(arm.trained_on) == 1 else None
+        if alone not in shipped:
+            raise ValueError(f"--own-specialist {arm.name}: trained on "
+                             f"{', '.join(arm.trained_on)}, not on one shipped map of the "
+                             "judged sets (minigames, office) alone")
+        for key in shipped[alone]:
+            if key in own:
+                raise ValueError(f"--own-specialist: {own[key].name!r} and {arm.name!r} both "
+                                 f"trained on {alone} alone; give one per map")
+            own[key] = arm
+    return own
+
+
+def wanted_checkpoints(arms: Sequence[Arm], own: Arm | None) -> dict[str, str]:
+    """The checkpoints a map's complete result holds: every arm's and its own specialist's."""
+    return {**{a.name: a.sha256 for a in arms},
+            **({own.name: own.sha256} if own is not None else {})}
+
+
 def judge(arms: Sequence[Arm], maps: Sequence[HeldOutMap], episodes: int, seed: int,
           done: dict[str, Any] | None = None, on_map: Callable[[str, dict], None] | None = None,
-          log: Callable[[str], None] = print) -> dict[str, Any]:
+          log: Callable[[str], None] = print, own: Mapping[str, Arm] | None = None
+          ) -> dict[str, Any]:
     """:func:`judge_map` of every map whose result in ``done`` (``{map key: result}``) lacks
-    an arm or holds an arm's older checkpoint; ``on_map(key, result)`` after each. Returns
-    every map's result by key."""
-    check_same_episodes(arms)
-    wanted = {a.name: a.sha256 for a in arms}
+    an arm or holds an arm's older checkpoint; ``on_map(key, result)`` after each. ``own``
+    gives maps their own specialists (:func:`own_specialists`). Returns every map's result
+    by key."""
+    own = dict(own or {})
+    names = {a.name for a in arms}
+    check_same_episodes([*arms, *(a for a in own.values() if a.name not in names)])
     results = dict(done or {})
     for number, held in enumerate(maps, 1):
         earlier = results.get(held.key)
-        if earlier is not None and earlier.get("checkpoints") == wanted:
+        mine = own.get(held.key)
+        if (earlier is not None
+                and earlier.get("checkpoints") == wanted_checkpoints(arms, mine)
+                and earlier.get("own_specialist") == (mine.name if mine else None)):
             continue
         result = {"set": held.set, "name": held.name, "scenario": held.scenario,
                   "worlds": {k: v for k, v in held.worlds},
-                  **judge_map(arms, held, episodes, seed, earlier)}
+                  **judge_map(arms, held, episodes, seed, earlier, own.get(held.key))}
         results[held.key] = result
         if on_map is not None:
             on_map(held.key, result)
@@ -399,7 +446,8 @@ def seen_in_training(arm: Mapping[str, Any], result: Mapping[str, Any]) -> bool:
 
 def comparisons(result: Mapping[str, Any], reference: str | None) -> dict[str, dict]:
     """Paired team-success differences on one map: ``"<arm> - only_local"`` for every arm,
-    ``"<arm> - <reference>"`` for every other arm (``Summary.as_dict``)."""
+    ``"<arm> - <reference>"`` for every other arm and, on a map with its own specialist,
+    ``"<arm> - own specialist"`` for every arm but that one (``Summary.as_dict``)."""
     out = {}
     arms = result["arms"]
     base = np.asarray(result["only_local"]["team_success"], float)
@@ -415,6 +463,12 @@ def comparisons(result: Mapping[str, Any], reference: str | None) -> dict[str, d
                                  "seeds in each")
             out[f"{name} - {reference}"] = paired_over_seeds_and_episodes(
                 a, b, resamples=RESAMPLES).as_dict()
+    own = result.get("own_specialist")
+    for name in arms if own is not None else ():
+        if name != own:
+            out[f"{name} - {OWN}"] = paired_over_seeds_and_episodes(
+                np.asarray(arms[name]["team_success"], float),
+                np.asarray(arms[own]["team_success"], float), resamples=RESAMPLES).as_dict()
     return out
 
 
@@ -469,19 +523,34 @@ def set_section(name: str, results: Sequence[Mapping[str, Any]], document: Mappi
     arms, reference, robots = document["arms"], document["reference"], document["robots"]
     names = list(arms)
     others = [n for n in names if reference is not None and n != reference]
+    with_own = any("own_specialist" in r for r in results)
     rows = [[map_label(r, arms, robots), f"{_mean(r['only_local']['team_success']):.2f}",
              *(_seed_cell(r["arms"][n]["team_success"]) for n in names),
              *(_points(r["paired"][f"{n} - only_local"]) for n in names),
-             *(_points(r["paired"][f"{n} - {reference}"]) for n in others)] for r in results]
+             *(_points(r["paired"][f"{n} - {reference}"]) for n in others),
+             *(_own_cells(r, names) if with_own else ())] for r in results]
     costs = [[r["name"], *(_per_seed_mean(r["arms"][n]["collisions"]) for n in names),
               *(_per_seed_mean(r["arms"][n]["makespan"]) for n in names)] for r in results]
     return [f"## {name}", "",
             *markdown_table(["map", "Only Local", *names,
                              *(f"{n} - Only Local" for n in names),
-                             *(f"{n} - {reference}" for n in others)], rows), "",
+                             *(f"{n} - {reference}" for n in others),
+                             *((OWN, *(f"{n} - {OWN}" for n in names)) if with_own else ())],
+                            rows), "",
             "Collisions per episode and makespan (s), mean over seeds:", "",
             *markdown_table(["map", *(f"{n} collisions" for n in names),
                              *(f"{n} makespan" for n in names)], costs), ""]
+
+
+def _own_cells(result: Mapping[str, Any], names: Sequence[str]) -> list[str]:
+    """A map's own specialist (its team success, or the arm's name where it is one of the
+    arms) and every other arm's paired difference with it; blanks on a map without one."""
+    own = result.get("own_specialist")
+    if own is None:
+        return ["", *("" for _ in names)]
+    first = own if own in names else _seed_cell(result["arms"][own]["team_success"])
+    return [first, *("" if n == own else _points(result["paired"][f"{n} - {OWN}"])
+                     for n in names)]
 
 
 def summary_rows(name: str, results: Sequence[Mapping[str, Any]],
@@ -490,7 +559,9 @@ def summary_rows(name: str, results: Sequence[Mapping[str, Any]],
     mean of every seed's score on every map, with stratified-bootstrap intervals: seeds
     resampled within each map), the probability that it beats the reference on a map
     (:func:`~sgjax.evaluation.statistics.improvement_over_cells`), the maps where it beats
-    Only Local and those where it is within the margin of the reference."""
+    Only Local, those where it is within the margin of the reference and those where it is
+    within the margin of the map's own specialist (of the maps that have one, the arm's own
+    map aside)."""
     reference, margin = document["reference"], document["margin"]
     cells = {arm: {r["name"]: _seed_means(r["arms"][arm]["team_success"]) for r in results}
              for arm in document["arms"]}
@@ -504,9 +575,13 @@ def summary_rows(name: str, results: Sequence[Mapping[str, Any]],
                     f" of {len(results)}")
             p = improvement_over_cells(cells[arm], cells[reference], resamples=RESAMPLES // 2)
             better = f"{p['probability']:.2f} [{p['low']:.2f}, {p['high']:.2f}]"
+        owned = [r for r in results if r.get("own_specialist") not in (None, arm)]
+        near_own = (f"{sum(_above(r['paired'][f'{arm} - {OWN}'], -margin) for r in owned)} "
+                    f"of {len(owned)}" if owned else "")
         rows.append([name, arm, f"{agg['mean']:.2f} [{agg['mean_low']:.2f}, "
                      f"{agg['mean_high']:.2f}]", f"{agg['iqm']:.2f} [{agg['iqm_low']:.2f}, "
-                     f"{agg['iqm_high']:.2f}]", better, f"{beats} of {len(results)}", near])
+                     f"{agg['iqm_high']:.2f}]", better, f"{beats} of {len(results)}", near,
+                     near_own])
     return rows
 
 
@@ -528,7 +603,13 @@ def tables(document: Mapping[str, Any]) -> str:
         "resampled within each map) and its probability of beating the reference on a map "
         "(rliable's probability of improvement, with its interval). Arms: "
         + "; ".join(f"**{n}** {a['seeds']} seeds trained on {', '.join(a['trained_on'])}"
-                    for n, a in arms.items()) + ".", ""]
+                    for n, a in arms.items()) + "."
+        + ("" if not document.get("specialists") else
+           f" A shipped map's **{OWN}** is the run trained on it alone (an arm, or "
+           + ", ".join(f"{n}: {a['seeds']} seeds" for n, a in document["specialists"].items())
+           + ", played on their own map only); an arm is within "
+           f"{margin:g} of it where the paired interval's low end lies above "
+           f"-{100 * margin:g}."), ""]
     pending = document.get("pending", [])
     if pending:
         text += [f"**In progress**: {len(pending)} map(s) still to play "
@@ -547,7 +628,8 @@ def tables(document: Mapping[str, Any]) -> str:
         text += worst_section(document["worst"])
     text += ["## Summary", "", *markdown_table(
         ["set", "arm", "team success, mean", "IQM", f"P(arm > {reference})",
-         "beats Only Local", f"within {margin:g} of {reference}"], summary), ""]
+         "beats Only Local", f"within {margin:g} of {reference}",
+         f"within {margin:g} of the map's {OWN}"], summary), ""]
     return "\n".join(text)
 
 
@@ -569,22 +651,28 @@ def generalisation_gap(document: Mapping[str, Any]) -> list[list[str]]:
     return rows
 
 
+def _record(arm: Arm) -> dict[str, Any]:
+    return {"checkpoint": str(arm.path), "sha256": arm.sha256, "seeds": arm.seeds,
+            "trained_on": list(arm.trained_on), "deterministic": arm.deterministic,
+            "options": arm.options.to_dict()}
+
+
 def document(arms: Sequence[Arm], maps: Mapping[str, Any], sets: Sequence[str], robots: int,
              episodes: int, seed: int, reference: str | None, margin: float,
-             seconds: float) -> dict[str, Any]:
+             seconds: float, specialists: Sequence[Arm] = ()) -> dict[str, Any]:
     """The ``sgjax.transfer/1`` document: every map's values and paired comparisons, the
-    arms' records and provenance."""
-    records = {a.name: {"checkpoint": str(a.path), "sha256": a.sha256, "seeds": a.seeds,
-                        "trained_on": list(a.trained_on), "deterministic": a.deterministic,
-                        "options": a.options.to_dict()} for a in arms}
+    arms' records (and those of the own specialists that are no arm) and provenance."""
+    records = {a.name: _record(a) for a in arms}
     judged = {key: {**r, "paired": comparisons(r, reference)} for key, r in maps.items()}
-    made = provenance({"arms": {a.name: a.sha256 for a in arms}, "episodes": episodes,
+    made = provenance({"arms": {a.name: a.sha256 for a in [*arms, *specialists]},
+                       "episodes": episodes,
                        "seed": seed, "sets": list(sets), "robots": robots},
                       seeds={"evaluation": [seed]}, episodes_per_cell=episodes,
                       seconds={"judge": seconds})
     return {"schema_version": TRANSFER, "provenance": made, "arms": records,
             "reference": reference, "margin": margin, "robots": robots, "episodes": episodes,
-            "seed": seed, "sets": list(sets), "maps": judged}
+            "seed": seed, "sets": list(sets), "maps": judged,
+            "specialists": {a.name: _record(a) for a in specialists}}
 
 
 def parser() -> argparse.ArgumentParser:
@@ -597,6 +685,12 @@ def parser() -> argparse.ArgumentParser:
     parser.add_argument("--arm", action="append", default=[], metavar="NAME=RUN",
                         help="a trained run (folder or checkpoint file) and its name "
                              "(repeatable; every arm needs the same make options but terms)")
+    parser.add_argument("--own-specialist", action="append", default=[],
+                        metavar="ARM_OR_RUN",
+                        help="an arm's name, or a run trained on one shipped map alone "
+                             "(minigames, office; played on that map only): the map's own "
+                             "specialist, which every arm is compared with there (repeatable: "
+                             "one per map)")
     parser.add_argument("--reference", default=None,
                         help="the arm the others are compared with (default: the first)")
     parser.add_argument("--sets", nargs="+", default=list(SETS), choices=SETS,
@@ -679,11 +773,20 @@ def main(argv: list[str] | None = None) -> None:
             raise ValueError("--resume needs --out")
         arms = [load_arm(name, path) for name, path in specs.items()]
         maps = held_out_maps(args.sets, args.robots, Path(args.sg2maps))
+        extra = [load_arm(Path(value).name, value) for value in args.own_specialist
+                 if value not in specs]
+        taken = [a.name for a in extra if a.name in specs or a.name == "only_local"]
+        if taken or len({a.name for a in extra}) < len(extra):
+            raise ValueError("--own-specialist: run folder names must differ from each "
+                             f"other and from the arms' names ({', '.join(taken)})")
+        by_name = {a.name: a for a in [*arms, *extra]}
+        own = own_specialists([by_name[v if v in specs else Path(v).name]
+                               for v in args.own_specialist], maps)
         out = None if args.out is None else Path(args.out)
         reference_seeds = next(a.seeds for a in arms if a.name == reference)
-        for arm in arms:  # seeds pair by index with the reference's
+        for arm in [*arms, *extra]:  # seeds pair by index with the reference's
             if arm.seeds != reference_seeds:
-                raise ValueError(f"--arm {arm.name} has {arm.seeds} seeds and the reference "
+                raise ValueError(f"{arm.name} has {arm.seeds} seeds and the reference "
                                  f"{reference} {reference_seeds}: a paired comparison needs "
                                  "as many seeds in each")
         wanted_settings = settings(arms, args.episodes, args.seed, args.robots)
@@ -699,13 +802,12 @@ def main(argv: list[str] | None = None) -> None:
 
         start = time.perf_counter()
 
-        wanted = {arm.name: arm.sha256 for arm in arms}
-
         def write(results: Mapping[str, Any]) -> str:  # tables of the maps every arm played
             judged = {m.key: results[m.key] for m in maps
-                      if results.get(m.key, {}).get("checkpoints") == wanted}
+                      if results.get(m.key, {}).get("checkpoints")
+                      == wanted_checkpoints(arms, own.get(m.key))}
             made = document(arms, judged, args.sets, args.robots, args.episodes, args.seed,
-                            reference, args.margin, time.perf_counter() - start)
+                            reference, args.margin, time.perf_counter() - start, extra)
             made["pending"] = [m.key for m in maps if m.key not in judged]
             if worst is not None:
                 made["worst"] = worst
@@ -722,7 +824,7 @@ def main(argv: list[str] | None = None) -> None:
             done[key] = result
             write(done)
 
-        results = judge(arms, maps, args.episodes, args.seed, done, keep, log)
+        results = judge(arms, maps, args.episodes, args.seed, done, keep, log, own)
         if args.worst_worlds:
             worst = judge_worst(arms, args.robots, args.worst_worlds, args.alpha, args.seed,
                                 earlier_worst, log)

@@ -149,11 +149,57 @@ def test_the_result_file_follows_its_schema_and_its_tables_are_generated_from_it
     a_seeds = np.nanmean(np.asarray(made["maps"]["generated_test/doorway"]["arms"]["a"][
         "team_success"]), axis=1)
     assert cells[4].startswith(f"{np.mean(a_seeds < 1.0):.2f} [")  # P(b > a) on the map
-    assert cells[5:] == ["1 of 1", "1 of 1"]
+    assert cells[5:] == ["1 of 1", "1 of 1", ""]  # no map has its own specialist
     source = tmp_path / "transfer.json"
     source.write_text(json.dumps(made))
     transfer.main(["--from-results", str(source)])
     assert (tmp_path / "transfer.md").read_text() == text
+
+
+@pytest.mark.slow
+def test_a_maps_own_specialist_plays_there_alone_and_every_arm_is_compared_with_it(
+        tmp_path, arms):
+    """A run trained on one shipped map alone is that map's own specialist: played there
+    beside the arms on the same episodes, compared with every arm, tabled in its own column
+    and counted in the summary; an arm can be one; a run for no judged map, or two for one
+    map, are refused."""
+    own = transfer.load_arm("open specialist", tiny_run(tmp_path / "own", seed=3))
+    elsewhere = transfer.HeldOutMap("generated_test", "open", "generated:open", 2)
+    mapping = transfer.own_specialists([own], [OPEN, elsewhere])
+    assert list(mapping) == [OPEN.key] and mapping[OPEN.key] is own  # shipped maps only
+    result = transfer.judge(arms, [OPEN], 4, 0, log=print, own=mapping)[OPEN.key]
+    assert result["own_specialist"] == "open specialist"
+    assert result["checkpoints"] == {"a": arms[0].sha256, "b": arms[1].sha256,
+                                     "open specialist": own.sha256}
+    alone = transfer.judge_map([own], OPEN, 4, 0)
+    assert result["arms"]["open specialist"] == alone["arms"]["open specialist"]
+    assert result["only_local"] == alone["only_local"]
+    paired = transfer.comparisons(result, "a")
+    a, o = (np.asarray(result["arms"][n]["team_success"], float) for n in ("a", "open specialist"))
+    assert paired["a - own specialist"]["mean"] == pytest.approx(np.nanmean(a - o))
+    # an arm as its map's own specialist: nothing played again, no comparison with itself
+    plain = transfer.judge(arms, [OPEN], 4, 0, log=print)[OPEN.key]
+    marked = {**plain, "only_local": {m: [-1.0] * 4 for m in transfer.METRICS}}
+    as_arm = transfer.judge(arms, [OPEN], 4, 0, done={OPEN.key: marked}, log=print,
+                            own={OPEN.key: arms[0]})[OPEN.key]
+    assert as_arm["only_local"] == marked["only_local"]  # kept, not played again
+    assert as_arm["arms"] == plain["arms"] and as_arm["own_specialist"] == "a"
+    assert set(transfer.comparisons(as_arm, "a")) == {
+        "a - only_local", "b - only_local", "b - a", "b - own specialist"}
+    made = transfer.document(arms, {OPEN.key: result}, ["minigames"], 2, 4, 0, "a", 0.05,
+                             seconds=1.0, specialists=[own])
+    check_document(made)
+    assert made["specialists"]["open specialist"]["sha256"] == own.sha256
+    text = transfer.tables(made)
+    header = next(line for line in text.splitlines() if line.startswith("| map |"))
+    assert header.endswith("| own specialist | a - own specialist | b - own specialist |")
+    row = next(line for line in text.splitlines() if line.startswith("| minigames | b |"))
+    assert row.rstrip(" |").endswith("of 1")  # b within the margin of the own specialist?
+    with pytest.raises(ValueError, match="both trained on open alone"):
+        transfer.own_specialists([own, arms[0]], [OPEN])
+    doorway_family = dataclasses.replace(own, trained_on=("generated:doorway",))
+    with pytest.raises(ValueError, match="not on one shipped map"):
+        transfer.own_specialists([doorway_family], [OPEN])
 
 
 @pytest.mark.slow

@@ -165,6 +165,9 @@ _EPISODES = {"type": "array", "items": NUMBER_OR_NULL}
 _PER_EPISODE = {"type": "object", "required": ["team_success", "collisions", "makespan"],
                 "additionalProperties": _EPISODES}
 _SEEDS_BY_EPISODE = {"type": "array", "items": _EPISODES, "minItems": 1}
+_RUNS = {"type": "object", "additionalProperties": {
+    "type": "object", "required": ["checkpoint", "sha256", "seeds", "trained_on",
+                                   "deterministic", "options"]}}
 TRANSFER_SCHEMA: dict[str, Any] = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
     "title": "sgjax train.transfer transfer.json",
@@ -174,9 +177,9 @@ TRANSFER_SCHEMA: dict[str, Any] = {
     "properties": {
         "schema_version": {"const": TRANSFER},
         "provenance": PROVENANCE_SCHEMA,
-        "arms": {"type": "object", "additionalProperties": {
-            "type": "object", "required": ["checkpoint", "sha256", "seeds", "trained_on",
-                                           "deterministic", "options"]}},
+        "arms": _RUNS,
+        # own specialists that are no arm, each played on its own shipped map only
+        "specialists": _RUNS,
         "reference": {"type": ["string", "null"]},
         "margin": {"type": "number", "exclusiveMinimum": 0},
         "robots": {"type": "integer", "minimum": 1},
@@ -205,6 +208,8 @@ TRANSFER_SCHEMA: dict[str, Any] = {
                     "type": "object", "required": ["team_success", "collisions", "makespan"],
                     "additionalProperties": _SEEDS_BY_EPISODE}},
                 "checkpoints": {"type": "object", "additionalProperties": {"type": "string"}},
+                # the arm or specialist trained on this map alone; its values under arms
+                "own_specialist": {"type": "string"},
                 "paired": {"type": "object", "additionalProperties": SUMMARY}}}},
     },
 }
