@@ -67,6 +67,7 @@ from sgjax.evaluation.report import format_points, format_summary, markdown_tabl
 from sgjax.evaluation.runner import EpisodeRunner
 from sgjax.evaluation.statistics import (
     paired_difference,
+    paired_over_seeds_and_episodes,
     probability_of_improvement,
     seed_aggregate,
     summarize,
@@ -76,6 +77,7 @@ from sgjax.files import write_atomic
 from train.algorithm.actor import ActorWeights
 from train.algorithm.config import EVALUATION_SEED_OFFSET, TrainConfig, config_from_dict
 from train.algorithm.trainer import Trainer, seed_keys
+from train.reports.across_cells import across_cells_table
 from train.reports.marl_eval import to_marl_eval
 from train.reports.result_schemas import REPRODUCE
 from train.run.loop import equal_calls, train_in_calls
@@ -299,13 +301,50 @@ def _cell(values: list[float], percent: bool = False) -> str:
     return format_summary(summarize(np.asarray(values), binary=False), percent)
 
 
+def on_shared_episodes(results: dict, counts: Sequence[int]) -> dict:
+    """``results`` with every untrained baseline's team success (only_local, the classical
+    controllers) taken over the episodes its scenario's trained baselines played (the first
+    ``E`` of its own: the same keys), so that every row of a scenario's team success is
+    measured on the same episodes; cells without per-episode values stay as they are."""
+    out = {}
+    for scenario, by_baseline in results.items():
+        shared = {}
+        for n in counts:
+            played = [by_count[n][EPISODES_KEY] for b, by_count in by_baseline.items()
+                      if BASELINES.get(b) is not None and EPISODES_KEY in by_count.get(n, {})]
+            if played:
+                shared[n] = np.asarray(played[0], float).shape[1]
+        out[scenario] = {}
+        for baseline, by_count in by_baseline.items():
+            if BASELINES.get(baseline) is not None:
+                out[scenario][baseline] = by_count
+                continue
+            out[scenario][baseline] = {
+                n: cell if n not in shared or EPISODES_KEY not in cell else
+                {**cell, "team_success": [float(np.nanmean(
+                    np.asarray(cell[EPISODES_KEY], float)[0, :shared[n]]))]}
+                for n, cell in by_count.items()}
+    return out
+
+
+# The trained baseline the others are compared with: the paper's plain PPO with the CADRL reward.
+REFERENCE_BASELINE = "cadrl"
+PAIRED_RESAMPLES = 2000  # the two-level bootstrap's resamples per cell against Only Local
+
+
 def format_tables(results: dict, counts: Sequence[int], table_robots: int, seeds: int
                   ) -> dict[str, str]:
-    """The two tables as markdown, by file name (``metrics_table.md``, ``success_table.md``)."""
+    """Every table as markdown, by file name (``metrics_table.md``, ``success_table.md``,
+    ``paper_comparison.md``, ``comparison_table.md``, ``baseline_comparison.md``,
+    ``play_modes.md``, ``across_cells.md``)."""
     note = (f"Means over seeds (each seed: the mean over its evaluation episodes) ± the half "
             f"width of the 95% Student-t interval over {seeds} seeds (none for the untrained "
-            "baselines: only_local and the classical controllers).")
+            "baselines: only_local and the classical controllers, whose team success is "
+            "taken over the trained baselines' episodes, the first of their own, so that a "
+            "scenario's rows share their episodes; their other metrics over all their "
+            "episodes).")
     metric_rows, success_rows = [], []
+    everything, results = results, on_shared_episodes(results, counts)
     for scenario, by_baseline in results.items():
         for baseline, by_count in by_baseline.items():
             at = by_count.get(table_robots)
@@ -348,9 +387,12 @@ def format_tables(results: dict, counts: Sequence[int], table_robots: int, seeds
     return {"metrics_table.md": "\n".join(rows) + "\n",
             "success_table.md": "\n".join(success) + "\n",
             "paper_comparison.md": "\n".join(compare) + "\n",
-            "comparison_table.md": comparison_table(results, counts, seeds),
+            "comparison_table.md": comparison_table(everything, counts, seeds),
             "baseline_comparison.md": baseline_comparison_table(results, counts, seeds),
-            "play_modes.md": play_mode_table(results, counts, seeds)}
+            "play_modes.md": play_mode_table(results, counts, seeds),
+            "across_cells.md": across_cells_table(
+                results, counts, ("only_local", REFERENCE_BASELINE),
+                "Every baseline over every mini-game and robot count")}
 
 
 def play_mode_table(results: dict, counts: Sequence[int], seeds: int) -> str:
@@ -379,15 +421,31 @@ def play_mode_table(results: dict, counts: Sequence[int], seeds: int) -> str:
     return "\n".join(text) + "\n"
 
 
+def shared_episodes(trained: dict, baseline: dict) -> tuple[np.ndarray, np.ndarray] | None:
+    """A trained cell's team success per seed and episode ``[S, E]`` and an untrained
+    baseline's on the same episodes ``[E]`` (its first ``E``: episode ``i`` has the same key
+    whatever the count), or None where either lacks per-episode values."""
+    if EPISODES_KEY not in trained or EPISODES_KEY not in baseline:
+        return None
+    mine = np.asarray(trained[EPISODES_KEY], float)
+    return mine, np.asarray(baseline[EPISODES_KEY], float)[0, :mine.shape[1]]
+
+
 def _paired_cell(trained: dict, baseline: dict) -> str:
     """Paired difference in team success (points), trained - baseline, over the episodes both
-    played: each episode's value averaged over the trained seeds, minus the baseline's."""
-    if EPISODES_KEY not in trained or EPISODES_KEY not in baseline:
+    played, resampling training seeds and episodes together
+    (:func:`~sgjax.evaluation.statistics.paired_over_seeds_and_episodes`)."""
+    pair = shared_episodes(trained, baseline)
+    if pair is None:
         return "n/a"
-    mine = np.nanmean(np.asarray(trained[EPISODES_KEY], float), axis=0)  # [E]
-    theirs = np.asarray(baseline[EPISODES_KEY], float)[0, :mine.size]  # its first E: the same
-    d = paired_difference(mine, theirs)
+    d = paired_over_seeds_and_episodes(*pair, resamples=PAIRED_RESAMPLES)
     return format_points(d.mean, d.ci_low, d.ci_high)
+
+
+def _shared_mean(trained: dict, baseline: dict) -> str:
+    """The untrained baseline's team success (%) on the trained cell's episodes."""
+    pair = shared_episodes(trained, baseline)
+    return "n/a" if pair is None else f"{100 * np.nanmean(pair[1]):.0f}"
 
 
 def comparison_table(results: dict, counts: Sequence[int], seeds: int) -> str:
@@ -405,6 +463,8 @@ def comparison_table(results: dict, counts: Sequence[int], seeds: int) -> str:
             for n in counts:
                 agg = seed_aggregate(np.asarray(by_count[n]["team_success"], float))
                 rows.append([scenario, baseline, str(n),
+                             "n/a" if reference is None else _shared_mean(by_count[n],
+                                                                          reference[n]),
                              "n/a" if reference is None else _paired_cell(by_count[n],
                                                                           reference[n]),
                              f"{100 * agg['mean']:.0f} [{100 * agg['mean_low']:.0f}, "
@@ -412,19 +472,21 @@ def comparison_table(results: dict, counts: Sequence[int], seeds: int) -> str:
                              f"{100 * agg['iqm']:.0f} [{100 * agg['iqm_low']:.0f}, "
                              f"{100 * agg['iqm_high']:.0f}]"])
     text = ["# Trained baselines against Only Local (team success, percentage points)", "",
-            "Paired: each episode's team success averaged over the trained seeds, minus Only "
-            "Local's in the same episode (the same evaluation key), mean [95% Student-t "
-            "interval over episodes]; an interval above 0 is a win in that cell. Seeds: the "
-            f"{seeds} training seeds' own means, mean and interquartile mean [95% "
+            "Only Local: its team success (%) on the trained baseline's episodes (the same "
+            "evaluation keys; Table 4 prints the same). Paired: every seed's team success on "
+            "each episode minus Only Local's in that episode, mean [95% two-level bootstrap "
+            "interval: training seeds and episodes resampled together, "
+            f"{PAIRED_RESAMPLES:,} resamples, so the interval carries the spread of training "
+            "seeds as well as of episodes]; an interval above 0 is a win in that cell. Seeds: "
+            f"the {seeds} training seeds' own means, mean and interquartile mean [95% "
             "percentile-bootstrap interval over seeds, 2,000 resamples]. n/a: no per-episode "
             "values (a results.json written before they were kept) or no Only Local row.", "",
-            *markdown_table(["Scenario", "Baseline", "Robots", "Paired vs only_local",
-                             "Mean over seeds", "IQM over seeds"], rows)]
+            *markdown_table(["Scenario", "Baseline", "Robots", "Only Local (%)",
+                             "Paired vs only_local", "Mean over seeds", "IQM over seeds"],
+                            rows)]
     return "\n".join(text) + "\n"
 
 
-# The trained baseline the others are compared with: the paper's plain PPO with the CADRL reward.
-REFERENCE_BASELINE = "cadrl"
 
 
 def baseline_comparison_table(results: dict, counts: Sequence[int], seeds: int,

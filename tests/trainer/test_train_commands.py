@@ -611,6 +611,40 @@ def test_trained_baselines_are_paired_seed_by_seed_with_cadrl():
     assert "| open |" not in table and "only_local" not in table.split("|---")[1]
 
 
+def test_table_4s_rows_share_their_episodes_and_only_local_is_paired_over_seeds_too():
+    """Only Local's team success in Table 4 and in the comparison is its value on the trained
+    rows' episodes (its first E); the paired interval resamples seeds as well as episodes
+    (wider than the episodes-only one where seeds disagree); the across-cells table holds
+    every baseline's aggregate and its probability of beating Only Local."""
+    from sgjax.evaluation.statistics import paired_difference
+    from train.reproduce import EPISODES_KEY, TABLE_METRICS, format_tables
+
+    rng = np.random.default_rng(0)
+    # 3 seeds that disagree: one always succeeds, two succeed on half the episodes
+    trained = np.stack([np.ones(40), (rng.random(40) < 0.5), (rng.random(40) < 0.5)]).astype(float)
+    alone = np.concatenate([np.zeros(40), np.ones(60)])  # 0 on the shared 40, 1 after
+    others = {m: [0.0] for m, _ in TABLE_METRICS}
+    results = {"doorway": {
+        "cadrl": {3: {**others, "team_success": trained.mean(1).tolist(),
+                      EPISODES_KEY: trained.tolist()}},
+        "only_local": {3: {**others, "team_success": [alone.mean()],
+                           EPISODES_KEY: [alone.tolist()]}}}}
+    tables = format_tables(results, [3], 3, 3)
+    assert "| doorway | only_local | 0 | 0 |" in tables["success_table.md"]  # 0, not 60
+    row = next(line for line in tables["comparison_table.md"].splitlines()
+               if line.startswith("| doorway | cadrl | 3 |"))
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[3] == "0"  # Only Local on the shared episodes
+    mean, low, high = (float(v) for v in cells[4].replace("[", "").replace("]", "")
+                       .replace(",", "").split())
+    assert mean == pytest.approx(100 * trained.mean(), abs=0.5)
+    episodes_only = paired_difference(trained.mean(0), alone[:40])
+    assert high - low > 100 * (episodes_only.ci_high - episodes_only.ci_low)
+    across = tables["across_cells.md"]
+    assert "| cadrl | 1 | 3 |" in across and "| only_local | 1 | 1 |" in across
+    assert "P(> only_local)" in across and "P(> cadrl)" in across
+
+
 def test_a_partial_cell_of_compact_true_resumes_under_auto_on_a_cpu_only():
     """A cell checkpointed when ``algorithm.compact`` defaulted to true is the same computation
     as ``auto`` on a CPU (resumed), not on a GPU (refused, as any other config)."""
