@@ -69,21 +69,32 @@ def _polyline_distance(points, line):
     return np.min(np.linalg.norm(p - (a + t[..., None] * e), axis=-1), axis=1)
 
 
+@pytest.fixture(scope="module")
+def doorway():
+    """Doorway with room for 3 robots and 4 pedestrians, its params at 1 and 3 robots, and one
+    counterfactual runner of ``only_local`` for the module: the robot counts are params
+    values, so the tests share its compiled program (the protocol's evaluation below plays
+    the same environment, so it finds that program in the compilation cache)."""
+    env, by_count = params_by_count("doorway", [1, 3], time_limit=TIME_LIMIT, num_humans=4)
+    env = with_zone_books(env)
+    policy = load_policy("only_local", env)
+    runner = EpisodeRunner(env, policy, EPISODES, int(by_count[3].max_steps),
+                           counterfactual=True)
+    return env, by_count, policy, runner
+
+
 @pytest.mark.slow
-def test_counterfactual_metrics_equal_brute_force_from_separate_episodes():
+def test_counterfactual_metrics_equal_brute_force_from_separate_episodes(doorway):
     """Doorway, 3 robots, 4 pedestrians: every counterfactual metric of the batched runner
     equals the value computed in numpy from the episode, each robot's episode alone and the
     episode without each robot, played one by one; the ordinary metrics are unchanged by the
     extra lanes; makespan and flow rate match their definitions."""
-    env, by_count = params_by_count("doorway", [3], time_limit=TIME_LIMIT, num_humans=4)
+    env, by_count, policy, counterfactual = doorway
     params = by_count[3]
-    env = with_zone_books(env)
-    policy = load_policy("only_local", env)
     key = jax.random.key(5)
     steps = int(params.max_steps)
     plain = EpisodeRunner(env, policy, EPISODES, steps).run(key, params)[0]
-    values, robot, _ = EpisodeRunner(env, policy, EPISODES, steps,
-                                     counterfactual=True).run(key, params)
+    values, robot, _ = counterfactual.run(key, params)
     for name in metrics.METRICS.names():
         if name not in metrics.counterfactuals.COUNTERFACTUAL_NAMES:
             np.testing.assert_array_equal(np.asarray(values[name]), np.asarray(plain[name]),
@@ -159,14 +170,12 @@ def test_counterfactual_metrics_equal_brute_force_from_separate_episodes():
     assert checked >= 4 and flows >= 1
 
 
-def test_a_robot_alone_deviates_from_nothing_and_invades_nobody():
-    """One robot: its episode is its solo episode, so path deviation and Hausdorff are 0, the
-    makespan ratio 1, and invasiveness undefined (nobody else)."""
-    env, by_count = params_by_count("open", [1], time_limit=TIME_LIMIT)
-    params = by_count[1]
-    values, robot, _ = EpisodeRunner(env, load_policy("only_local", env), EPISODES,
-                                     int(params.max_steps), counterfactual=True
-                                     ).run(jax.random.key(1), params)
+def test_a_robot_alone_deviates_from_nothing_and_invades_nobody(doorway):
+    """One robot (of room for 3) among 4 pedestrians: its episode is its solo episode, so path
+    deviation and Hausdorff are 0, the makespan ratio 1, and invasiveness undefined (nobody
+    else)."""
+    _, by_count, _, runner = doorway
+    values, robot, _ = runner.run(jax.random.key(1), by_count[1])
     np.testing.assert_allclose(np.asarray(robot["hausdorff"][:, 0]), 0.0, atol=1e-5)
     np.testing.assert_allclose(np.asarray(robot["path_deviation_max"][:, 0]), 0.0, atol=1e-5)
     np.testing.assert_allclose(np.asarray(values["makespan_ratio"]), 1.0)
@@ -186,9 +195,11 @@ def test_protocols_pin_the_evaluation_and_reject_clashes(tmp_path):
     with pytest.raises(FileNotFoundError, match="neither a built-in protocol"):
         load_protocol(tmp_path / "missing.yaml")
     good = tmp_path / "small.yaml"
-    good.write_text("name: small\nscenarios: [doorway]\nnum_agents: [2]\nepisodes: 2\nseed: 3\n"
-                    "counterfactual: true\ntime_limit: 4.0\n")
-    cli_main(["evaluate", "--protocol", str(good), "--policy", "only_local",
+    # the environment and episodes of the module's counterfactual runner: the same program,
+    # found in the compilation cache once the tests above compiled it
+    good.write_text(f"name: small\nscenarios: [doorway]\nnum_agents: [3]\nepisodes: {EPISODES}\n"
+                    f"seed: 3\ncounterfactual: true\ntime_limit: {TIME_LIMIT}\n")
+    cli_main(["evaluate", "--protocol", str(good), "--policy", "only_local", "--num-humans", "4",
               "--out", str(tmp_path / "out")])
     table = (tmp_path / "out" / "table.md").read_text()
     assert "Hausdorff (m)" in table and "seed 3" in table
