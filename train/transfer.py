@@ -731,6 +731,12 @@ def _arm_specs(values: Sequence[str]) -> dict[str, str]:
     return specs
 
 
+def _run_name(value: str) -> str:
+    """An own specialist's name: its run folder's name (or a checkpoint file's stem)."""
+    path = Path(value)
+    return path.name if path.is_dir() else path.stem
+
+
 def read_earlier(out: Path, wanted: Mapping[str, Any]) -> dict[str, Any]:
     """Every map result of ``out/transfer.json`` (complete and incomplete: ``maps`` and
     ``unfinished``) when it was made with the same :func:`settings` (``wanted``); an error
@@ -773,14 +779,14 @@ def main(argv: list[str] | None = None) -> None:
             raise ValueError("--resume needs --out")
         arms = [load_arm(name, path) for name, path in specs.items()]
         maps = held_out_maps(args.sets, args.robots, Path(args.sg2maps))
-        extra = [load_arm(Path(value).name, value) for value in args.own_specialist
+        extra = [load_arm(_run_name(value), value) for value in args.own_specialist
                  if value not in specs]
         taken = [a.name for a in extra if a.name in specs or a.name == "only_local"]
         if taken or len({a.name for a in extra}) < len(extra):
             raise ValueError("--own-specialist: run folder names must differ from each "
                              f"other and from the arms' names ({', '.join(taken)})")
         by_name = {a.name: a for a in [*arms, *extra]}
-        own = own_specialists([by_name[v if v in specs else Path(v).name]
+        own = own_specialists([by_name[v if v in specs else _run_name(v)]
                                for v in args.own_specialist], maps)
         out = None if args.out is None else Path(args.out)
         reference_seeds = next(a.seeds for a in arms if a.name == reference)

@@ -290,6 +290,12 @@ def test_the_command_writes_its_files_after_every_map_and_adds_an_arm_on_resume(
         assert again["maps"][key]["only_local"] == document["maps"][key]["only_local"]
     assert "b - a" in again["maps"][OPEN.key]["paired"]
     assert "resuming" in capsys.readouterr().out
+    # an arm named as both maps' own specialist (they play "open"): nothing played again
+    transfer.main([*first, "--arm", f"b={arms[1].path}", "--own-specialist", "a", "--resume"])
+    owned = json.loads((out / "transfer.json").read_text())
+    assert [r["own_specialist"] for r in owned["maps"].values()] == ["a", "a"]
+    assert owned["maps"][OPEN.key]["arms"] == again["maps"][OPEN.key]["arms"]
+    assert "b - own specialist" in owned["maps"][OPEN.key]["paired"]
 
 
 @pytest.mark.slow
