@@ -10,7 +10,7 @@ import pytest
 
 from sgjax.environment.options import MakeOptions
 from sgjax.evaluation.evaluate import evaluate, evaluate_lanes, params_by_count, run_episodes
-from sgjax.evaluation.policies import RecurrentPolicy, only_local
+from sgjax.evaluation.policies import RecurrentPolicy, load_policy, only_local
 from sgjax.evaluation.runner import EpisodeRunner, LaneRunner, ParamLaneRunner
 
 SCENARIO = "doorway"
@@ -32,11 +32,13 @@ def test_lanes_play_the_episodes_of_separate_runs():
     """Per-episode values of every (policy, count) lane equal ``run_episodes`` of that policy at
     that count with the same key, whether the counts are calls of the program or lanes too;
     the summaries equal ``evaluate``'s; the recorded lane is that episode, state for state, as
-    a separate recording run plays it. (The separate runs are played once for both layouts.)"""
+    a separate recording run plays it. (The separate runs are played once for both layouts;
+    the recorded policy's at every count by its one recording program, which
+    ``test_record_lanes_keeps_only_those_episodes`` plays too.)"""
     record = (2, COUNTS[0], 1)  # stop_when_blocked at 2 robots, episode 1
     env, by_count = params_by_count(SCENARIO, COUNTS, options=OPTIONS)
     alone = {(policy, n): run_episodes(env, by_count[n], policy, jax.random.key(SEED), EPISODES,
-                                       record=(p, n) == record[:2])
+                                       record=p == record[0])
              for p, policy in enumerate(POLICIES) for n in COUNTS}
     separate = evaluate([SCENARIO], POLICIES, COUNTS, EPISODES, seed=SEED, options=OPTIONS,
                         log=None)
@@ -56,7 +58,7 @@ def test_lanes_play_the_episodes_of_separate_runs():
                     np.testing.assert_allclose(
                         values[name][p, k], per_episode, rtol=1e-6, atol=0,
                         err_msg=f"counts at once {at_once}, {policy} at {n} robots: {name}")
-                if run.states is not None:
+                if (p, n) == record[:2]:
                     leaves_equal(states, jax.tree.map(lambda leaf: leaf[:, record[2]],
                                                       run.states))
         assert [(r.policy, r.num_agents) for r in results] == [
@@ -78,12 +80,13 @@ def test_lanes_play_the_episodes_of_separate_runs():
 
 def test_record_lanes_keeps_only_those_episodes():
     """``record_lanes`` records the chosen episodes as ``record=True`` does (and stops early);
-    the other results are unchanged."""
-    env, by_count = params_by_count("open", [2], options=OPTIONS.replace(time_limit=4.0))
+    the other results are unchanged. (The ``record=True`` run is the one the test above plays:
+    ``run_episodes`` keeps a baseline's compiled run for the process.)"""
+    env, by_count = params_by_count(SCENARIO, COUNTS, options=OPTIONS)
     params, key = by_count[2], jax.random.key(1)
-    every = EpisodeRunner(env, only_local(env), 3, int(params.max_steps), record=True)(key, params)
-    some = EpisodeRunner(env, only_local(env), 3, int(params.max_steps),
-                         record_lanes=[2, 0])(key, params)
+    every = run_episodes(env, params, "stop_when_blocked", key, EPISODES, record=True)
+    some = EpisodeRunner(env, load_policy("stop_when_blocked", env), EPISODES,
+                         int(params.max_steps), record_lanes=[2, 0])(key, params)
     leaves_equal(some.values, every.values)
     leaves_equal(some.states, jax.tree.map(lambda leaf: leaf[:, [2, 0]], every.states))
     assert np.shape(some.states.time) == (int(params.max_steps) + 1, 2)
