@@ -731,6 +731,21 @@ def _arm_specs(values: Sequence[str]) -> dict[str, str]:
     return specs
 
 
+def _own_specialist_runs(values: Sequence[str], arms: Sequence[Arm],
+                         maps: Sequence[HeldOutMap]) -> tuple[list[Arm], dict[str, Arm]]:
+    """``--own-specialist``'s runs that are no arm (loaded) and every map's own specialist
+    (:func:`own_specialists`); names that clash are refused."""
+    names = {a.name for a in arms}
+    extra = [load_arm(_run_name(value), value) for value in values if value not in names]
+    taken = [a.name for a in extra if a.name in names or a.name == "only_local"]
+    if taken or len({a.name for a in extra}) < len(extra):
+        raise ValueError("--own-specialist: run folder names must differ from each other and "
+                         f"from the arms' names ({', '.join(taken)})")
+    by_name = {a.name: a for a in [*arms, *extra]}
+    return extra, own_specialists([by_name[v if v in names else _run_name(v)]
+                                   for v in values], maps)
+
+
 def _run_name(value: str) -> str:
     """An own specialist's name: its run folder's name (or a checkpoint file's stem)."""
     path = Path(value)
@@ -779,15 +794,7 @@ def main(argv: list[str] | None = None) -> None:
             raise ValueError("--resume needs --out")
         arms = [load_arm(name, path) for name, path in specs.items()]
         maps = held_out_maps(args.sets, args.robots, Path(args.sg2maps))
-        extra = [load_arm(_run_name(value), value) for value in args.own_specialist
-                 if value not in specs]
-        taken = [a.name for a in extra if a.name in specs or a.name == "only_local"]
-        if taken or len({a.name for a in extra}) < len(extra):
-            raise ValueError("--own-specialist: run folder names must differ from each "
-                             f"other and from the arms' names ({', '.join(taken)})")
-        by_name = {a.name: a for a in [*arms, *extra]}
-        own = own_specialists([by_name[v if v in specs else _run_name(v)]
-                               for v in args.own_specialist], maps)
+        extra, own = _own_specialist_runs(args.own_specialist, arms, maps)
         out = None if args.out is None else Path(args.out)
         reference_seeds = next(a.seeds for a in arms if a.name == reference)
         for arm in [*arms, *extra]:  # seeds pair by index with the reference's

@@ -13,6 +13,7 @@ from jax import Array
 
 from sgjax.kernels.geometry import point_segment_distance, segments_intersect_pairs
 from sgjax.maps.schema import MapSpec, point_segment_distances
+from sgjax.maps.segment_grid import SegmentGrid
 
 SPAWN_JITTER = 0.05  # m: each pedestrian starts up to this far (per axis) from its slot
 SPAWN_MARGIN = 0.02  # m of free space between two pedestrians' bodies at their slots
@@ -35,8 +36,11 @@ def spawn_slots(spec: MapSpec, radius: float) -> tuple[np.ndarray, np.ndarray]:
     gx, gy = np.meshgrid(xs, ys)
     points = np.stack([gx.ravel(), gy.ravel()], axis=-1)
     if spec.walls.shape[0]:
-        clear = point_segment_distances(points, spec.walls).min(axis=1)
-        points = points[clear >= radius + SPAWN_JITTER + SPAWN_MARGIN]
+        # the nearest wall within the clearance (inf beyond it), through a segment grid: the
+        # cost grows with the walls near each point, not points x walls
+        needed = radius + SPAWN_JITTER + SPAWN_MARGIN
+        clear, _ = SegmentGrid(spec.walls, max(needed, 0.5)).nearest(points, needed)
+        points = points[clear >= needed]
     pos = spec.node_positions
     edges = np.asarray(spec.edges).reshape(-1, 2)
     if edges.shape[0] == 0 or points.shape[0] == 0:

@@ -12,6 +12,7 @@ from scipy.sparse.csgraph import connected_components
 from sgjax.kernels.geometry import segments_intersect
 from sgjax.maps.routing import all_pairs_shortest_paths, path_nodes
 from sgjax.maps.schema import MapSpec, point_segment_distances
+from sgjax.maps.segment_grid import SegmentGrid, pair_distances, unique_pairs
 
 FAR = 1.0e6  # m: where padding walls (and a generated world's padding zones) live
 
@@ -50,6 +51,9 @@ class MapArrays:
     max_route_nodes: int = struct.field(pytree_node=False, default=2)
     grid_shape: tuple[int, int] = struct.field(pytree_node=False, default=(1, 1))
     cell_size: float = struct.field(pytree_node=False, default=1.0)
+    # m: every wall within this distance of a point is in its cell's list (0: not promised, so
+    # nothing but the planner may read the lists)
+    reach: float = struct.field(pytree_node=False, default=0.0)
 
     def cell_of(self, x: Array, y: Array) -> Array:
         """Flat grid-cell index of points (clipped to the grid)."""
@@ -109,13 +113,23 @@ def wall_grid(
     iy, ix = np.mgrid[0:ny, 0:nx]
     centre = np.stack([lo[0] + (ix.ravel() + 0.5) * cell_size,
                        lo[1] + (iy.ravel() + 0.5) * cell_size], axis=-1)  # [C, 2]
-    dist = point_segment_distances(centre, walls)  # [C, W]
-    near = (dist <= reach + cell_size * np.sqrt(0.5)) & valid[None, :]
-    width = max(1, int(near.sum(axis=1).max()))
-    cell_walls = np.full((near.shape[0], width), walls.shape[0] - 1, dtype=np.int32)
-    for c in range(near.shape[0]):
-        idx = np.flatnonzero(near[c])
-        cell_walls[c, : idx.size] = idx
+    radius = reach + cell_size * np.sqrt(0.5)
+    # the candidate (cell, wall) pairs of a segment grid, then their exact distances: the cost
+    # grows with the walls near each cell, not cells x walls (GDC3: 12 s -> well under 1 s)
+    kept = np.flatnonzero(valid)
+    grid = SegmentGrid(walls[kept], cell_size)
+    cells, near = [], []
+    for c, w in grid.near_points(centre, radius):
+        close = pair_distances(centre[c], grid.segments[w]) <= radius
+        cells.append(c[close])
+        near.append(kept[w[close]])
+    cell, wall = unique_pairs(np.concatenate([np.zeros(0, np.int64), *cells]),
+                              np.concatenate([np.zeros(0, np.int64), *near]))
+    counts = np.bincount(cell, minlength=len(centre))
+    width = max(1, int(counts.max()))
+    cell_walls = np.full((len(centre), width), walls.shape[0] - 1, dtype=np.int32)
+    slot = np.arange(len(cell)) - np.repeat(np.cumsum(counts) - counts, counts)
+    cell_walls[cell, slot] = wall  # each cell's walls in ascending order
     return cell_walls, lo, (nx, ny)
 
 
@@ -221,4 +235,5 @@ def compile_map(spec: MapSpec, reach: float = 2.5, cell_size: float = 1.0) -> Ma
         max_route_nodes=longest,
         grid_shape=grid_shape,
         cell_size=float(cell_size),
+        reach=float(reach),
     )

@@ -34,5 +34,5 @@ def world_arrays(world: World, capacity: Capacity) -> tuple[MapArrays, Array, Ar
         node_gap=gap, cell_walls=lists, grid_origin=jnp.asarray(origin, jnp.float32),
         zone_rect=world.zones, zone_width=world.zone_width,
         max_route_nodes=capacity.route_nodes, grid_shape=shape,
-        cell_size=float(capacity.cell_size))
+        cell_size=float(capacity.cell_size), reach=float(capacity.reach))
     return arrays, dist, overflow

@@ -1,0 +1,111 @@
+"""The wall broad phase of the contacts (``kernels.contacts.clamp_to_walls`` through the map's
+wall grid): the same cut displacements and contact flags as testing every wall, on a dense
+random floor and over long rollouts on SocialGym 2.0's building floors; a displacement beyond
+the grid's reach is cut, never carried through a wall unseen."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from shared_data import SG2MAPS, require
+
+import sgjax
+from sgjax.kernels.contacts import WALL_SKIN, clamp_to_walls, uses_broad_phase
+from sgjax.kernels.geometry import point_segment_distance
+from sgjax.maps import compile_map, parse_map
+
+
+def dense_floor(seed: int = 0, walls: int = 600) -> sgjax.maps.MapArrays:
+    """``walls`` random short walls (0.2-1.5 m) over a 30 m square, its route outside it."""
+    rng = np.random.default_rng(seed)
+    start = rng.uniform(-15.0, 15.0, (walls, 2))
+    angle = rng.uniform(0.0, 2 * np.pi, walls)
+    length = rng.uniform(0.2, 1.5, walls)
+    end = start + length[:, None] * np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    data = {"name": "dense", "description": "", "bounds": [-25, -25, 25, 25],
+            "walls": np.concatenate([start, end], axis=1).tolist(),
+            "nodes": [{"id": 0, "position": [-22, -22]}, {"id": 1, "position": [22, -22]}],
+            "edges": [[0, 1]], "groups": [{"starts": [0], "goals": [1]}]}
+    return compile_map(parse_map(data, clearance=0.5))
+
+
+def test_the_broad_phase_cuts_every_step_as_every_wall_does():
+    """Thousands of discs among 600 walls, every step within the grid's reach: the cut
+    displacements equal the all-walls test's to float rounding and the contact flags exactly
+    (many of them hit)."""
+    m = dense_floor()
+    assert uses_broad_phase(m) and not uses_broad_phase(m.replace(reach=0.0))
+    assert m.cell_walls.shape[1] * 4 < m.wall_x1.shape[0]
+    rng = np.random.default_rng(1)
+    n = 20_000
+    x, y = (jnp.asarray(rng.uniform(-16.0, 16.0, n), jnp.float32) for _ in range(2))
+    radius = jnp.asarray(rng.uniform(0.05, 0.5, n), jnp.float32)
+    step = rng.uniform(0.0, 1.0, n) * (m.reach - np.asarray(radius))  # |d| + r <= reach
+    heading = rng.uniform(0.0, 2 * np.pi, n)
+    dx = jnp.asarray(step * np.cos(heading), jnp.float32)
+    dy = jnp.asarray(step * np.sin(heading), jnp.float32)
+    broad = jax.jit(clamp_to_walls)(x, y, dx, dy, radius, m)
+    every = jax.jit(clamp_to_walls)(x, y, dx, dy, radius, m.replace(reach=0.0))
+    # equal to float rounding (the two programs fuse the same arithmetic differently)
+    for a, b in zip(broad[:2], every[:2], strict=True):
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), atol=1e-5)
+    np.testing.assert_array_equal(np.asarray(broad[2]), np.asarray(every[2]))
+    assert 0.05 < float(np.mean(every[2])) < 0.95  # both outcomes are exercised
+
+
+def test_a_step_beyond_the_reach_is_cut_at_it_and_counted_as_a_contact():
+    """A displacement longer than the reach (no dynamics makes one) stops where the disc
+    would leave the reach, flagged, and never ends inside a wall."""
+    m = dense_floor(seed=2)
+    rng = np.random.default_rng(3)
+    n = 2_000
+    x, y = (jnp.asarray(rng.uniform(-16.0, 16.0, n), jnp.float32) for _ in range(2))
+    radius = jnp.full(n, 0.3, jnp.float32)
+    heading = rng.uniform(0.0, 2 * np.pi, n)
+    dx = jnp.asarray(8.0 * np.cos(heading), jnp.float32)
+    dy = jnp.asarray(8.0 * np.sin(heading), jnp.float32)
+    cx, cy, hit = jax.jit(clamp_to_walls)(x, y, dx, dy, radius, m)
+    assert bool(jnp.all(hit))
+    assert float(jnp.max(jnp.hypot(cx, cy))) <= m.reach - 0.3 + 1e-5
+    ex, ey = np.asarray(x + cx), np.asarray(y + cy)
+    walls = np.stack([np.asarray(a) for a in (m.wall_x1, m.wall_y1, m.wall_x2, m.wall_y2)], 1)
+    walls = walls[np.asarray(m.wall_valid)]
+    start_gap = np.min(np.asarray(point_segment_distance(
+        np.asarray(x)[:, None], np.asarray(y)[:, None], *walls.T)), axis=1)
+    end_gap = np.min(np.asarray(point_segment_distance(ex[:, None], ey[:, None], *walls.T)),
+                     axis=1)
+    clear = start_gap > 0.3 + WALL_SKIN  # discs that start outside every wall
+    assert clear.sum() > 500
+    assert np.all(end_gap[clear] >= 0.3 - 1e-4)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("floor, humans", [("GDC1", 24), ("GDC3", 0)])
+def test_rollouts_on_building_floors_equal_the_all_walls_rollouts(floor, humans):
+    """SocialGym 2.0's GDC floors (1,374 and 5,647 walls), 4 robots always GO (and 24
+    pedestrians on GDC1, whose wall contacts take the broad phase too), 250 steps of 4
+    episodes: every robot's and pedestrian's position at every step equals the rollout that
+    tests every wall."""
+    from sgjax.maps.socialgym import import_socialgym
+
+    spec = import_socialgym(require(SG2MAPS / floor, "SocialGym 2.0's maps"))
+    env, params = sgjax.make(spec, num_agents=4, num_humans=humans)
+    assert uses_broad_phase(params.map)
+    keys = jax.random.split(jax.random.key(0), 4)
+    actions = jnp.zeros((4, 4), jnp.int32)
+
+    def rollout(p):
+        _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, p)
+
+        def body(state, key):
+            state = env.step_batch(jax.random.split(key, 4), state, actions, p)[1]
+            return state, (state.robots.x, state.robots.y, state.humans.x, state.humans.y)
+
+        return jax.lax.scan(body, state, jax.random.split(jax.random.key(1), 250))[1]
+
+    broad = jax.jit(rollout)(params)
+    every = jax.jit(rollout)(params.replace(map=params.map.replace(reach=0.0)))
+    for a, b in zip(broad, every, strict=True):
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), atol=1e-5)
+    moved = np.abs(np.asarray(broad[0][-1]) - np.asarray(broad[0][0])).max()
+    assert moved > 1.0  # the robots went somewhere
