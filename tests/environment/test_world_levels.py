@@ -13,10 +13,18 @@ import pytest
 import sgjax
 from sgjax.environment.worlds import Level
 
+COUNT = 4  # environments of a batch in the tests that step one (one compiled step for them)
+
 
 @pytest.fixture(scope="module")
 def doorway():
-    return sgjax.make("generated:doorway", num_agents=2, time_limit=3.0, world_levels=True)
+    """Generated doorways chosen by levels (2 robots), with ``vmap(reset)`` and ``step_batch``
+    of ``COUNT`` environments (every robot GO) jitted once for the module."""
+    env, params = sgjax.make("generated:doorway", num_agents=2, time_limit=3.0, world_levels=True)
+    reset = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))
+    step = jax.jit(lambda keys, states: env.step_batch(
+        keys, states, jnp.ones((COUNT, env.max_agents), jnp.int32), params))
+    return env, params, reset, step
 
 
 def _same(a, b, tolerance=0.0):
@@ -32,9 +40,8 @@ def _level(values: dict, seed: int, chosen: bool, count: int, pedestrians: int =
 
 
 def test_a_fresh_world_is_its_seeds_world_and_the_reset_key_fixes_it(doorway):
-    env, params = doorway
+    env, params, reset, _ = doorway
     source = env.config.world
-    reset = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))
     keys = jax.random.split(jax.random.key(3), 16)
     _, states = reset(keys, params)
     _, again = reset(keys, params)
@@ -50,18 +57,15 @@ def test_a_fresh_world_is_its_seeds_world_and_the_reset_key_fixes_it(doorway):
 
 @pytest.mark.slow
 def test_an_ended_episode_plays_the_chosen_level_once_then_fresh_worlds(doorway):
-    env, params = doorway
+    env, params, reset, step = doorway
     source = env.config.world
-    count = 4
+    count = COUNT
     edited = dict(source.of_seed(41).values)
     edited["door_width"] = jnp.float32(1.55)  # an ACCEL-style edit of world 41
-    _, states = jax.vmap(env.reset, in_axes=(0, None))(
-        jax.random.split(jax.random.key(4), count), params)
+    _, states = reset(jax.random.split(jax.random.key(4), count), params)
     chosen = jnp.asarray([True, True, False, True])
     level = _level(edited, 41, True, count).replace(chosen=chosen)
     states = states.replace(next_level=level)
-    step = jax.jit(lambda k, s: env.step_batch(k, s, jnp.ones((count, env.max_agents),
-                                                                jnp.int32), params))
     episodes = np.zeros(count, int)
     for t in range(80):
         _, states, _, _, _, info = step(jax.random.split(jax.random.key(500 + t), count), states)
@@ -82,15 +86,12 @@ def test_an_ended_episode_plays_the_chosen_level_once_then_fresh_worlds(doorway)
 
 @pytest.mark.slow
 def test_vmap_of_step_equals_step_batch_with_chosen_levels(doorway):
-    env, params = doorway
-    count = 3
-    _, states = jax.vmap(env.reset, in_axes=(0, None))(
-        jax.random.split(jax.random.key(5), count), params)
+    env, params, reset, batched = doorway  # batched: step_batch, every robot GO
+    count = COUNT
+    _, states = reset(jax.random.split(jax.random.key(5), count), params)
     values = env.config.world.of_seed(9).values
     states = states.replace(next_level=_level(values, 9, True, count).replace(
-        chosen=jnp.asarray([True, False, True])))
-    actions = jnp.ones((count, env.max_agents), jnp.int32)
-    batched = jax.jit(lambda k, s: env.step_batch(k, s, actions, params))
+        chosen=jnp.asarray([True, False, True, False])))
     looped = jax.jit(jax.vmap(lambda k, s: env.step(k, s, jnp.ones(env.max_agents, jnp.int32),
                                                     params)))
     one, two = states, states
@@ -145,26 +146,30 @@ def test_a_chosen_level_that_fails_the_checks_falls_back_to_a_fresh_world():
 def test_a_chosen_levels_pedestrians_walk_in_its_episode_and_fresh_worlds_have_the_params():
     """A level's pedestrian count (an ACCEL edit's added group) is the active pedestrians of
     its episode, read by every step from its world; a fresh world keeps the params' count."""
-    env, params = sgjax.make("generated:open", num_agents=2, num_humans=2, max_humans=6,
+    env, params = sgjax.make("generated:doorway", num_agents=2, num_humans=2, max_humans=6,
                              time_limit=1.0, world_levels=True)
     count = 3
-    _, states = jax.vmap(env.reset, in_axes=(0, None))(
+    _, states = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(
         jax.random.split(jax.random.key(2), count), params)
     assert (np.asarray(states.humans.active).sum(axis=1) == 2).all()
     level = _level(env.config.world.of_seed(9).values, 9, True, count).replace(
         chosen=jnp.asarray([True, False, True]), pedestrians=jnp.asarray([5, 5, 0], jnp.int32))
     states = states.replace(next_level=level)
-    step = jax.jit(lambda k, s: env.step_batch(k, s, jnp.ones((count, env.max_agents),
-                                                                jnp.int32), params))
+
+    @jax.jit
+    def step(keys, states):  # and the pedestrian count of each episode's params
+        out = env.step_batch(keys, states, jnp.ones((count, env.max_agents), jnp.int32), params)
+        return out, jax.vmap(env.params_in, in_axes=(0, None))(out[1], params).humans.num_humans
+
     first = np.zeros(count, bool)
     for t in range(12):
-        _, states, _, _, _, info = step(jax.random.split(jax.random.key(50 + t), count), states)
+        (_, states, _, _, _, info), humans = step(
+            jax.random.split(jax.random.key(50 + t), count), states)
         ended = np.asarray(info["episode_done"]) & ~first
         first |= ended
         active = np.asarray(states.humans.active).sum(axis=1)
-        episode = jax.vmap(env.params_in, in_axes=(0, None))(states, params)
         for i in np.flatnonzero(ended):
             want = [5, 2, 0][i]
-            assert active[i] == want and int(episode.humans.num_humans[i]) == want
+            assert active[i] == want and int(humans[i]) == want
             assert int(states.world.pedestrians[i]) == [5, -1, 0][i]
     assert first.all()
