@@ -65,17 +65,18 @@ class Walls(Protocol):
     def cell_of(self, x: Array, y: Array) -> Array: ...
 
 
-# Walls per listed wall above which the broad phase pays: gathering a cell's list costs about
-# what testing this many walls by broadcast does (measured on the 2-core CPU: the doorway's
-# 13 walls against its lists of 6 are faster tested all at once; GDC3's 5,648 against 134
-# 12x faster through the lists).
-BROAD_PHASE_RATIO = 4
+# Walls per listed wall from which the broad phase pays: gathering a cell's list costs about
+# what testing several walls by broadcast does (bench/building_scale.py, 2-core CPU, 4 robots
+# x 64 environments: the office's 44 walls against lists of 8 step 4% slower through the
+# lists; GDC1's 1,374 against 62 1.9x faster, GDC3's 5,647 against 134 3.4x faster).
+BROAD_PHASE_RATIO = 8
 
 
 def uses_broad_phase(m: Walls) -> bool:
     """Whether contact tests on ``m`` go through its wall grid (static: shapes and ``reach``):
     when the grid promises a reach and a cell's list is at most 1/:data:`BROAD_PHASE_RATIO`
-    of the walls."""
+    of the walls (the shipped maps test every wall; SocialGym 2.0's building floors take the
+    lists)."""
     reach = getattr(m, "reach", 0.0)  # wall arrays without a grid: every wall is tested
     return reach > 0.0 and m.cell_walls.shape[-1] * BROAD_PHASE_RATIO <= m.wall_x1.shape[-1]
 
