@@ -77,7 +77,7 @@ from sgjax.files import write_atomic
 from train.algorithm.actor import ActorWeights
 from train.algorithm.config import EVALUATION_SEED_OFFSET, TrainConfig, config_from_dict
 from train.algorithm.trainer import Trainer, seed_keys
-from train.reports.across_cells import across_cells_table
+from train.reports.across_cells import across_cells_table, plot_performance_profiles
 from train.reports.marl_eval import to_marl_eval
 from train.reports.result_schemas import REPRODUCE
 from train.run.loop import equal_calls, train_in_calls
@@ -330,6 +330,7 @@ def on_shared_episodes(results: dict, counts: Sequence[int]) -> dict:
 # The trained baseline the others are compared with: the paper's plain PPO with the CADRL reward.
 REFERENCE_BASELINE = "cadrl"
 PAIRED_RESAMPLES = 2000  # the two-level bootstrap's resamples per cell against Only Local
+PROFILES_PLOT = "performance_profiles.png"  # every baseline's performance profile
 
 
 def format_tables(results: dict, counts: Sequence[int], table_robots: int, seeds: int
@@ -537,6 +538,8 @@ def tables_from_results(path: Path, out: Path, table_robots: int = 4) -> dict[st
     out.mkdir(parents=True, exist_ok=True)
     for name, text in tables.items():
         (out / name).write_text(text)
+    plot_performance_profiles(on_shared_episodes(results, counts), counts,
+                              out / PROFILES_PLOT)
     write_atomic(out / "marl_eval.json", json.dumps(to_marl_eval(document), indent=1))
     return tables
 
@@ -762,6 +765,8 @@ def write_results(run: Run, scenarios: Sequence[str], counts: Sequence[int],
         out.mkdir(parents=True, exist_ok=True)
         for name, text in tables.items():
             (out / name).write_text(text)
+        plot_performance_profiles(on_shared_episodes(final_results, counts), counts,
+                                  out / PROFILES_PLOT)
     document = run.document(scenarios)
     write_atomic(run.path, json.dumps(document, indent=1))
     write_atomic(out / "marl_eval.json", json.dumps(to_marl_eval(document), indent=1))

@@ -271,6 +271,8 @@ def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
     again = tables_from_results(tmp_path / "results.json", tmp_path / "again", table_robots=2)
     assert again["success_table.md"] == success_table  # the tables come from results.json
     assert (tmp_path / "again" / "paper_comparison.md").is_file()
+    assert (tmp_path / "performance_profiles.png").is_file()
+    assert "| cadrl | 2 | 4 |" in (tmp_path / "across_cells.md").read_text()  # 2 cells x 2 seeds
     marl = json.loads((tmp_path / "marl_eval.json").read_text())["sgjax"]
     assert set(marl["open_2robots"]) == {"cadrl", "only_local"}
     # --resume keeps the finished cells and runs only the missing one (a classical controller,

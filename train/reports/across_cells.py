@@ -12,20 +12,22 @@ counting wins; the aggregates answer "which method is better overall" with one i
   with its stratified-bootstrap interval (an interval above 0.5 is a method that is better
   more often than not);
 * a **performance profile**: the share of runs whose team success exceeds each threshold,
-  with a stratified-bootstrap band.
+  with a stratified-bootstrap band (in the table at four thresholds; drawn over all of them
+  by :func:`plot_performance_profiles`).
 
 The statistics are :mod:`sgjax.evaluation.statistics`' (``aggregate_over_cells``,
 ``improvement_over_cells``, ``performance_profile``); ``python -m train.reproduce`` writes the
-table as ``across_cells.md``.
+table as ``across_cells.md`` and the profiles as ``performance_profiles.png``.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 
 import numpy as np
 
-from sgjax.evaluation.report import markdown_table
+from sgjax.evaluation.report import markdown_table, new_figure
 from sgjax.evaluation.statistics import (
     aggregate_over_cells,
     improvement_over_cells,
@@ -102,3 +104,32 @@ def across_cells_table(results: Results, counts: Sequence[int],
                              *(f"P(> {r})" for r in references),
                              *(f"Runs above {t:g} (%)" for t in THRESHOLDS)], rows)]
     return "\n".join(text) + "\n"
+
+
+def plot_performance_profiles(results: Results, counts: Sequence[int], path: Path,
+                              title: str = "Performance profiles over every cell") -> Path:
+    """Each method's performance profile (the share of its runs, over every cell, whose team
+    success exceeds t, for t from 0 to 1) with its 95% stratified-bootstrap band, into the PNG
+    ``path`` (rliable's performance-profile plot)."""
+    cells = method_cells(results, counts)
+    thresholds = np.linspace(0.0, 1.0, 41)
+    fig = new_figure(6.4, 4.0)
+    ax = fig.subplots()
+    for index, (method, mine) in enumerate(cells.items()):
+        profile = performance_profile(mine, thresholds, resamples=RESAMPLES // 4)
+        colour = f"C{index % 10}"
+        ax.plot(thresholds, 100 * profile["fraction"], color=colour, label=method)
+        ax.fill_between(thresholds, 100 * profile["low"], 100 * profile["high"], color=colour,
+                        alpha=0.2, linewidth=0)
+    ax.set_xlabel("team success t", fontsize=8)
+    ax.set_ylabel("runs with team success above t (%)", fontsize=8)
+    ax.set_title(title, fontsize=9)
+    ax.set_xlim(0.0, 1.0)
+    ax.set_ylim(-2, 102)
+    ax.tick_params(labelsize=7)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    return path
