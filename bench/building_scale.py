@@ -19,14 +19,12 @@ the end: time it on an idle machine.
 from __future__ import annotations
 
 import argparse
-import itertools
 import os
-import time
 from pathlib import Path
 
 import jax
 import jax.numpy as jnp
-from compiled import compile_measured
+from throughput import _prepare_jax as prepare_jax
 
 import sgjax
 from sgjax.kernels.contacts import uses_broad_phase
@@ -64,20 +62,7 @@ def prepare(env, params, robots: int, envs: int, steps: int):
 
         return jax.lax.scan(body, state, jax.random.split(key, steps))[0]
 
-    key = jax.random.key(1)
-    compiled, compile_s, peak = compile_measured(jax.jit(rollout).lower(state, key))
-    jax.block_until_ready(compiled(state, key))
-    seeds = itertools.count(3)
-
-    def timer(repeats: int) -> float:
-        best = float("inf")
-        for _ in range(repeats):
-            start = time.perf_counter()
-            jax.block_until_ready(compiled(state, jax.random.key(next(seeds))))
-            best = min(best, time.perf_counter() - start)
-        return best / steps
-
-    return compile_s, peak, timer
+    return prepare_jax(jax.jit(rollout), state, steps)
 
 
 def _load() -> str:
