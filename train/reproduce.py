@@ -66,6 +66,7 @@ from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.report import format_points, format_summary, markdown_table
 from sgjax.evaluation.runner import EpisodeRunner
 from sgjax.evaluation.statistics import (
+    Summary,
     paired_difference,
     paired_over_seeds_and_episodes,
     probability_of_improvement,
@@ -432,15 +433,32 @@ def shared_episodes(trained: dict, baseline: dict) -> tuple[np.ndarray, np.ndarr
     return mine, np.asarray(baseline[EPISODES_KEY], float)[0, :mine.shape[1]]
 
 
-def _paired_cell(trained: dict, baseline: dict) -> str:
-    """Paired difference in team success (points), trained - baseline, over the episodes both
-    played, resampling training seeds and episodes together
-    (:func:`~sgjax.evaluation.statistics.paired_over_seeds_and_episodes`)."""
+def _paired_cell(trained: dict, baseline: dict) -> Summary | None:
+    """Paired difference in team success, trained - baseline, over the episodes both played,
+    resampling training seeds and episodes together
+    (:func:`~sgjax.evaluation.statistics.paired_over_seeds_and_episodes`); None without
+    per-episode values."""
     pair = shared_episodes(trained, baseline)
     if pair is None:
-        return "n/a"
-    d = paired_over_seeds_and_episodes(*pair, resamples=PAIRED_RESAMPLES)
-    return format_points(d.mean, d.ci_low, d.ci_high)
+        return None
+    return paired_over_seeds_and_episodes(*pair, resamples=PAIRED_RESAMPLES)
+
+
+def _excludes_zero(d: Summary | None) -> bool:
+    return d is not None and (d.ci_low > 0.0 or d.ci_high < 0.0)
+
+
+def chance_note(tests: Sequence[Summary | None]) -> str:
+    """The multiple-comparison note of a table of paired intervals: how many would exclude 0
+    by chance alone at 95% if nothing differed, and how many do."""
+    done = [d for d in tests if d is not None]
+    if not done:
+        return ""
+    return (f"{len(done)} paired interval{'s' if len(done) != 1 else ''}: if no baseline "
+            "differed, about "
+            f"{0.05 * len(done):.0f} would exclude 0 by chance alone at 95%; "
+            f"{sum(map(_excludes_zero, done))} do. A claim resting on one cell may be one of "
+            "those.")
 
 
 def _shared_mean(trained: dict, baseline: dict) -> str:
@@ -455,7 +473,7 @@ def comparison_table(results: dict, counts: Sequence[int], seeds: int) -> str:
     with percentile-bootstrap intervals over the training seeds,
     :func:`sgjax.evaluation.statistics.seed_aggregate`). A baseline "beats" only_local in a
     cell where the paired interval excludes 0."""
-    rows = []
+    rows, tests = [], []
     for scenario, by_baseline in results.items():
         reference = by_baseline.get("only_local")
         for baseline, by_count in by_baseline.items():
@@ -463,11 +481,13 @@ def comparison_table(results: dict, counts: Sequence[int], seeds: int) -> str:
                 continue  # untrained: only_local and the classical controllers
             for n in counts:
                 agg = seed_aggregate(np.asarray(by_count[n]["team_success"], float))
+                d = None if reference is None else _paired_cell(by_count[n], reference[n])
+                tests.append(d)
                 rows.append([scenario, baseline, str(n),
                              "n/a" if reference is None else _shared_mean(by_count[n],
                                                                           reference[n]),
-                             "n/a" if reference is None else _paired_cell(by_count[n],
-                                                                          reference[n]),
+                             "n/a" if d is None else format_points(d.mean, d.ci_low,
+                                                                    d.ci_high),
                              f"{100 * agg['mean']:.0f} [{100 * agg['mean_low']:.0f}, "
                              f"{100 * agg['mean_high']:.0f}]",
                              f"{100 * agg['iqm']:.0f} [{100 * agg['iqm_low']:.0f}, "
@@ -485,7 +505,8 @@ def comparison_table(results: dict, counts: Sequence[int], seeds: int) -> str:
             *markdown_table(["Scenario", "Baseline", "Robots", "Only Local (%)",
                              "Paired vs only_local", "Mean over seeds", "IQM over seeds"],
                             rows)]
-    return "\n".join(text) + "\n"
+    note = chance_note(tests)
+    return "\n".join(text + (["", note] if note else [])) + "\n"
 
 
 
@@ -499,7 +520,7 @@ def baseline_comparison_table(results: dict, counts: Sequence[int], seeds: int,
     seed of the baseline above a random seed of the reference, ties half). The paper's
     comparisons between its trained baselines (CADRL(L) against CADRL, the order rewards
     against CADRL) hold in a cell only where the interval excludes 0."""
-    rows = []
+    rows, tests = [], []
     for scenario, by_baseline in results.items():
         mine = by_baseline.get(reference)
         if mine is None:
@@ -511,6 +532,7 @@ def baseline_comparison_table(results: dict, counts: Sequence[int], seeds: int,
                 theirs = np.asarray(by_count[n]["team_success"], float)
                 ours = np.asarray(mine[n]["team_success"], float)
                 d = paired_difference(theirs, ours)
+                tests.append(d if np.isfinite(d.ci_low) else None)
                 rows.append([scenario, baseline, str(n),
                              f"{100 * np.nanmean(theirs):.0f}", f"{100 * np.nanmean(ours):.0f}",
                              format_points(d.mean, d.ci_low, d.ci_high),
@@ -524,7 +546,8 @@ def baseline_comparison_table(results: dict, counts: Sequence[int], seeds: int,
             *markdown_table(["Scenario", "Baseline", "Robots", "Baseline (%)",
                              f"{reference} (%)", f"Paired vs {reference}", "P(improvement)"],
                             rows)]
-    return "\n".join(text) + "\n"
+    note = chance_note(tests)
+    return "\n".join(text + (["", note] if note else [])) + "\n"
 
 
 def tables_from_results(path: Path, out: Path, table_robots: int = 4) -> dict[str, str]:

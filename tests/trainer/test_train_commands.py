@@ -642,6 +642,8 @@ def test_table_4s_rows_share_their_episodes_and_only_local_is_paired_over_seeds_
     assert mean == pytest.approx(100 * trained.mean(), abs=0.5)
     episodes_only = paired_difference(trained.mean(0), alone[:40])
     assert high - low > 100 * (episodes_only.ci_high - episodes_only.ci_low)
+    assert "1 paired interval: if no baseline differed" in tables["comparison_table.md"]
+    assert "; 1 do." in tables["comparison_table.md"]  # +50 points is no chance
     across = tables["across_cells.md"]
     assert "| cadrl | 1 | 3 |" in across and "| only_local | 1 | 1 |" in across
     assert "P(> only_local)" in across and "P(> cadrl)" in across
