@@ -550,6 +550,18 @@ def baseline_comparison_table(results: dict, counts: Sequence[int], seeds: int,
     return "\n".join(text + (["", note] if note else [])) + "\n"
 
 
+def write_tables(results: dict, counts: Sequence[int], table_robots: int, seeds: int,
+                 out: Path) -> dict[str, str]:
+    """Every table (:func:`format_tables`) and the performance profiles into ``out``;
+    returns the tables by file name."""
+    tables = format_tables(results, counts, table_robots, seeds)
+    out.mkdir(parents=True, exist_ok=True)
+    for name, text in tables.items():
+        (out / name).write_text(text)
+    plot_performance_profiles(on_shared_episodes(results, counts), counts, out / PROFILES_PLOT)
+    return tables
+
+
 def tables_from_results(path: Path, out: Path, table_robots: int = 4) -> dict[str, str]:
     """Write the tables again from a ``results.json`` (no training): ``out`` gets the same
     markdown files as a run. Returns them by name."""
@@ -557,12 +569,7 @@ def tables_from_results(path: Path, out: Path, table_robots: int = 4) -> dict[st
     counts = [int(n) for n in document["counts"]]
     results = {s: {b: {int(n): m for n, m in c.items()} for b, c in r.items()}
                for s, r in document["results"].items()}
-    tables = format_tables(results, counts, table_robots, int(document["seeds"]))
-    out.mkdir(parents=True, exist_ok=True)
-    for name, text in tables.items():
-        (out / name).write_text(text)
-    plot_performance_profiles(on_shared_episodes(results, counts), counts,
-                              out / PROFILES_PLOT)
+    tables = write_tables(results, counts, table_robots, int(document["seeds"]), out)
     write_atomic(out / "marl_eval.json", json.dumps(to_marl_eval(document), indent=1))
     return tables
 
@@ -784,12 +791,7 @@ def write_results(run: Run, scenarios: Sequence[str], counts: Sequence[int],
         final = run.document(scenarios)
         final_results = {s: {b: {int(n): m for n, m in c.items()} for b, c in r.items()}
                          for s, r in final["results"].items()}
-        tables = format_tables(final_results, counts, table_robots, seeds)
-        out.mkdir(parents=True, exist_ok=True)
-        for name, text in tables.items():
-            (out / name).write_text(text)
-        plot_performance_profiles(on_shared_episodes(final_results, counts), counts,
-                                  out / PROFILES_PLOT)
+        tables = write_tables(final_results, counts, table_robots, seeds, out)
     document = run.document(scenarios)
     write_atomic(run.path, json.dumps(document, indent=1))
     write_atomic(out / "marl_eval.json", json.dumps(to_marl_eval(document), indent=1))

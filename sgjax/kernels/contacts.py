@@ -104,16 +104,15 @@ def clamp_to_walls(
         near = m.cell_walls[m.cell_of(x, y)]  # [B, Kw]
         walls = (m.wall_x1[near], m.wall_y1[near], m.wall_x2[near], m.wall_y2[near])
         valid = m.wall_valid[near]
-        # the fraction of the step within the reach (1 for every step the dynamics make)
-        horizon = jnp.clip((m.reach - radius) / jnp.maximum(length, 1e-9), 0.0, 1.0)
     else:
         walls = (m.wall_x1, m.wall_y1, m.wall_x2, m.wall_y2)
         valid = m.wall_valid
-        horizon = jnp.ones_like(length)
     toi = swept_disc_segment_toi(x[:, None], y[:, None], dx[:, None], dy[:, None],
                                  radius[:, None], *walls)
     toi = jnp.min(jnp.where(valid, toi, jnp.inf), axis=1)
-    toi = jnp.where(horizon < 1.0, jnp.minimum(toi, horizon), toi)
+    if uses_broad_phase(m):  # a step reaching past the lists stops where it would leave them
+        horizon = (m.reach - radius) / jnp.maximum(length, 1e-9)
+        toi = jnp.where(horizon < 1.0, jnp.minimum(toi, jnp.maximum(horizon, 0.0)), toi)
     hit = toi <= 1.0
     fraction = jnp.where(hit, jnp.maximum(toi - WALL_SKIN / jnp.maximum(length, 1e-9), 0.0), 1.0)
     return dx * fraction, dy * fraction, hit
