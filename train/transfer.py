@@ -349,10 +349,14 @@ def own_specialists(chosen: Sequence[Arm], maps: Sequence[HeldOutMap]) -> dict[s
     return own
 
 
-def wanted_checkpoints(arms: Sequence[Arm], own: Arm | None) -> dict[str, str]:
-    """The checkpoints a map's complete result holds: every arm's and its own specialist's."""
-    return {**{a.name: a.sha256 for a in arms},
-            **({own.name: own.sha256} if own is not None else {})}
+def is_complete(result: Mapping[str, Any] | None, arms: Sequence[Arm], own: Arm | None
+                ) -> bool:
+    """Whether a map's ``result`` holds every arm's current checkpoint, its own specialist's
+    and names that specialist (nothing left to play there)."""
+    wanted = {**{a.name: a.sha256 for a in arms},
+              **({own.name: own.sha256} if own is not None else {})}
+    return (result is not None and result.get("checkpoints") == wanted
+            and result.get("own_specialist") == (own.name if own else None))
 
 
 def judge(arms: Sequence[Arm], maps: Sequence[HeldOutMap], episodes: int, seed: int,
@@ -369,10 +373,7 @@ def judge(arms: Sequence[Arm], maps: Sequence[HeldOutMap], episodes: int, seed: 
     results = dict(done or {})
     for number, held in enumerate(maps, 1):
         earlier = results.get(held.key)
-        mine = own.get(held.key)
-        if (earlier is not None
-                and earlier.get("checkpoints") == wanted_checkpoints(arms, mine)
-                and earlier.get("own_specialist") == (mine.name if mine else None)):
+        if is_complete(earlier, arms, own.get(held.key)):
             continue
         result = {"set": held.set, "name": held.name, "scenario": held.scenario,
                   "worlds": {k: v for k, v in held.worlds},
@@ -817,8 +818,7 @@ def main(argv: list[str] | None = None) -> None:
 
         def write(results: Mapping[str, Any]) -> str:  # tables of the maps every arm played
             judged = {m.key: results[m.key] for m in maps
-                      if results.get(m.key, {}).get("checkpoints")
-                      == wanted_checkpoints(arms, own.get(m.key))}
+                      if is_complete(results.get(m.key), arms, own.get(m.key))}
             made = document(arms, judged, args.sets, args.robots, args.episodes, args.seed,
                             reference, args.margin, time.perf_counter() - start, extra)
             made["pending"] = [m.key for m in maps if m.key not in judged]
