@@ -477,7 +477,9 @@ class SocialNavEnv:
         robots were active at the start of the step (they alone were rewarded; settling robots
         move too), ``info["arrived"] [R]`` which arrived during it, ``info["collision_*"] [R]``
         what they touched; ``info["invalid_action"] [R]`` which robots' new actions were invalid
-        and replaced by the neutral action (see :meth:`step`).
+        and replaced by the neutral action (see :meth:`step`); ``info["neighbor_overflow"]``
+        (int32 scalar) how many bodies a full neighbour cell list left out (0 without cell
+        lists: ``HumanConfig.neighbor_range``).
         """
         reject_invalid_actions(actions, self.config.action_mode == "continuous")
         return self._step_env_compiled(key, state, actions, params)
@@ -531,6 +533,7 @@ class SocialNavEnv:
             "collision_robot": contacts.robot,
             "collision_wall": contacts.wall,
             "collision_human": contacts.human,
+            "neighbor_overflow": contacts.neighbor_overflow,
             "arrived": next_state.robots.succeeded & ~state.robots.succeeded,
             "reward_terms": reward_terms,
             "decided": decided,

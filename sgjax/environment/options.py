@@ -6,7 +6,8 @@ each belongs to one group:
 * :class:`RobotOptions`: ``num_agents``, ``min_agents``, ``max_agents``, ``robots``,
   ``action_mode``, ``decision_period``, ``goal_tolerance``, ``arrived``, ``ended``;
 * :class:`HumanOptions`: ``num_humans``, ``max_humans``, ``human_model``, ``human_walls``,
-  ``human_goals``, ``human_radius``, ``humans_see_robots``, ``human_groups``;
+  ``human_goals``, ``human_radius``, ``humans_see_robots``, ``human_groups``, ``human_range``,
+  ``human_search``, ``human_cell_capacity``;
 * :class:`TermOptions`: ``observations``, ``rewards``, ``enders``, ``terms``,
   ``observation_preset``, ``reward_preset`` (``docs/terms.md``);
 * :class:`PhysicsOptions`: ``dt``, ``substeps``, ``time_limit``, ``num_arcs``,
@@ -33,6 +34,7 @@ from typing import Any
 
 from sgjax.dynamics.limits import RobotPreset
 from sgjax.humans.groups import leaders
+from sgjax.humans.neighbors import SEARCHES
 from sgjax.humans.pedestrians import FORCE_MODELS, GOAL_MODES, WALL_MODELS, HumanConfig
 from sgjax.types import ACTION_MODES, ARRIVED_SEMANTICS, WORLD_SEMANTICS
 from sgjax.validation import (
@@ -109,9 +111,24 @@ class HumanOptions:
     # Group sizes: the first pedestrians walk in groups of these sizes (spawned together, one
     # goal, Moussaid 2010 group forces); the rest alone. A param: no recompilation.
     human_groups: tuple[int, ...] = ()
+    # m: bodies this far from a pedestrian do not act on it (ORCA: RVO2's neighborDist); None:
+    # every body does, as the published laws have it. With a range, crowds from
+    # neighbors.GRID_FROM_HUMANS pedestrians find their neighbours through cell lists.
+    human_range: float | None = None
+    human_search: str = "auto"  # with a range: "auto", "grid" (cell lists) or "all" (dense)
+    human_cell_capacity: int = 0  # bodies per cell list (0: 6 per m^2 of cell)
 
     def __post_init__(self) -> None:
         check_bool("humans_see_robots", self.humans_see_robots)
+        if self.human_range is not None:
+            check_positive("human_range", self.human_range)
+        check_choice("human_search", self.human_search, SEARCHES)
+        if not isinstance(self.human_cell_capacity, int) or self.human_cell_capacity < 0:
+            raise ValueError(f"human_cell_capacity must be an integer >= 0, got "
+                             f"{self.human_cell_capacity!r}")
+        if self.human_search == "grid" and self.human_range is None:
+            raise ValueError("human_search='grid' needs human_range (m): the cell lists hold "
+                             "the bodies within that range")
         _within_slots("num_humans", self.num_humans, "max_humans", self.max_humans, 0)
         check_positive("human_radius", self.human_radius)
         check_choice("human_model", self.human_model, FORCE_MODELS)
@@ -131,7 +148,9 @@ class HumanOptions:
     def config(self) -> HumanConfig:
         """The static pedestrian settings of the environment."""
         return HumanConfig(max_humans=self.slots, force_model=self.human_model,
-                           wall_model=self.human_walls, goal_mode=self.human_goals)
+                           wall_model=self.human_walls, goal_mode=self.human_goals,
+                           neighbor_range=self.human_range, neighbor_search=self.human_search,
+                           cell_capacity=self.human_cell_capacity)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -40,11 +40,14 @@ class Commands:
 
 @struct.dataclass
 class Contacts:
-    """``[R]`` bool: what each robot touched at any sub-step of the step."""
+    """``robot, wall, human`` ``[R]`` bool: what each robot touched at any sub-step of the
+    step; ``neighbor_overflow`` int32 scalar: the most bodies any sub-step left out of a full
+    neighbour cell list (:mod:`sgjax.humans.neighbors`; 0 when every list fit)."""
 
     robot: Array
     wall: Array
     human: Array
+    neighbor_overflow: Array
 
 
 def advance(
@@ -62,11 +65,12 @@ def advance(
     dt_sub = params.dt / substeps
     num_robots = robots.x.shape[0]
     x, y, kin = robots.x, robots.y, robots.kin
-    touched = Contacts(*(jnp.zeros(num_robots, bool),) * 3)
+    touched = Contacts(*(jnp.zeros(num_robots, bool),) * 3, jnp.zeros((), jnp.int32))
     for _ in range(substeps):
+        overflow = jnp.zeros((), jnp.int32)
         if human_config.max_humans:
             velocity = robots.replace(kin=kin).body_velocity
-            fx, fy, heading, omega = human_forces(
+            fx, fy, heading, omega, overflow = human_forces(
                 human_config, params.humans, params.map, humans, x, y, velocity[:, 0],
                 velocity[:, 1], in_world, moving, rp.radius, dt_sub)
             humans = move_humans(params.humans, params.map, humans, fx, fy, dt_sub).replace(
@@ -94,5 +98,6 @@ def advance(
         kin = jax.tree.map(lambda new, old: jnp.where(moving, new, old), new_kin, kin)
         touched = Contacts(robot=touched.robot | (overlap & moving),
                            wall=touched.wall | (wall & moving),
-                           human=touched.human | (met & moving))
+                           human=touched.human | (met & moving),
+                           neighbor_overflow=jnp.maximum(touched.neighbor_overflow, overflow))
     return robots.replace(x=x, y=y, kin=kin), humans, touched

@@ -80,6 +80,12 @@ def _pair_offset(weight: Array) -> Array:
     return 1.0 - (weight != 0.0).astype(jnp.float32)
 
 
+def _row(others: Array) -> Array:
+    """The others' values as ``[1, M]`` (one row shared by every pedestrian) or ``[H, P]``
+    (each pedestrian's own places, :class:`sgjax.humans.neighbors.Pairs`) as given."""
+    return others if others.ndim == 2 else others[None, :]
+
+
 def _flag(condition: Array) -> Array:
     """Boolean as a 0/1 float factor."""
     return condition.astype(jnp.float32)
@@ -102,6 +108,8 @@ def moussaid_interaction(
     """Moussaid et al. 2009 interaction of pedestrians ``[H]`` with bodies ``[M]``.
 
     ``weight [H, M]`` scales each pair (0 masks it: the pedestrian itself, absent bodies).
+    The bodies ``ox, oy, ovx, ovy`` are ``[M]`` (every pedestrian meets all of them) or
+    ``[H, M]`` (each its own, :class:`sgjax.humans.neighbors.Pairs`).
     With ``e`` the unit vector from the pedestrian to the other, ``D = lambda (v - v_other) + e``,
     ``t = D / |D|``, ``B = gamma |D|``, ``theta`` the signed angle from ``e`` to ``t`` in
     (-pi, pi] and ``d`` the centre distance::
@@ -115,15 +123,15 @@ def moussaid_interaction(
     outside [-pi, pi] (a pair straddling the +x direction) its interaction nearly vanishes.
     Only for the correspondence test; the default is the wrapped angle of the paper.
     """
-    rx = ox[None, :] - x[:, None] + _pair_offset(weight)
-    ry = oy[None, :] - y[:, None]
+    rx = _row(ox) - x[:, None] + _pair_offset(weight)
+    ry = _row(oy) - y[:, None]
     # Written lean on purpose: XLA's CPU backend stops vectorising a fused pair kernel once it
     # holds too many distinct terms, so t = D / |D| is folded into the two scalar factors and
     # no select or arctan2 appears (bench/throughput.py --table pedestrians shows the cost).
     dist = jnp.sqrt(rx * rx + ry * ry)
     inv_dist = 1.0 / jnp.maximum(dist, _TINY)
-    dx = p.lambda_importance * (vx[:, None] - ovx[None, :]) + rx * inv_dist
-    dy = p.lambda_importance * (vy[:, None] - ovy[None, :]) + ry * inv_dist
+    dx = p.lambda_importance * (vx[:, None] - _row(ovx)) + rx * inv_dist
+    dy = p.lambda_importance * (vy[:, None] - _row(ovy)) + ry * inv_dist
     d_norm = jnp.sqrt(dx * dx + dy * dy)
     # theta from e x D and e . D (|D| > 0 and |r| drop out of the angle).
     theta = polynomial_atan2(rx * dy - ry * dx, rx * dx + ry * dy)
@@ -149,12 +157,13 @@ def helbing_interaction(
     body and at its position one ``ellipse_dt`` step ahead: with ``r`` from the other to the
     pedestrian and ``s = v_other ellipse_dt``, ``2b = sqrt((|r| + |r - s|)^2 - |s|^2)``.
     Others outside the field of view (``heading [H]``, a unit vector: the desired direction)
-    count ``fov_out_weight``. ``weight [H, M]`` masks pairs.
+    count ``fov_out_weight``. ``weight [H, M]`` masks pairs; the bodies are ``[M]`` or
+    ``[H, M]`` as in :func:`moussaid_interaction`.
     """
-    rx = x[:, None] - ox[None, :] + _pair_offset(weight)
-    ry = y[:, None] - oy[None, :]
-    sx = ovx[None, :] * p.ellipse_dt
-    sy = ovy[None, :] * p.ellipse_dt
+    rx = x[:, None] - _row(ox) + _pair_offset(weight)
+    ry = y[:, None] - _row(oy)
+    sx = _row(ovx) * p.ellipse_dt
+    sy = _row(ovy) * p.ellipse_dt
     ux, uy, r_norm = unit(rx, ry)
     wx, wy, w_norm = unit(rx - sx, ry - sy)
     total = r_norm + w_norm

@@ -38,6 +38,7 @@ from flax import struct
 from jax import Array
 
 from sgjax.humans.groups import group_forces
+from sgjax.humans.neighbors import Each, Pairs, every_body
 from sgjax.kernels.geometry import point_segment_offset, polynomial_atan2, safe_norm, wrap_angle
 from sgjax.maps.arrays import MapArrays
 
@@ -76,10 +77,13 @@ def _pair_force(dx: Array, dy: Array, reach: Array, dvx: Array, dvy: Array,
 def hsfm_update(
     hp, m: MapArrays, humans, robot_x: Array, robot_y: Array, robot_vx: Array,
     robot_vy: Array, robot_in_world: Array, robot_radius: Array, dt: Array,
-) -> tuple[Array, Array, Array, Array]:
+    find: Each | None = None,
+) -> tuple[Array, Array, Array, Array, Array]:
     """One explicit Euler sub-step of ``dt`` s for every pedestrian. Returns ``(fx, fy)``
-    ``[H]`` (m/s^2: the change of world velocity over ``dt``), and the new heading (rad) and
-    turn rate (rad/s). ``hp``: ``HumanParams``; ``humans``: ``HumanState``; robots ``[R]``."""
+    ``[H]`` (m/s^2: the change of world velocity over ``dt``), the new heading (rad) and
+    turn rate (rad/s), and the cell lists' overflow (int32). ``hp``: ``HumanParams``;
+    ``humans``: ``HumanState``; robots ``[R]``; ``find``: how the pedestrians meet the bodies
+    (``HumanConfig.each``; ``None``: every body)."""
     h, p = humans, hp.hsfm
     num = h.x.shape[0]
     radius = jnp.broadcast_to(hp.radius, h.x.shape)
@@ -98,12 +102,18 @@ def hsfm_update(
     bvy = jnp.concatenate([h.vy, robot_vy])
     bradius = jnp.concatenate([radius, robot_radius])
     seen = robot_in_world & (hp.robot_weight > 0.0)
-    pair = (jnp.concatenate([h.active, seen])[None, :]
-            & ~jnp.eye(num, bx.shape[0], dtype=bool)).astype(jnp.float32)
-    fx, fy = _pair_force(h.x[:, None] - bx[None, :], h.y[:, None] - by[None, :],
-                         radius[:, None] + bradius[None, :], bvx[None, :] - h.vx[:, None],
-                         bvy[None, :] - h.vy[:, None], p)
-    fex, fey = jnp.sum(pair * fx, axis=1), jnp.sum(pair * fy, axis=1)
+    present = jnp.concatenate([h.active, seen]).astype(jnp.float32)
+
+    def interact(pairs: Pairs, x: Array, y: Array, vx: Array, vy: Array, r: Array
+                 ) -> tuple[Array, Array]:
+        fx, fy = _pair_force(x[:, None] - pairs.gather(bx), y[:, None] - pairs.gather(by),
+                             r[:, None] + pairs.gather(bradius, 0.0),
+                             pairs.gather(bvx, 0.0) - vx[:, None],
+                             pairs.gather(bvy, 0.0) - vy[:, None], p)
+        return jnp.sum(pairs.weight * fx, axis=1), jnp.sum(pairs.weight * fy, axis=1)
+
+    (fex, fey), overflow = (find or every_body(num))(interact, bx, by, present, h.vx, h.vy,
+                                                     radius)
     # Walls: the nearest point of each.
     ox, oy = point_segment_offset(h.x[:, None], h.y[:, None], m.wall_x1, m.wall_y1, m.wall_x2,
                                   m.wall_y2)
@@ -133,4 +143,5 @@ def hsfm_update(
     vx, vy = c * v_f - s * v_o, s * v_f + c * v_o
     active = h.active
     return (jnp.where(active, (vx - h.vx) / dt, 0.0), jnp.where(active, (vy - h.vy) / dt, 0.0),
-            jnp.where(active, heading, h.heading), jnp.where(active, omega, 0.0))
+            jnp.where(active, heading, h.heading), jnp.where(active, omega, 0.0),
+            overflow)

@@ -33,7 +33,9 @@ import jax.numpy as jnp
 from flax import struct
 from jax import Array
 
+from sgjax.humans.neighbors import Each, Pairs, every_body
 from sgjax.kernels.geometry import safe_norm
+from sgjax.kernels.neighbor_grid import pad_row
 from sgjax.kernels.orca import nearest_bodies, nearest_walls, orca_velocity, wall_lines
 from sgjax.maps.arrays import MapArrays
 
@@ -52,11 +54,14 @@ def orca_forces(
     hp, m: MapArrays, humans, robot_x: Array, robot_y: Array, robot_vx: Array,
     robot_vy: Array, robot_in_world: Array, robot_moving: Array, robot_radius: Array,
     dt: Array, neighbors: int, walls: int,
-) -> tuple[Array, Array]:
+    find: Each | None = None,
+) -> tuple[Array, Array, Array]:
     """``(fx, fy)`` ``[H]`` (m/s^2): the change to each pedestrian's ORCA velocity over ``dt``
-    s. ``hp``: :class:`~sgjax.humans.pedestrians.HumanParams`; ``humans``: ``HumanState``; robots
-    are
-    ``[R]`` arrays; ``neighbors`` and ``walls`` (static) bound the lines per pedestrian."""
+    s, and the cell lists' overflow (int32). ``hp``:
+    :class:`~sgjax.humans.pedestrians.HumanParams`; ``humans``: ``HumanState``; robots are
+    ``[R]`` arrays; ``neighbors`` and ``walls`` (static) bound the lines per pedestrian;
+    ``find``: how the pedestrians meet the bodies (``HumanConfig.each``, whose range is RVO2's
+    ``neighborDist``; ``None``: every body)."""
     h, p = humans, hp.orca
     num = h.x.shape[0]
     tx, ty = m.node_x[h.target], m.node_y[h.target]
@@ -76,8 +81,19 @@ def orca_forces(
     robot_share = jnp.where(moving, p.robot_share, 1.0)
     share = jnp.concatenate([jnp.full(h.x.shape, 0.5), robot_share])
     present = jnp.concatenate([h.active, robot_in_world & (p.robot_share > 0.0)])
-    pair = present[None, :] & ~jnp.eye(num, bx.shape[0], dtype=bool)
-    near, near_valid = nearest_bodies(h.x, h.y, bx, by, pair, neighbors)
+
+    def nearest(pairs: Pairs, x: Array, y: Array) -> tuple[Array, Array]:
+        near, valid = nearest_bodies(x, y, pairs.gather(bx), pairs.gather(by),
+                                     pairs.weight > 0.0, neighbors)
+        if pairs.index is not None:  # places in each pedestrian's list -> body rows
+            near = jnp.take_along_axis(pairs.index, near, axis=1)
+        return near, valid
+
+    (near, near_valid), overflow = (find or every_body(num))(
+        nearest, bx, by, present.astype(jnp.float32))
+    # the padding row a short list points at (never valid)
+    bx, by, bvx, bvy, bradius, share = (pad_row(a, 0.0) for a in
+                                        (bx, by, bvx, bvy, bradius, share))
     wall_near, wall_valid = nearest_walls(h.x, h.y, m, walls)  # the `walls` nearest segments
 
     def one(i: Array) -> tuple[Array, Array]:
@@ -92,4 +108,4 @@ def orca_forces(
 
     vx, vy = jax.vmap(one)(jnp.arange(num))
     vx, vy = jnp.where(h.active, vx, 0.0), jnp.where(h.active, vy, 0.0)
-    return (vx - h.vx) / dt, (vy - h.vy) / dt
+    return (vx - h.vx) / dt, (vy - h.vy) / dt, overflow

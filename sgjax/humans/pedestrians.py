@@ -10,6 +10,7 @@ node it came from: SocialGym's back-and-forth walk), so crowds persist for the w
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 
 import jax
 import jax.numpy as jnp
@@ -28,6 +29,15 @@ from sgjax.humans.forces import (
 )
 from sgjax.humans.groups import GroupParams, group_forces, spawn_beside_leaders
 from sgjax.humans.hsfm import HsfmParams, hsfm_update
+from sgjax.humans.neighbors import (
+    SPAN,
+    Each,
+    Pairs,
+    body_grid,
+    cell_capacity,
+    map_pairs,
+    uses_grid,
+)
 from sgjax.humans.orca_model import OrcaParams, orca_forces
 from sgjax.humans.slots import SPAWN_JITTER, SPAWN_MARGIN
 from sgjax.kernels.contacts import clamp_to_walls
@@ -59,6 +69,14 @@ class HumanConfig:
     ``goal_mode``: ``"random"`` (a new random node at each goal), ``"return"`` (walk back), or
     ``"routes"`` (start at a route's start, walk to its goal and back: the map's
     ``pedestrian_groups``, else its robot groups; the crowd scenarios use it).
+    ``neighbor_range`` (m): bodies at least this far from a pedestrian do not act on it (ORCA:
+    RVO2's ``neighborDist``); ``None``, every body does (the laws as published: none of them
+    has a range). ``neighbor_search``: with a range, find the bodies within it through cell
+    lists of half a range per side (``"grid"``), over every body (``"all"``), or through the
+    lists from :data:`sgjax.humans.neighbors.GRID_FROM_HUMANS` pedestrians on (``"auto"``:
+    where they are faster); both give the same forces. ``cell_capacity``: bodies listed per
+    cell (0: a density of 6 per m^2, :func:`sgjax.humans.neighbors.cell_capacity`); bodies
+    beyond it are counted in ``info["neighbor_overflow"]``.
     """
 
     max_humans: int = 0
@@ -67,6 +85,9 @@ class HumanConfig:
     goal_mode: str = "random"
     orca_neighbors: int = 10  # CrowdNav's ORCA max_neighbors
     orca_walls: int = 4
+    neighbor_range: float | None = None
+    neighbor_search: str = "auto"
+    cell_capacity: int = 0
 
     def __post_init__(self):
         for name, allowed in (("force_model", FORCE_MODELS), ("wall_model", WALL_MODELS),
@@ -79,6 +100,35 @@ class HumanConfig:
         for name in ("orca_neighbors", "orca_walls"):
             if getattr(self, name) < 1:
                 raise ValueError(f"HumanConfig.{name} must be >= 1, got {getattr(self, name)}")
+        if self.neighbor_range is not None and not self.neighbor_range > 0.0:
+            raise ValueError(f"HumanConfig.neighbor_range must be > 0 m or None, got "
+                             f"{self.neighbor_range}")
+        if self.cell_capacity < 0:
+            raise ValueError(f"HumanConfig.cell_capacity must be >= 0, got "
+                             f"{self.cell_capacity}")
+        uses_grid(self.neighbor_range, self.neighbor_search, self.max_humans)  # checks both
+
+    @property
+    def uses_grid(self) -> bool:
+        """Whether pedestrians find the bodies near them through cell lists (static)."""
+        return uses_grid(self.neighbor_range, self.neighbor_search, self.max_humans)
+
+    def each(self, m: MapArrays) -> Each:
+        """How a force model meets the bodies on map ``m`` under this configuration:
+        ``each(fn, bx, by, body_weight, *per_pedestrian)`` (:data:`sgjax.humans.neighbors.Each`;
+        the first ``max_humans`` bodies are the pedestrians) runs
+        :func:`sgjax.humans.neighbors.map_pairs` over every body or through cell lists."""
+        cell = self.neighbor_range / SPAN if self.neighbor_range else 0.0
+        grid = body_grid(m, cell) if self.uses_grid else None
+        capacity = self.cell_capacity or (cell_capacity(cell) if cell else 0)
+        num = self.max_humans
+
+        def each(fn: Callable[..., tuple[Array, ...]], bx: Array, by: Array,
+                 body_weight: Array, *per_pedestrian: Array) -> tuple[tuple[Array, ...], Array]:
+            return map_pairs(fn, bx[:num], by[:num], bx, by, body_weight, per_pedestrian,
+                             self.neighbor_range, grid, capacity)
+
+        return each
 
 
 @struct.dataclass(kw_only=True)
@@ -296,24 +346,27 @@ def human_forces(
     config: HumanConfig, hp: HumanParams, m: MapArrays, humans: HumanState,
     robot_x: Array, robot_y: Array, robot_vx: Array, robot_vy: Array, robot_in_world: Array,
     robot_moving: Array, robot_radius: Array, dt: Array,
-) -> tuple[Array, Array, Array, Array]:
+) -> tuple[Array, Array, Array, Array, Array]:
     """Total force per unit mass ``(fx, fy)`` ``[H]`` (m/s^2) on every pedestrian over a
-    sub-step of ``dt`` s, and its heading (rad) and turn rate (rad/s) after it: the driving
-    term, the interaction with the other pedestrians and the robots (``[R]`` arrays: position,
+    sub-step of ``dt`` s, its heading (rad) and turn rate (rad/s) after it, and the bodies left
+    out of a full cell list (int32 scalar; 0 without cell lists): the driving term, the
+    interaction with the other pedestrians and the robots (``[R]`` arrays: position,
     velocity, in the world, moving (parked robots are static), radius (m); the force laws count
-    robots ``robot_weight``), and walls. ORCA's force is the change to its velocity over
-    ``dt``; HSFM turns its heading under a torque; the other models face the way they walk."""
+    robots ``robot_weight``) within ``config.neighbor_range``, and walls. ORCA's force is the
+    change to its velocity over ``dt``; HSFM turns its heading under a torque; the other models
+    face the way they walk."""
+    find = config.each(m)
     if config.force_model == "orca":
-        fx, fy = orca_forces(hp, m, humans, robot_x, robot_y, robot_vx, robot_vy,
-                             robot_in_world, robot_moving, robot_radius, dt,
-                             config.orca_neighbors, config.orca_walls)
-        return (fx, fy, *_facing(humans, fx, fy, dt))
+        fx, fy, overflow = orca_forces(hp, m, humans, robot_x, robot_y, robot_vx, robot_vy,
+                                       robot_in_world, robot_moving, robot_radius, dt,
+                                       config.orca_neighbors, config.orca_walls, find)
+        return (fx, fy, *_facing(humans, fx, fy, dt), overflow)
     if config.force_model == "hsfm":
         return hsfm_update(hp, m, humans, robot_x, robot_y, robot_vx, robot_vy, robot_in_world,
-                           robot_radius, dt)
-    fx, fy = _social_forces(config, hp, m, humans, robot_x, robot_y, robot_vx, robot_vy,
-                            robot_in_world)
-    return (fx, fy, *_facing(humans, fx, fy, dt))
+                           robot_radius, dt, find)
+    fx, fy, overflow = _social_forces(config, hp, m, humans, robot_x, robot_y, robot_vx,
+                                      robot_vy, robot_in_world, find)
+    return (fx, fy, *_facing(humans, fx, fy, dt), overflow)
 
 
 def _facing(humans: HumanState, fx: Array, fy: Array, dt: Array) -> tuple[Array, Array]:
@@ -328,25 +381,32 @@ def _facing(humans: HumanState, fx: Array, fy: Array, dt: Array) -> tuple[Array,
 def _social_forces(
     config: HumanConfig, hp: HumanParams, m: MapArrays, humans: HumanState,
     robot_x: Array, robot_y: Array, robot_vx: Array, robot_vy: Array, robot_in_world: Array,
-) -> tuple[Array, Array]:
-    """``(fx, fy)`` ``[H]`` (m/s^2) of the Moussaid or Helbing-Molnar laws."""
+    find: Each,
+) -> tuple[Array, Array, Array]:
+    """``(fx, fy)`` ``[H]`` (m/s^2) of the Moussaid or Helbing-Molnar laws, and the cell
+    lists' overflow (``find``: how the pedestrians meet the bodies, :meth:`HumanConfig.each`)."""
     p = hp.forces
     h = humans
-    num = h.x.shape[0]
     tx, ty = m.node_x[h.target], m.node_y[h.target]
     fx, fy = desired_force(h.x, h.y, h.vx, h.vy, tx, ty, h.desired_speed, p.tau)
-    others_x = jnp.concatenate([h.x, robot_x])
-    others_y = jnp.concatenate([h.y, robot_y])
-    others_vx = jnp.concatenate([h.vx, robot_vx])
-    others_vy = jnp.concatenate([h.vy, robot_vy])
+    bx, by = jnp.concatenate([h.x, robot_x]), jnp.concatenate([h.y, robot_y])
+    bvx, bvy = jnp.concatenate([h.vx, robot_vx]), jnp.concatenate([h.vy, robot_vy])
     # 0/1 factors rather than selects (they fuse into the pair kernel; see forces.py).
-    others = (~jnp.eye(num, dtype=bool) & h.active[None, :]).astype(jnp.float32)
     robots = robot_in_world.astype(jnp.float32) * hp.robot_weight
-    weight = jnp.concatenate(
-        [others, jnp.broadcast_to(robots[None, :], (num, robot_x.shape[0]))], axis=1)
+    ex, ey, _ = unit(tx - h.x, ty - h.y)
+
+    def interact(pairs: Pairs, x: Array, y: Array, vx: Array, vy: Array, hx: Array,
+                 hy: Array) -> tuple[Array, Array]:
+        others = (pairs.gather(bx), pairs.gather(by), pairs.gather(bvx, 0.0),
+                  pairs.gather(bvy, 0.0))
+        if config.force_model == "moussaid":
+            return moussaid_interaction(x, y, vx, vy, *others, pairs.weight, p)
+        return helbing_interaction(x, y, hx, hy, *others, pairs.weight, p)
+
+    (sx, sy), overflow = find(interact, bx, by,
+                              jnp.concatenate([h.active.astype(jnp.float32), robots]),
+                              h.vx, h.vy, ex, ey)
     if config.force_model == "moussaid":
-        sx, sy = moussaid_interaction(h.x, h.y, h.vx, h.vy, others_x, others_y, others_vx,
-                                      others_vy, weight, p)
         if config.wall_model == "points":
             away_x = h.x[:, None] - hp.wall_points_x[None, :]
             away_y = h.y[:, None] - hp.wall_points_y[None, :]
@@ -357,15 +417,12 @@ def _social_forces(
         wx, wy = exponential_wall_force(away_x, away_y, valid,
                                         jnp.broadcast_to(hp.radius, h.x.shape), p)
     else:
-        ex, ey, _ = unit(tx - h.x, ty - h.y)
-        sx, sy = helbing_interaction(h.x, h.y, ex, ey, others_x, others_y, others_vx, others_vy,
-                                     weight, p)
         away_x, away_y = _wall_offsets(h, m)
         wx, wy = helbing_wall_force(away_x, away_y, m.wall_valid, p)
     if hp.groups is not None:
         gx, gy = group_forces(hp.groups, h.x, h.y, h.vx, h.vy, tx, ty, h.active)
         wx, wy = wx + gx, wy + gy
-    return fx + sx + wx, fy + sy + wy
+    return fx + sx + wx, fy + sy + wy, overflow
 
 
 def move_humans(

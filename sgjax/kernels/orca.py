@@ -127,12 +127,14 @@ def wall_lines(px: Array, py: Array, vx: Array, vy: Array, radius: Array, ax: Ar
 def nearest_bodies(x: Array, y: Array, bx: Array, by: Array, pair: Array, k: int
                    ) -> tuple[Array, Array]:
     """For agents at ``x, y`` ``[N]``, the rows of the ``k`` (static) nearest of the bodies
-    ``bx, by`` ``[B]`` that ``pair [N, B]`` allows: ``(index [N, k'], valid [N, k'])`` with
-    ``k' = min(k, B - 1)`` (0 when there is no other body)."""
-    k = max(0, min(k, bx.shape[0] - 1))
+    ``bx, by`` ``[B]`` (or each agent's own ``[N, B]``) that ``pair [N, B]`` allows:
+    ``(index [N, k'], valid [N, k'])`` with ``k' = min(k, B - 1)`` (0 when there is no other
+    body)."""
+    k = max(0, min(k, bx.shape[-1] - 1))
     if not k:
         return jnp.zeros((x.shape[0], 0), jnp.int32), jnp.zeros((x.shape[0], 0), bool)
-    gap_sq = jnp.square(bx[None, :] - x[:, None]) + jnp.square(by[None, :] - y[:, None])
+    bx, by = (bx, by) if bx.ndim == 2 else (bx[None, :], by[None, :])
+    gap_sq = jnp.square(bx - x[:, None]) + jnp.square(by - y[:, None])
     _, near = jax.lax.top_k(jnp.where(pair, -gap_sq, -jnp.inf), k)
     return near, jnp.take_along_axis(pair, near, axis=1)
 

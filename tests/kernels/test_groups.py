@@ -63,7 +63,7 @@ def walk_through_the_door(model: str, group_forces: bool):
 
     def step(h, key):
         h = advance_waypoints(key, config, hp, m, h)
-        fx, fy, heading, omega = human_forces(config, hp, m, h, none, none, none, none,
+        fx, fy, heading, omega, _ = human_forces(config, hp, m, h, none, none, none, none,
                                               jnp.zeros(0, bool), jnp.zeros(0, bool), none, dt)
         h = move_humans(hp, m, h, fx, fy, dt).replace(heading=heading, omega=omega)
         spread = jnp.max(jnp.hypot(h.x[:, None] - h.x[None], h.y[:, None] - h.y[None]))

@@ -40,7 +40,7 @@ def humans_at(params, xy, velocity, heading, omega=0.0, target_row=None):
 def update(params, humans):
     none = jnp.zeros(0)
     return hsfm_update(params.humans, params.map, humans, none, none, none, none,
-                       jnp.zeros(0, bool), none, DT)
+                       jnp.zeros(0, bool), none, DT)[:4]
 
 
 def unit_to_target(params, h, i=0):
@@ -163,7 +163,7 @@ def test_model_constants_are_differentiable(model, field, value):
             **{field: constant})})
 
         def body(humans, _):
-            fx, fy, heading, omega = human_forces(
+            fx, fy, heading, omega, _ = human_forces(
                 config, hp, params.map, humans, robots.x, robots.y, zero, zero,
                 robots.in_world, robots.moving, params.robots.radius, dt)
             moved = move_humans(hp, params.map, humans, fx, fy, dt)

@@ -80,7 +80,7 @@ def test_counter_flow_in_a_three_metre_corridor_clears():
     dt = 0.05
 
     def step(h, _):
-        fx, fy, _, _ = human_forces(config, hp, m, h, none, none, none, none,
+        fx, fy, _, _, _ = human_forces(config, hp, m, h, none, none, none, none,
                                     jnp.zeros(0, bool), jnp.zeros(0, bool), none, dt)
         h = move_humans(hp, m, h, fx, fy, dt)
         gap = jnp.hypot(h.x[:, None] - h.x[None], h.y[:, None] - h.y[None]) + 9.0 * jnp.eye(n)
@@ -150,7 +150,7 @@ def test_orca_pedestrians_see_robots_or_not():
     zero = jnp.zeros(1)
 
     def speed(hp):
-        fx, fy, _, _ = human_forces(env.config.humans, hp, params.map, h, rx, ry, zero, zero,
+        fx, fy, _, _, _ = human_forces(env.config.humans, hp, params.map, h, rx, ry, zero, zero,
                                     jnp.ones(1, bool), jnp.ones(1, bool),
                                     params.robots.radius, 0.1)
         return float(jnp.hypot(h.vx[0] + 0.1 * fx[0], h.vy[0] + 0.1 * fy[0]))
