@@ -42,7 +42,7 @@ from sgjax.maps.crowd_scenarios import square_crossing
 
 SIDE = 40.0  # m
 # environments per crowd: about 4,000 pedestrians per batch, as the table
-ENVS = {50: 64, 200: 16, 500: 6, 1000: 4, 2000: 2}
+ENVS = {50: 64, 100: 40, 200: 16, 500: 6, 1000: 4, 2000: 2}
 
 
 def sgjax_row(humans: int, envs: int, model: str, search: str | None, rng: float,

@@ -36,8 +36,10 @@ FAR = 1.0e6  # m: where the padding body stands (no force law reaches it)
 SPAN = 2
 SEARCHES = ("auto", "all", "grid")
 # Pedestrians from which the cell lists pay when a range is set (sgjax.make's "auto"):
-# bench/crowd_scale.py, 2-core CPU: below it the dense pair kernel is faster.
-GRID_FROM_HUMANS = 128
+# bench/crowd_scale.py, 2-core CPU, 40 m crossing: with 500 pedestrians every body is 1.8x
+# faster than the lists (a pedestrian reads about 350 listed places, and every body is only
+# 504); with 1,000 the lists are 1.28x faster.
+GRID_FROM_HUMANS = 1000
 # Bodies per m^2 a cell list holds by default: 6, near the crush density of crowd research
 # (people stand at 6 to 7 per m^2 only when pressed together; Fruin's level of service F
 # begins at about 2 per m^2). The 40 m crossing of bench/crowd_scale.py peaks at 4.4 per m^2

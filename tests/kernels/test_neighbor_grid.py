@@ -200,5 +200,6 @@ def test_options_name_the_bad_keyword():
     with pytest.raises(ValueError, match="human_cell_capacity"):
         MakeOptions.from_keywords(num_humans=4, human_cell_capacity=-2)
     assert not HumanConfig(max_humans=500).uses_grid  # no range: every body, as published
-    assert HumanConfig(max_humans=500, neighbor_range=3.0).uses_grid
+    assert HumanConfig(max_humans=1000, neighbor_range=3.0).uses_grid
+    assert not HumanConfig(max_humans=1000, neighbor_range=3.0, neighbor_search="all").uses_grid
     assert not HumanConfig(max_humans=20, neighbor_range=3.0).uses_grid  # auto: small crowd
