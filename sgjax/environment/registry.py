@@ -55,7 +55,8 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
     top of
     ``options`` when given: for robots ``num_agents``, ``max_agents``, ``robots``,
     ``action_mode``, ``goal_tolerance``; for pedestrians ``num_humans``, ``max_humans``,
-    ``human_model``, ``human_walls``, ``human_goals``, ``human_radius``; for the observation /
+    ``human_model``, ``human_walls``, ``human_goals``, ``human_radius``, ``human_range``,
+    ``human_search``, ``human_cell_capacity``; for the observation /
     reward / ender terms ``observations``, ``rewards``, ``enders``, ``terms``,
     ``observation_preset``, ``reward_preset`` (``docs/terms.md``); for physics ``dt``,
     ``substeps``, ``time_limit``, ``num_arcs``, ``contact_passes``.
