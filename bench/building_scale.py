@@ -25,6 +25,7 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 from throughput import _prepare_jax as prepare_jax
+from throughput import staggered_states
 
 import sgjax
 from sgjax.kernels.contacts import uses_broad_phase
@@ -49,10 +50,7 @@ def scenario(name: str, sg2maps: Path):
 def prepare(env, params, robots: int, envs: int, steps: int):
     """``(compile s, peak bytes, timer)``: the compiled rollout of ``steps`` batched steps;
     ``timer(repeats)`` returns the best seconds per step."""
-    keys = jax.random.split(jax.random.key(0), envs)
-    _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
-    clocks = jax.random.randint(jax.random.key(2), (envs,), 0, params.max_steps)
-    state = state.replace(time=clocks.astype(state.time.dtype))
+    state = staggered_states(env, params, envs)
 
     def rollout(state, key):
         def body(carry, k):

@@ -36,6 +36,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from compiled import compile_measured
+from throughput import pysocialforce_seconds, staggered_states
 
 import sgjax
 from sgjax.maps.crowd_scenarios import square_crossing
@@ -52,10 +53,7 @@ def sgjax_row(humans: int, envs: int, model: str, search: str | None, rng: float
     kw = {} if search is None else {"human_range": rng, "human_search": search}
     env, params = sgjax.make(square_crossing(side=SIDE), num_agents=robots, num_humans=humans,
                              human_goals="routes", human_model=model, **kw)
-    keys = jax.random.split(jax.random.key(0), envs)
-    _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
-    clocks = jax.random.randint(jax.random.key(2), (envs,), 0, params.max_steps)
-    state = state.replace(time=clocks.astype(state.time.dtype))
+    state = staggered_states(env, params, envs)
 
     def rollout(state, key):
         def body(carry, k):
@@ -137,35 +135,13 @@ def bench_jupedsim(humans: int, iterations: int, repeats: int) -> float:
 def bench_pysocialforce(humans: int, steps: int, repeats: int) -> float:
     """PySocialForce's seconds per 0.1 s step: ``humans`` pedestrians crossing the square
     (its four sides as obstacles, groups off)."""
-    import logging
-    import tempfile
-    from pathlib import Path
-
-    import pysocialforce
-    import toml
-
-    logging.disable(logging.CRITICAL)  # it switches the root logger to DEBUG
-    config = toml.load(Path(pysocialforce.__file__).parent / "config" / "default.toml")
-    config["scene"]["enable_group"] = False
-    config["step_width"] = 0.1  # read from the top level, not [scene]
     starts, goals = crossing_starts(humans)
     heading = goals - starts
     heading /= np.linalg.norm(heading, axis=1, keepdims=True)
     speed = np.clip(np.random.default_rng(1).normal(1.34, 0.26, humans), 0.5, 2.0)
     state = np.concatenate([starts, heading * speed[:, None], goals], axis=1)
     obstacles = [[0, SIDE, 0, 0], [SIDE, SIDE, 0, SIDE], [0, SIDE, SIDE, SIDE], [0, 0, 0, SIDE]]
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "psf.toml"
-        path.write_text(toml.dumps(config))
-        sim = pysocialforce.Simulator(state, groups=None, obstacles=obstacles,
-                                      config_file=str(path))
-    sim.step(1)
-    best = float("inf")
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        sim.step(steps)
-        best = min(best, (time.perf_counter() - t0) / steps)
-    return best
+    return pysocialforce_seconds(state, obstacles, steps, repeats)
 
 
 def _load() -> str:

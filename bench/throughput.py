@@ -94,13 +94,7 @@ def bench_sgjax(mode: str, robots: int, num_envs: int, steps: int, scenario: str
     env, params = sgjax.make(scenario, num_agents=robots, action_mode=mode, num_humans=humans,
                              observation_preset=terms, reward_preset=rewards,
                              human_model=human_model)
-    keys = jax.random.split(jax.random.key(0), num_envs)
-    _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
-    # Episodes at staggered clocks, uniform over the time limit: they end at a long rollout's
-    # steady rate (num_envs / limit per step, more where robots finish early) instead of all
-    # at once, or never within the timed steps.
-    clocks = jax.random.randint(jax.random.key(2), (num_envs,), 0, params.max_steps)
-    state = state.replace(time=clocks.astype(state.time.dtype))
+    state = staggered_states(env, params, num_envs)
     vstep = (env.step_batch if batched_reset
              else jax.vmap(env.step, in_axes=(0, 0, 0, None)))
 
@@ -167,29 +161,30 @@ def bench_vmas(robots: int, num_envs: int, steps: int) -> Prepared:
         run(steps) for _ in range(repeats)) / steps
 
 
-def bench_pysocialforce(humans: int, steps: int, repeats: int) -> float:
-    """PySocialForce's seconds per step for one scene of ``humans`` pedestrians in the hallway's
-    walls (groups off, 0.1 s step), half starting in each room and heading for the other."""
+def staggered_states(env, params, num_envs: int):
+    """``num_envs`` reset states at clocks uniform over the time limit: episodes end at a long
+    rollout's steady rate (``num_envs`` / limit per step, more where robots finish early)
+    instead of all at once, or never within the timed steps."""
+    keys = jax.random.split(jax.random.key(0), num_envs)
+    _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+    clocks = jax.random.randint(jax.random.key(2), (num_envs,), 0, params.max_steps)
+    return state.replace(time=clocks.astype(state.time.dtype))
+
+
+def pysocialforce_seconds(state, obstacles, steps: int, repeats: int) -> float:
+    """PySocialForce's best seconds per 0.1 s step from ``state`` ``[N, 6]`` (position,
+    velocity, goal) among ``obstacles`` (``[x1, x2, y1, y2]`` each), groups off."""
     import logging
     import tempfile
     from pathlib import Path
 
-    import numpy as np
     import pysocialforce
     import toml
 
     logging.disable(logging.CRITICAL)  # it switches the root logger to DEBUG
-    spec = sgjax.maps.load("hallway")
-    obstacles = [[x1, x2, y1, y2] for x1, y1, x2, y2 in spec.walls]
     config = toml.load(Path(pysocialforce.__file__).parent / "config" / "default.toml")
     config["scene"]["enable_group"] = False
     config["step_width"] = 0.1  # read from the top level, not [scene]
-    rng = np.random.default_rng(0)
-    left = humans // 2
-    x = np.concatenate([rng.uniform(-11, -4, left), rng.uniform(4, 11, humans - left)])
-    y = rng.uniform(-5, 5, humans)
-    speed = np.clip(rng.normal(1.34, 0.26, humans), 0.5, 2.0)
-    state = np.stack([x, y, -np.sign(x) * speed, np.zeros(humans), -x, y], axis=-1)
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "psf.toml"
         path.write_text(toml.dumps(config))
@@ -202,6 +197,22 @@ def bench_pysocialforce(humans: int, steps: int, repeats: int) -> float:
         sim.step(steps)
         best = min(best, (time.perf_counter() - t0) / steps)
     return best
+
+
+def bench_pysocialforce(humans: int, steps: int, repeats: int) -> float:
+    """PySocialForce's seconds per step for one scene of ``humans`` pedestrians in the hallway's
+    walls (groups off, 0.1 s step), half starting in each room and heading for the other."""
+    import numpy as np
+
+    spec = sgjax.maps.load("hallway")
+    obstacles = [[x1, x2, y1, y2] for x1, y1, x2, y2 in spec.walls]
+    rng = np.random.default_rng(0)
+    left = humans // 2
+    x = np.concatenate([rng.uniform(-11, -4, left), rng.uniform(4, 11, humans - left)])
+    y = rng.uniform(-5, 5, humans)
+    speed = np.clip(rng.normal(1.34, 0.26, humans), 0.5, 2.0)
+    state = np.stack([x, y, -np.sign(x) * speed, np.zeros(humans), -x, y], axis=-1)
+    return pysocialforce_seconds(state, obstacles, steps, repeats)
 
 
 def bench_rvo2(humans: int, steps: int, repeats: int) -> float:

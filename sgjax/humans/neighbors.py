@@ -51,11 +51,9 @@ DENSITY_CAPACITY = 6.0
 @struct.dataclass
 class Pairs:
     """The others of a block of pedestrians. ``index [B, P]`` int32 body rows (``None``: every
-    body, in row order); ``weight [B, P]`` float factors (0: no interaction); ``overflow``
-    int32 scalar: bodies left out of a full cell list (always 0 with every body)."""
+    body, in row order); ``weight [B, P]`` float factors (0: no interaction)."""
 
     weight: Array
-    overflow: Array
     index: Array | None = None
 
     def gather(self, values: Array, fill: float = FAR) -> Array:
@@ -99,7 +97,7 @@ def dense_pairs(x: Array, y: Array, bx: Array, by: Array, body_weight: Array,
     if neighbor_range is not None:
         gap_sq = jnp.square(bx[None, :] - x[:, None]) + jnp.square(by[None, :] - y[:, None])
         weight = weight * (gap_sq < neighbor_range * neighbor_range).astype(jnp.float32)
-    return Pairs(weight=weight, overflow=jnp.zeros((), jnp.int32))
+    return Pairs(weight=weight)
 
 
 def listed_pairs(grid: BodyGrid, cells: BodyCells, rows: Array, x: Array, y: Array,
@@ -113,7 +111,7 @@ def listed_pairs(grid: BodyGrid, cells: BodyCells, rows: Array, x: Array, y: Arr
               + jnp.square(pad_row(by, FAR)[index] - y[:, None]))
     near = listed & (index != rows[:, None]) & (gap_sq < neighbor_range * neighbor_range)
     weight = near.astype(jnp.float32) * pad_row(body_weight, 0.0)[index]
-    return Pairs(weight=weight, overflow=cells.overflow, index=index)
+    return Pairs(weight=weight, index=index)
 
 
 def map_pairs(
