@@ -142,9 +142,10 @@ class WorldSource:
         """The draw of a built ``world``: its map arrays, checked (``valid``; a world whose
         values a held-out split holds is not valid), its pedestrian slots."""
         capacity = self.capacity
-        arrays, dist, overflow = world_arrays(world, capacity)
+        arrays, dist, overflow, hops = world_arrays(world, capacity, self.family.routes)
         ok = verdict(world, dist, arrays.next_hop, overflow, self.robot_radius,
-                     route_nodes=capacity.route_nodes, check_dilemma=self.check_dilemma).valid
+                     route_nodes=capacity.route_nodes, check_dilemma=self.check_dilemma,
+                     hops=hops).valid
         fresh = ~is_excluded(values_hash(values), self._excluded())
         return WorldDraw(map=arrays, valid=ok & fresh, values=values,
                          seed=jnp.asarray(seed, jnp.uint32), humans=self.slots_of(world))

@@ -33,9 +33,9 @@ def batch(name: str, count: int, seed: int = 0):
 
     def one(key):
         world, values = generate(fam, key, ranges)
-        arrays, dist, overflow = world_arrays(world, fam.capacity)
+        arrays, dist, overflow, hops = world_arrays(world, fam.capacity, fam.routes)
         return world, values, arrays, verdict(world, dist, arrays.next_hop, overflow, RADIUS,
-                                              route_nodes=fam.capacity.route_nodes)
+                                              route_nodes=fam.capacity.route_nodes, hops=hops)
 
     return jax.jit(jax.vmap(one))(jax.random.split(jax.random.key(seed), count))
 
@@ -102,6 +102,56 @@ def test_exported_worlds_pass_the_map_checker_and_compile_to_the_same_routes(nam
                                    atol=1e-4)
 
 
+@pytest.mark.slow
+def test_a_floor_plans_own_routes_equal_floyd_warshall_and_walk_in_their_hops():
+    """The floor plan's routes from its structure (rooms' Floyd-Warshall, the other nodes hung
+    off them) over thousands of worlds: every length the generic Floyd-Warshall's over all
+    hubs, every route walked along ``next_hop`` reaches its goal in exactly its ``hops``
+    with the length ``dist`` gives (so a route that fits by ``hops`` fits when walked)."""
+    from sgjax.maps.generated.checks import after_hops, routes_fit
+    from sgjax.maps.generated.graph import shortest_paths
+
+    fam = family("floorplan")
+    ranges = range_arrays(fam.ranges())
+    count = fam.capacity.nodes
+
+    @jax.jit
+    @jax.vmap
+    def compare(key):
+        world, _ = generate(fam, key, ranges)
+        gap = jnp.linalg.norm(world.nodes[:, None] - world.nodes[None], axis=-1)
+        dist, next_hop, hops, _ = fam.routes(gap, world.adjacency, world.edges)
+        generic, _, fits = shortest_paths(gap, world.adjacency, fam.capacity.hubs)
+        goal = jnp.broadcast_to(jnp.arange(count)[None, :], (count, count))
+        at = jnp.broadcast_to(jnp.arange(count)[:, None], (count, count))
+        walked = jnp.zeros((count, count))
+        steps = jnp.zeros((count, count), jnp.int32)
+        for _ in range(fam.capacity.route_nodes):
+            hop = jnp.maximum(next_hop[at, goal], 0)
+            walked = walked + gap[at, hop]
+            steps = steps + (hop != at)
+            at = hop
+        arrived = at == goal
+        walk_fits = routes_fit(world, next_hop, fam.capacity.route_nodes)
+        fits_by_hops = routes_fit(world, next_hop, fam.capacity.route_nodes, hops)
+        return (dist, generic, fits, hops, walked, steps, arrived, walk_fits, fits_by_hops,
+                after_hops(next_hop, 1) == next_hop)
+
+    out = compare(jax.random.split(jax.random.key(11), 2048))
+    dist, generic, fits, hops, walked, steps, arrived, walk_fits, by_hops, _ = map(np.asarray,
+                                                                                  out)
+    assert fits.all()
+    finite = np.isfinite(generic)
+    assert (np.isfinite(dist) == finite).all()
+    np.testing.assert_allclose(dist[finite], generic[finite], rtol=1e-5, atol=1e-4)
+    # every reachable route arrives, in its hops, along its length; the unreachable ones
+    # have hops -1
+    assert arrived[finite].all() and (steps[finite] == hops[finite]).all()
+    np.testing.assert_allclose(walked[finite], dist[finite], rtol=1e-5, atol=1e-4)
+    assert (hops[~finite] == -1).all()
+    assert (walk_fits == by_hops).all() and by_hops.all()
+
+
 def test_the_wall_grid_matches_the_hosts_on_the_familys_extent():
     """The planner's per-cell wall lists: where a family's cells hold fewer than all its walls,
     the in-jit grid equals the host's ``wall_grid`` on the same grid (the family's extent);
@@ -140,7 +190,7 @@ def _broken(mutate):
     @jax.jit
     def made(key):
         world = mutate(generate(fam, key, range_arrays(fam.ranges()))[0])
-        arrays, dist, overflow = world_arrays(world, fam.capacity)
+        arrays, dist, overflow, _ = world_arrays(world, fam.capacity)
         return world, verdict(world, dist, arrays.next_hop, overflow, RADIUS,
                               route_nodes=fam.capacity.route_nodes)
 
@@ -193,7 +243,7 @@ def test_a_passage_narrower_than_the_robots_is_flagged():
     @jax.jit
     def passages(key):
         world, _ = generate(fam, key, ranges)
-        arrays, dist, overflow = world_arrays(world, fam.capacity)
+        arrays, dist, overflow, _ = world_arrays(world, fam.capacity)
         return [verdict(world, dist, arrays.next_hop, overflow, radius, check_dilemma=False
                         ).passages for radius in (0.3, 0.2)]
 

@@ -121,9 +121,14 @@ def pairs_connected(world: World, dist: Array) -> Array:
     return jnp.all(~group_pairs(world) | jnp.isfinite(dist))
 
 
-def routes_fit(world: World, next_hop: Array, route_nodes: int) -> Array:
+def routes_fit(world: World, next_hop: Array, route_nodes: int, hops: Array | None = None
+               ) -> Array:
     """Whether every group route reaches its goal within ``route_nodes`` nodes (the route
-    arrays' static length: a longer one would be cut short)."""
+    arrays' static length: a longer one would be cut short): its hops read from ``hops [N,
+    N]`` where the routes came with them (a family's own ``routes``), else the route walked
+    along ``next_hop``."""
+    if hops is not None:
+        return jnp.all(~group_pairs(world) | ((hops >= 0) & (hops <= route_nodes - 1)))
     count = next_hop.shape[0]
     goal = jnp.broadcast_to(jnp.arange(count)[None, :], (count, count))
     last = after_hops(next_hop, route_nodes - 1)
@@ -196,12 +201,15 @@ def conflicting_routes(world: World, next_hop: Array, route_nodes: int) -> Array
 
 def verdict(world: World, dist: Array, next_hop: Array, overflow: Array,
             robot_radius: float, clearance: float = DEFAULT_CLEARANCE,
-            route_nodes: int | None = None, check_dilemma: bool = True) -> Verdict:
+            route_nodes: int | None = None, check_dilemma: bool = True,
+            hops: Array | None = None) -> Verdict:
     """Every check of one world (robots of up to ``robot_radius`` m; nodes at least
     ``clearance`` m from walls, the map checker's rule; routes of at most ``route_nodes``
     nodes, default the node count). ``check_dilemma`` False skips the dilemma check (its
     verdict reads True): a reset does, since a family promises its dilemma by construction
-    (tested over thousands of worlds) and the check costs more than the rest together."""
+    (tested over thousands of worlds) and the check costs more than the rest together.
+    ``hops [N, N]``: the routes' node hops where the family's own routes give them
+    (:func:`routes_fit`)."""
     route_nodes = route_nodes or world.nodes.shape[0]
     ok_nodes = jnp.all(~world.node_valid | (node_clearance(world) >= clearance))
     dilemma = (~world.dilemma | jnp.any(conflicting_routes(world, next_hop, route_nodes))
@@ -209,7 +217,7 @@ def verdict(world: World, dist: Array, next_hop: Array, overflow: Array,
     return Verdict(
         made=world.made, clearance=ok_nodes, edges_clear=~jnp.any(edges_through_walls(world)),
         connected=pairs_connected(world, dist),
-        routes_fit=routes_fit(world, next_hop, route_nodes),
+        routes_fit=routes_fit(world, next_hop, route_nodes, hops),
         passages=jnp.all(~world.zone_valid
                          | (world.zone_width >= 2.0 * robot_radius + PASSAGE_MARGIN)),
         grid=~overflow, dilemma=dilemma)

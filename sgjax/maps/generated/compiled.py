@@ -4,6 +4,8 @@ trainer work on it unchanged."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import jax.numpy as jnp
 from jax import Array
 
@@ -13,13 +15,20 @@ from sgjax.maps.generated.grid import cell_walls, grid_layout
 from sgjax.maps.generated.world import Capacity, World
 
 
-def world_arrays(world: World, capacity: Capacity) -> tuple[MapArrays, Array, Array]:
-    """``(arrays, dist [N, N], overflow)``: the world's map arrays, its shortest-path lengths
-    (``inf`` where unreachable, for the checks) and whether it overflows its family's capacity
-    (more walls near a cell than a cell lists, more route nodes than ``hubs``)."""
+def world_arrays(world: World, capacity: Capacity, routes: Callable | None = None
+                 ) -> tuple[MapArrays, Array, Array, Array | None]:
+    """``(arrays, dist [N, N], overflow, hops)``: the world's map arrays, its shortest-path
+    lengths (``inf`` where unreachable, for the checks), whether it overflows its family's
+    capacity (more walls near a cell than a cell lists, more route nodes than ``hubs``) and
+    the node hops of every route (``[N, N]``, from a family's own ``routes``, see
+    :class:`~sgjax.maps.generated.family.Family`; None from the generic Floyd-Warshall)."""
     nodes = world.nodes
     gap = jnp.linalg.norm(nodes[:, None, :] - nodes[None, :, :], axis=-1)
-    dist, next_hop, fits = shortest_paths(gap, world.adjacency, capacity.hubs)
+    if routes is None:
+        dist, next_hop, fits = shortest_paths(gap, world.adjacency, capacity.hubs)
+        hops = None
+    else:
+        dist, next_hop, hops, fits = routes(gap, world.adjacency, world.edges)
     lists, overflow = cell_walls(world.walls, world.wall_valid, capacity)
     overflow = overflow | ~fits
     origin, shape = grid_layout(capacity)
@@ -35,4 +44,4 @@ def world_arrays(world: World, capacity: Capacity) -> tuple[MapArrays, Array, Ar
         zone_rect=world.zones, zone_width=world.zone_width,
         max_route_nodes=capacity.route_nodes, grid_shape=shape,
         cell_size=float(capacity.cell_size), reach=float(capacity.reach))
-    return arrays, dist, overflow
+    return arrays, dist, overflow, hops

@@ -39,6 +39,10 @@ class Family:
     parameters: Mapping[str, Parameter]
     capacity: Capacity
     build: Callable[[Mapping[str, Array], Array], World]
+    # the family's own shortest routes, ``(gap, adjacency, edges) -> (dist, next_hop, hops,
+    # fits)`` (:func:`sgjax.maps.generated.compiled.world_arrays`); None: Floyd-Warshall over
+    # the capacity's hubs, the routes walked to count their hops
+    routes: Callable[[Array, Array, Array], tuple[Array, Array, Array, Array]] | None = None
 
     def ranges(self, overrides: Mapping[str, Any] | None = None) -> dict[str, tuple[float, float]]:
         """The default ranges with ``overrides`` ({name: (low, high) or a number}) on top,

@@ -21,14 +21,27 @@ import numpy as np
 from jax import Array
 
 from sgjax.maps.generated.family import Family, Parameter
+from sgjax.maps.generated.floorplan_layout import (
+    CELLS,
+    COLUMNS,
+    DOORS,
+    EDGES,
+    FIRST_APPROACH,
+    FIRST_SPAWN,
+    NODES,
+    PAIRS,
+    ROWS,
+    SLOTS,
+    SPAWN_COLUMNS,
+    SPAWN_ROWS,
+    SPAWNS,
+    VERTICAL,
+    WALLS,
+)
+from sgjax.maps.generated.floorplan_routes import floorplan_routes
 from sgjax.maps.generated.lattice import lattice
 from sgjax.maps.generated.world import FAR, Capacity, World, padded_walls
 
-COLUMNS, ROWS = 4, 4  # the grid's capacity: 4 x 3 rooms and a corridor row
-CELLS = COLUMNS * ROWS
-SLOTS = 4  # spawn lattices: two pairs of rooms, each room's robots going to the other
-SPAWN_COLUMNS = SPAWN_ROWS = 3
-SPAWNS = SPAWN_COLUMNS * SPAWN_ROWS
 SPREAD = 0.15  # each column's width and row's height: the room size times 1 +- this
 DOOR_SPREAD = 0.1  # each door's width: the drawn width times 1 +- this
 DOOR_END = 0.5  # m: a door keeps this far from the ends of its wall
@@ -36,31 +49,6 @@ APPROACH = 0.8  # m: a door's approach nodes stand this far off its wall
 MARGIN = 0.6  # m: spawns keep this far from a room's walls
 ZONE_MARGIN = 0.5  # m: a door's zone reaches this far past its sides
 
-
-def _adjacencies() -> tuple[np.ndarray, np.ndarray]:
-    """``(cells [24, 2], vertical [24])``: each pair of neighbouring grid cells (cell = row x
-    COLUMNS + column), left-right pairs first (their wall is vertical), then bottom-top."""
-    pairs, vertical = [], []
-    for j in range(ROWS):
-        for i in range(COLUMNS - 1):
-            pairs.append((j * COLUMNS + i, j * COLUMNS + i + 1))
-            vertical.append(True)
-    for j in range(ROWS - 1):
-        for i in range(COLUMNS):
-            pairs.append((j * COLUMNS + i, (j + 1) * COLUMNS + i))
-            vertical.append(False)
-    return np.asarray(pairs, np.int32), np.asarray(vertical)
-
-
-PAIRS, VERTICAL = _adjacencies()
-DOORS = len(PAIRS)
-# node rows: cell centres, then each door's approach nodes (its first cell's side, then its
-# second's), then the spawn lattices
-FIRST_APPROACH = CELLS
-FIRST_SPAWN = CELLS + 2 * DOORS
-NODES = FIRST_SPAWN + SLOTS * SPAWNS
-WALLS = 2 * DOORS + 4 + 1  # each adjacency's wall in two pieces (a door between), the outside
-EDGES = 3 * DOORS + SLOTS * SPAWNS
 
 PARAMETERS = {
     "rooms_x": Parameter((2.0, 4.999), (2.0, 4.999), "", "rooms across (the integer part)"),
@@ -240,4 +228,4 @@ def build(values: Mapping[str, Array], key: Array) -> World:
 
 FLOORPLAN = Family("floorplan", "rooms on a grid joined by doors on a random spanning tree "
                    "plus extra doors, with an optional corridor; robots cross between two pairs "
-                   "of rooms both ways", PARAMETERS, CAPACITY, build)
+                   "of rooms both ways", PARAMETERS, CAPACITY, build, routes=floorplan_routes)
