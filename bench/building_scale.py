@@ -10,6 +10,12 @@ so the table shows what the broad phase buys and where the dense test is kept.
 
     python bench/building_scale.py
     python bench/building_scale.py --maps doorway GDC3 --envs 64 256 --rounds 3
+    python bench/building_scale.py --maps GDC3 --humans 500 --human-range 3 --envs 4
+
+With ``--humans N`` each environment also has N pedestrians (Moussaid, random goals) and
+agent-steps count them; ``--human-range R`` gives them a neighbour range, so on a building
+floor their wall terms read the map's wall grid too (``sgjax.humans.near_walls``), and the
+"every wall" row tests every wall for them as well.
 
 Every row is compiled first and then timed in turn, ``--rounds`` times, keeping each row's
 best (a burst of load slows every row alike). The load average is printed at the start and
@@ -76,12 +82,18 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=100, help="steps per timed rollout")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--rounds", type=int, default=2)
+    parser.add_argument("--humans", type=int, default=0, help="pedestrians per environment")
+    parser.add_argument("--human-range", type=float, default=None,
+                        help="the pedestrians' neighbour range (m)")
     args = parser.parse_args()
     print(f"jax {jax.__version__} on {jax.devices()[0].platform}, {os.cpu_count()} CPU(s); "
-          f"{args.robots} robots; {_load()}", flush=True)
+          f"{args.robots} robots, {args.humans} pedestrians (range {args.human_range}); "
+          f"{_load()}", flush=True)
     rows = []
     for name in args.maps:
-        env, params = sgjax.make(scenario(name, args.sg2maps), num_agents=args.robots)
+        crowd = (dict(num_humans=args.humans, human_range=args.human_range) if args.humans
+                 else {})
+        env, params = sgjax.make(scenario(name, args.sg2maps), num_agents=args.robots, **crowd)
         m = params.map
         walls, listed = int(m.wall_valid.sum()), int(m.cell_walls.shape[1])
         paths = [("as chosen", params)]
@@ -103,7 +115,8 @@ def main() -> None:
     for (name, walls, listed, path, envs, (compile_s, peak, _)), seconds in zip(
             rows, per_step, strict=True):
         print(f"{name:<10}{walls:>7}{listed:>10}  {path:<24}{envs:>6}"
-              f"{envs * args.robots / seconds:>15,.0f}{compile_s:>11.1f}{peak / 2**20:>9.1f}")
+              f"{envs * (args.robots + args.humans) / seconds:>15,.0f}{compile_s:>11.1f}"
+              f"{peak / 2**20:>9.1f}")
     print(_load())
 
 

@@ -111,9 +111,10 @@ class HumanOptions:
     # Group sizes: the first pedestrians walk in groups of these sizes (spawned together, one
     # goal, Moussaid 2010 group forces); the rest alone. A param: no recompilation.
     human_groups: tuple[int, ...] = ()
-    # m: bodies this far from a pedestrian do not act on it (ORCA: RVO2's neighborDist); None:
-    # every body does, as the published laws have it. With a range, crowds from
-    # neighbors.GRID_FROM_HUMANS pedestrians find their neighbours through cell lists.
+    # m: bodies and walls this far from a pedestrian do not act on it (ORCA: RVO2's
+    # neighborDist); None: every body and wall does, as the published laws have it. With a
+    # range, crowds from neighbors.GRID_FROM_HUMANS pedestrians find their neighbours through
+    # cell lists, and on building floors the walls come from the map's wall grid.
     human_range: float | None = None
     human_search: str = "auto"  # with a range: "auto", "grid" (cell lists) or "all" (dense)
     human_cell_capacity: int = 0  # bodies per cell list (0: 6 per m^2 of cell)

@@ -97,8 +97,7 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
     largest = max(p.radius for p in presets)
     planner_config = PlannerConfig(num_arcs=physics.num_arcs)
     planner_params = PlannerParams()
-    reach = (max(planner_config.arc_lengths) + largest + planner_params.obstacle_margin
-             + PLANNER_SLACK)
+    reach = _grid_reach(planner_config, planner_params, largest, human_config)
     world, spec, map_arrays, template = _scenario_map(scenario, generated, is_spec, opts,
                                                       largest, reach)
     action_dim = 3 if any(p.model == "omnidirectional" for p in presets) else 2
@@ -125,6 +124,18 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
         params = template.params_of(params)
     _check_capacity(spec.source, params, max_agents, human_config)
     return SocialNavEnv(config, params), params
+
+
+def _grid_reach(planner_config: PlannerConfig, planner_params: PlannerParams, largest: float,
+                human_config: HumanConfig) -> float:
+    """How far (m) the map's wall grid lists walls around each cell: the planner's longest arc
+    for the largest robot, or the pedestrians' range where it is longer (their wall terms read
+    the grid too: :mod:`sgjax.humans.near_walls`)."""
+    reach = (max(planner_config.arc_lengths) + largest + planner_params.obstacle_margin
+             + PLANNER_SLACK)
+    if human_config.max_humans and human_config.neighbor_range is not None:
+        reach = max(reach, human_config.neighbor_range)
+    return reach
 
 
 def _scenario_map(scenario: Any, generated: bool, is_spec: bool, opts: MakeOptions,

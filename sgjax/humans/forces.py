@@ -185,11 +185,12 @@ def exponential_wall_force(
     the unit vector away from each, for obstacles with clearance ``d - r`` under the threshold.
 
     ``away [H, W]`` are vectors from each obstacle (its nearest point, or a sampled point) to each
-    pedestrian, ``valid [W]`` masks padding, ``radius [H]`` (m) the pedestrians' radii.
+    pedestrian, ``valid [W]`` or ``[H, W]`` masks padding (and walls out of range),
+    ``radius [H]`` (m) the pedestrians' radii.
     """
     ux, uy, dist = unit(away_x, away_y)
     clearance = dist - radius[:, None]
-    near = _flag(valid[None, :] & (clearance < p.obstacle_threshold))
+    near = _flag(jnp.atleast_2d(valid) & (clearance < p.obstacle_threshold))
     magnitude = near * p.obstacle_strength * jnp.exp(-clearance / p.obstacle_sigma)
     return jnp.sum(magnitude * ux, axis=1), jnp.sum(magnitude * uy, axis=1)
 
@@ -198,9 +199,10 @@ def helbing_wall_force(
     away_x: Array, away_y: Array, valid: Array, p: SocialForceParams
 ) -> tuple[Array, Array]:
     """Helbing-Molnar boundary term ``-grad U0 exp(-|r| / R)`` summed over walls ``[W]``, with
-    ``r`` from each wall's nearest point to the pedestrian (``away [H, W]``)."""
+    ``r`` from each wall's nearest point to the pedestrian (``away [H, W]``; ``valid [W]`` or
+    ``[H, W]``)."""
     ux, uy, dist = unit(away_x, away_y)
-    magnitude = _flag(valid)[None, :] * p.u0 / p.wall_range * jnp.exp(-dist / p.wall_range)
+    magnitude = jnp.atleast_2d(_flag(valid)) * p.u0 / p.wall_range * jnp.exp(-dist / p.wall_range)
     return jnp.sum(magnitude * ux, axis=1), jnp.sum(magnitude * uy, axis=1)
 
 

@@ -38,8 +38,9 @@ from flax import struct
 from jax import Array
 
 from sgjax.humans.groups import group_forces
+from sgjax.humans.near_walls import wall_offsets
 from sgjax.humans.neighbors import Each, Pairs, every_body
-from sgjax.kernels.geometry import point_segment_offset, polynomial_atan2, safe_norm, wrap_angle
+from sgjax.kernels.geometry import polynomial_atan2, safe_norm, wrap_angle
 from sgjax.maps.arrays import MapArrays
 
 MAX_SUBSTEP = 0.02  # s: the longest stable sub-step for the contact terms
@@ -77,7 +78,7 @@ def _pair_force(dx: Array, dy: Array, reach: Array, dvx: Array, dvy: Array,
 def hsfm_update(
     hp, m: MapArrays, humans, robot_x: Array, robot_y: Array, robot_vx: Array,
     robot_vy: Array, robot_in_world: Array, robot_radius: Array, dt: Array,
-    find: Each | None = None,
+    find: Each | None = None, wall_range: float | None = None,
 ) -> tuple[Array, Array, Array, Array, Array]:
     """One explicit Euler sub-step of ``dt`` s for every pedestrian. Returns ``(fx, fy)``
     ``[H]`` (m/s^2: the change of world velocity over ``dt``), the new heading (rad) and
@@ -114,11 +115,10 @@ def hsfm_update(
 
     (fex, fey), overflow = (find or every_body(num))(interact, bx, by, present, h.vx, h.vy,
                                                      radius)
-    # Walls: the nearest point of each.
-    ox, oy = point_segment_offset(h.x[:, None], h.y[:, None], m.wall_x1, m.wall_y1, m.wall_x2,
-                                  m.wall_y2)
+    # Walls: the nearest point of each (within ``wall_range``, through the map's cell lists)
+    ox, oy, acting, _ = wall_offsets(h.x, h.y, m, wall_range)
     wx, wy = _pair_force(ox, oy, radius[:, None], -h.vx[:, None], -h.vy[:, None], p)
-    valid = m.wall_valid.astype(jnp.float32)[None, :]
+    valid = acting.astype(jnp.float32)
     fex, fey = fex + jnp.sum(valid * wx, axis=1), fey + jnp.sum(valid * wy, axis=1)
     if hp.groups is not None:  # Moussaid 2010 group forces, per unit mass
         gx, gy = group_forces(hp.groups, h.x, h.y, h.vx, h.vy, tx, ty, h.active)

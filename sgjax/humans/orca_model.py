@@ -33,10 +33,11 @@ import jax.numpy as jnp
 from flax import struct
 from jax import Array
 
+from sgjax.humans.near_walls import nearest_walls_in_range
 from sgjax.humans.neighbors import Each, Pairs, every_body
 from sgjax.kernels.geometry import safe_norm
 from sgjax.kernels.neighbor_grid import pad_row
-from sgjax.kernels.orca import nearest_bodies, nearest_walls, orca_velocity, wall_lines
+from sgjax.kernels.orca import nearest_bodies, orca_velocity, wall_lines
 from sgjax.maps.arrays import MapArrays
 
 
@@ -54,7 +55,7 @@ def orca_forces(
     hp, m: MapArrays, humans, robot_x: Array, robot_y: Array, robot_vx: Array,
     robot_vy: Array, robot_in_world: Array, robot_moving: Array, robot_radius: Array,
     dt: Array, neighbors: int, walls: int,
-    find: Each | None = None,
+    find: Each | None = None, wall_range: float | None = None,
 ) -> tuple[Array, Array, Array]:
     """``(fx, fy)`` ``[H]`` (m/s^2): the change to each pedestrian's ORCA velocity over ``dt``
     s, and the cell lists' overflow (int32). ``hp``:
@@ -94,7 +95,8 @@ def orca_forces(
     # the padding row a short list points at (never valid)
     bx, by, bvx, bvy, bradius, share = (pad_row(a, 0.0) for a in
                                         (bx, by, bvx, bvy, bradius, share))
-    wall_near, wall_valid = nearest_walls(h.x, h.y, m, walls)  # the `walls` nearest segments
+    # the `walls` nearest segments (within `wall_range`, through the map's cell lists)
+    wall_near, wall_valid = nearest_walls_in_range(h.x, h.y, m, walls, wall_range)
 
     def one(i: Array) -> tuple[Array, Array]:
         idx, w = near[i], wall_near[i]

@@ -29,6 +29,7 @@ from sgjax.humans.forces import (
 )
 from sgjax.humans.groups import GroupParams, group_forces, spawn_beside_leaders
 from sgjax.humans.hsfm import HsfmParams, hsfm_update
+from sgjax.humans.near_walls import wall_offsets
 from sgjax.humans.neighbors import (
     SPAN,
     Each,
@@ -42,7 +43,6 @@ from sgjax.humans.orca_model import OrcaParams, orca_forces
 from sgjax.humans.slots import SPAWN_JITTER, SPAWN_MARGIN
 from sgjax.kernels.contacts import clamp_to_walls
 from sgjax.kernels.geometry import (
-    point_segment_offset,
     polynomial_atan2,
     safe_norm,
     swept_disc_segment_toi,
@@ -69,12 +69,14 @@ class HumanConfig:
     ``goal_mode``: ``"random"`` (a new random node at each goal), ``"return"`` (walk back), or
     ``"routes"`` (start at a route's start, walk to its goal and back: the map's
     ``pedestrian_groups``, else its robot groups; the crowd scenarios use it).
-    ``neighbor_range`` (m): bodies at least this far from a pedestrian do not act on it (ORCA:
-    RVO2's ``neighborDist``); ``None``, every body does (the laws as published: none of them
-    has a range). ``neighbor_search``: with a range, find the bodies within it through cell
-    lists of half a range per side (``"grid"``), over every body (``"all"``), or through the
-    lists from :data:`sgjax.humans.neighbors.GRID_FROM_HUMANS` pedestrians on (``"auto"``:
-    where they are faster); both give the same forces. ``cell_capacity``: bodies listed per
+    ``neighbor_range`` (m): bodies and walls at least this far from a pedestrian do not act on
+    it (ORCA: RVO2's ``neighborDist``); ``None``, every body and wall does (the laws as
+    published: none of them has a range). On a building floor the walls within it come from
+    the map's wall grid (:mod:`sgjax.humans.near_walls`). ``neighbor_search``: with a range,
+    find the bodies within it through cell lists of half a range per side (``"grid"``), over
+    every body (``"all"``), or through the lists from
+    :data:`sgjax.humans.neighbors.GRID_FROM_HUMANS` pedestrians on (``"auto"``: where they are
+    faster); both give the same forces. ``cell_capacity``: bodies listed per
     cell (0: a density of 6 per m^2, :func:`sgjax.humans.neighbors.cell_capacity`); bodies
     beyond it are counted in ``info["neighbor_overflow"]``.
     """
@@ -336,12 +338,6 @@ def advance_waypoints(
     return humans.replace(target=target, goal=goal, origin=origin)
 
 
-def _wall_offsets(h: HumanState, m: MapArrays) -> tuple[Array, Array]:
-    """Vectors ``[H, W + 1]`` from each wall's nearest point to each pedestrian."""
-    return point_segment_offset(h.x[:, None], h.y[:, None], m.wall_x1, m.wall_y1, m.wall_x2,
-                                m.wall_y2)
-
-
 def human_forces(
     config: HumanConfig, hp: HumanParams, m: MapArrays, humans: HumanState,
     robot_x: Array, robot_y: Array, robot_vx: Array, robot_vy: Array, robot_in_world: Array,
@@ -359,11 +355,12 @@ def human_forces(
     if config.force_model == "orca":
         fx, fy, overflow = orca_forces(hp, m, humans, robot_x, robot_y, robot_vx, robot_vy,
                                        robot_in_world, robot_moving, robot_radius, dt,
-                                       config.orca_neighbors, config.orca_walls, find)
+                                       config.orca_neighbors, config.orca_walls, find,
+                                       config.neighbor_range)
         return (fx, fy, *_facing(humans, fx, fy, dt), overflow)
     if config.force_model == "hsfm":
         return hsfm_update(hp, m, humans, robot_x, robot_y, robot_vx, robot_vy, robot_in_world,
-                           robot_radius, dt, find)
+                           robot_radius, dt, find, config.neighbor_range)
     fx, fy, overflow = _social_forces(config, hp, m, humans, robot_x, robot_y, robot_vx,
                                       robot_vy, robot_in_world, find)
     return (fx, fy, *_facing(humans, fx, fy, dt), overflow)
@@ -412,13 +409,12 @@ def _social_forces(
             away_y = h.y[:, None] - hp.wall_points_y[None, :]
             valid = jnp.ones(hp.wall_points_x.shape, bool)
         else:
-            away_x, away_y = _wall_offsets(h, m)
-            valid = m.wall_valid
+            away_x, away_y, valid, _ = wall_offsets(h.x, h.y, m, config.neighbor_range)
         wx, wy = exponential_wall_force(away_x, away_y, valid,
                                         jnp.broadcast_to(hp.radius, h.x.shape), p)
     else:
-        away_x, away_y = _wall_offsets(h, m)
-        wx, wy = helbing_wall_force(away_x, away_y, m.wall_valid, p)
+        away_x, away_y, valid, _ = wall_offsets(h.x, h.y, m, config.neighbor_range)
+        wx, wy = helbing_wall_force(away_x, away_y, valid, p)
     if hp.groups is not None:
         gx, gy = group_forces(hp.groups, h.x, h.y, h.vx, h.vy, tx, ty, h.active)
         wx, wy = wx + gx, wy + gy

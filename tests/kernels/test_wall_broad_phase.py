@@ -108,3 +108,92 @@ def test_rollouts_on_building_floors_equal_the_all_walls_rollouts(floor, humans)
         np.testing.assert_allclose(np.asarray(a), np.asarray(b), atol=1e-5)
     moved = np.abs(np.asarray(broad[0][-1]) - np.asarray(broad[0][0])).max()
     assert moved > 1.0  # the robots went somewhere
+
+
+def walled_crowd(model: str, wall_range: float | None, humans: int = 64):
+    """A pedestrian environment on a dense floor (600 random walls over a 30 m square, the
+    route through it) and a state whose pedestrians stand at random places among the walls."""
+    rng = np.random.default_rng(5)
+    start = rng.uniform(-15.0, 15.0, (600, 2))
+    angle = rng.uniform(0.0, 2 * np.pi, 600)
+    end = start + rng.uniform(0.2, 1.5, 600)[:, None] * np.stack([np.cos(angle),
+                                                                   np.sin(angle)], axis=1)
+    data = {"name": "walled", "description": "", "bounds": [-25, -25, 25, 25],
+            "walls": np.concatenate([start, end], axis=1).tolist(),
+            "nodes": [{"id": 0, "position": [-22, -22]}, {"id": 1, "position": [22, -22]},
+                      {"id": 2, "position": [22, 22]}, {"id": 3, "position": [-22, 22]}],
+            "edges": [[0, 1], [1, 2], [2, 3], [3, 0]],
+            "groups": [{"starts": [0, 1], "goals": [2, 3]}]}
+    env, params = sgjax.make(parse_map(data, clearance=0.5), num_agents=2, num_humans=humans,
+                             human_model=model, human_range=wall_range)
+    _, state = env.reset(jax.random.key(0), params)
+    h = state.humans
+    x = jnp.asarray(rng.uniform(-15.0, 15.0, humans), jnp.float32)
+    y = jnp.asarray(rng.uniform(-15.0, 15.0, humans), jnp.float32)
+    vx, vy = (jnp.asarray(rng.uniform(-1.0, 1.0, humans), jnp.float32) for _ in range(2))
+    return env, params, state.replace(humans=h.replace(x=x, y=y, vx=vx, vy=vy))
+
+
+def pedestrian_forces(env, state, params):
+    from sgjax.humans.pedestrians import human_forces
+
+    r, h = state.robots, state.humans
+    v = r.body_velocity
+    return jax.jit(human_forces, static_argnums=0)(
+        env.config.humans, params.humans, params.map, h, r.x, r.y, v[:, 0], v[:, 1],
+        r.in_world, r.moving, params.robots.radius, params.dt / env.config.substeps)
+
+
+@pytest.mark.parametrize("model", ["moussaid", "helbing", "hsfm", "orca"])
+def test_pedestrians_meet_the_walls_in_range_through_the_lists(model):
+    """64 pedestrians among 600 walls with a 3 m range: every model's force through the map's
+    cell lists (grown to the range by ``make``) equals its force over every wall with the
+    same range, to float rounding of the sums' order; a 1.5 m range gives other forces (the
+    comparison can fail), and without a range every wall acts (the lists are not used)."""
+    from sgjax.humans.near_walls import uses_wall_lists
+
+    env, params, state = walled_crowd(model, 3.0)
+    m = params.map
+    assert m.reach >= 3.0 and uses_wall_lists(m, 3.0)
+    every = params.replace(map=m.replace(reach=0.0))
+    assert not uses_wall_lists(every.map, 3.0)
+    listed, dense = (pedestrian_forces(env, state, p) for p in (params, every))
+    scale = float(jnp.max(jnp.abs(jnp.stack(dense[:2]))))
+    assert scale > 0.1
+    for a, b in zip(dense[:2], listed[:2], strict=True):
+        np.testing.assert_allclose(np.asarray(b), np.asarray(a), atol=1e-5 * scale + 1e-5)
+    short_env, short_params, _ = walled_crowd(model, 1.5)
+    short = pedestrian_forces(short_env, state, short_params)
+    if model != "hsfm":  # HSFM's wall term is gone by 1.5 m (B = 0.08 m)
+        assert float(jnp.max(jnp.abs(short[0] - dense[0]))) > 1e-3
+    free_env, free_params, _ = walled_crowd(model, None)
+    assert not uses_wall_lists(free_params.map, None)
+
+
+@pytest.mark.slow
+def test_a_crowd_on_a_building_floor_follows_the_all_walls_rollout():
+    """GDC1 (1,374 walls), 4 robots GO and 120 pedestrians with a 3 m range, 250 steps of 2
+    episodes: through the wall lists (contacts and pedestrians' wall terms) every position
+    stays within 1 mm of the rollout over every wall with the same range."""
+    from sgjax.maps.socialgym import import_socialgym
+
+    spec = import_socialgym(require(SG2MAPS / "GDC1", "SocialGym 2.0's maps"))
+    env, params = sgjax.make(spec, num_agents=4, num_humans=120, human_range=3.0)
+    keys = jax.random.split(jax.random.key(0), 2)
+    actions = jnp.zeros((2, 4), jnp.int32)
+
+    def rollout(p):
+        _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, p)
+
+        def body(state, key):
+            state = env.step_batch(jax.random.split(key, 2), state, actions, p)[1]
+            return state, (state.robots.x, state.robots.y, state.humans.x, state.humans.y)
+
+        return jax.lax.scan(body, state, jax.random.split(jax.random.key(1), 250))[1]
+
+    listed = jax.jit(rollout)(params)
+    every = jax.jit(rollout)(params.replace(map=params.map.replace(reach=0.0)))
+    for a, b in zip(listed, every, strict=True):
+        assert float(np.max(np.abs(np.asarray(a) - np.asarray(b)))) < 1e-3
+    moved = np.abs(np.asarray(listed[2][-1]) - np.asarray(listed[2][0])).max()
+    assert moved > 1.0
