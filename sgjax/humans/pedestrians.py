@@ -41,13 +41,14 @@ from sgjax.humans.neighbors import (
 )
 from sgjax.humans.orca_model import OrcaParams, orca_forces
 from sgjax.humans.slots import SPAWN_JITTER, SPAWN_MARGIN
-from sgjax.kernels.contacts import clamp_to_walls
+from sgjax.kernels.contacts import clamp_to_walls, uses_broad_phase
 from sgjax.kernels.geometry import (
     polynomial_atan2,
     safe_norm,
     swept_disc_segment_toi,
     wrap_angle,
 )
+from sgjax.kernels.row_chunks import chunk_size, update_flagged_rows
 from sgjax.maps.arrays import MapArrays
 
 FORCE_MODELS = ("moussaid", "helbing", "orca", "hsfm")
@@ -327,15 +328,39 @@ def advance_waypoints(
         goal = goal[hp.groups.leader]  # followers keep their leader's goal
     origin = jnp.where(at_goal, humans.target, humans.origin)
     hop = m.next_hop[humans.target, goal]
-    toward_x = m.node_x[hop] - humans.x
-    toward_y = m.node_y[hop] - humans.y
-    hits = swept_disc_segment_toi(humans.x[:, None], humans.y[:, None], toward_x[:, None],
-                                  toward_y[:, None], hp.radius, m.wall_x1, m.wall_y1, m.wall_x2,
-                                  m.wall_y2)
-    in_view = ~jnp.any(m.wall_valid & (hits <= 1.0), axis=1)
+    # the view test decides only for pedestrians near a waypoint and not standing on it
+    asks = near & ~(distance < hp.radius) & ~at_goal
+    in_view = _next_in_view(hp, m, humans, hop, asks)
     reached = near & (in_view | (distance < hp.radius) | at_goal)
     target = jnp.where(reached & (hop >= 0), hop, humans.target)
     return humans.replace(target=target, goal=goal, origin=origin)
+
+
+def _next_in_view(hp: HumanParams, m: MapArrays, humans: HumanState, hop: Array,
+                  asks: Array) -> Array:
+    """``[H]`` bool: whether each pedestrian's body can walk straight to node ``hop`` without
+    touching a wall (swept disc against every wall: the way may be long, past any wall grid's
+    reach). On a map of many walls (``kernels.contacts.uses_broad_phase``) only the
+    pedestrians that ``asks`` flags are tested, a chunk at a time (``kernels.row_chunks``;
+    the others read True: their answer is not used)."""
+
+    def view(rows: Array) -> Array:
+        x, y = humans.x[rows], humans.y[rows]
+        toward_x, toward_y = m.node_x[hop[rows]] - x, m.node_y[hop[rows]] - y
+        hits = swept_disc_segment_toi(x[:, None], y[:, None], toward_x[:, None],
+                                      toward_y[:, None], hp.radius, m.wall_x1, m.wall_y1,
+                                      m.wall_x2, m.wall_y2)
+        return ~jnp.any(m.wall_valid & (hits <= 1.0), axis=1)
+
+    count = humans.x.shape[0]
+    if not uses_broad_phase(m):
+        return view(jnp.arange(count))
+
+    def update(index: Array, seen: Array) -> Array:
+        rows = jnp.minimum(index, count - 1)
+        return seen.at[index].set(view(rows), mode="drop")
+
+    return update_flagged_rows(asks, chunk_size(count), update, jnp.ones(count, bool))
 
 
 def human_forces(
