@@ -78,6 +78,26 @@ def test_a_step_beyond_the_reach_is_cut_at_it_and_counted_as_a_contact():
     assert np.all(end_gap[clear] >= 0.3 - 1e-4)
 
 
+def floor_rollouts(env, params, episodes: int, steps: int = 250) -> tuple[tuple, tuple]:
+    """``steps`` steps of ``episodes`` episodes, every robot GO, through the map's wall grid
+    and over every wall (its ``reach`` set to 0): each ``(robot x, robot y, pedestrian x,
+    pedestrian y)`` at every step."""
+    keys = jax.random.split(jax.random.key(0), episodes)
+    actions = jnp.zeros((episodes, env.config.max_agents), jnp.int32)
+
+    def rollout(p):
+        _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, p)
+
+        def body(state, key):
+            state = env.step_batch(jax.random.split(key, episodes), state, actions, p)[1]
+            return state, (state.robots.x, state.robots.y, state.humans.x, state.humans.y)
+
+        return jax.lax.scan(body, state, jax.random.split(jax.random.key(1), steps))[1]
+
+    return (jax.jit(rollout)(params),
+            jax.jit(rollout)(params.replace(map=params.map.replace(reach=0.0))))
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("floor, humans", [("GDC1", 24), ("GDC3", 0)])
 def test_rollouts_on_building_floors_equal_the_all_walls_rollouts(floor, humans):
@@ -90,20 +110,7 @@ def test_rollouts_on_building_floors_equal_the_all_walls_rollouts(floor, humans)
     spec = import_socialgym(require(SG2MAPS / floor, "SocialGym 2.0's maps"))
     env, params = sgjax.make(spec, num_agents=4, num_humans=humans)
     assert uses_broad_phase(params.map)
-    keys = jax.random.split(jax.random.key(0), 4)
-    actions = jnp.zeros((4, 4), jnp.int32)
-
-    def rollout(p):
-        _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, p)
-
-        def body(state, key):
-            state = env.step_batch(jax.random.split(key, 4), state, actions, p)[1]
-            return state, (state.robots.x, state.robots.y, state.humans.x, state.humans.y)
-
-        return jax.lax.scan(body, state, jax.random.split(jax.random.key(1), 250))[1]
-
-    broad = jax.jit(rollout)(params)
-    every = jax.jit(rollout)(params.replace(map=params.map.replace(reach=0.0)))
+    broad, every = floor_rollouts(env, params, 4)
     for a, b in zip(broad, every, strict=True):
         np.testing.assert_allclose(np.asarray(a), np.asarray(b), atol=1e-5)
     moved = np.abs(np.asarray(broad[0][-1]) - np.asarray(broad[0][0])).max()
@@ -179,20 +186,7 @@ def test_a_crowd_on_a_building_floor_follows_the_all_walls_rollout():
 
     spec = import_socialgym(require(SG2MAPS / "GDC1", "SocialGym 2.0's maps"))
     env, params = sgjax.make(spec, num_agents=4, num_humans=120, human_range=3.0)
-    keys = jax.random.split(jax.random.key(0), 2)
-    actions = jnp.zeros((2, 4), jnp.int32)
-
-    def rollout(p):
-        _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, p)
-
-        def body(state, key):
-            state = env.step_batch(jax.random.split(key, 2), state, actions, p)[1]
-            return state, (state.robots.x, state.robots.y, state.humans.x, state.humans.y)
-
-        return jax.lax.scan(body, state, jax.random.split(jax.random.key(1), 250))[1]
-
-    listed = jax.jit(rollout)(params)
-    every = jax.jit(rollout)(params.replace(map=params.map.replace(reach=0.0)))
+    listed, every = floor_rollouts(env, params, 2)
     for a, b in zip(listed, every, strict=True):
         assert float(np.max(np.abs(np.asarray(a) - np.asarray(b)))) < 1e-3
     moved = np.abs(np.asarray(listed[2][-1]) - np.asarray(listed[2][0])).max()
