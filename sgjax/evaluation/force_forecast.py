@@ -1,0 +1,105 @@
+"""Recorded pedestrians forecast by sgjax's Moussaid social force, and the one-row loss that
+fits its constants to the recordings by gradient (issue 68's calibration).
+
+From the last observed row of a window (:func:`sgjax.evaluation.forecasting.forecast_windows`)
+every scored pedestrian starts at its recorded position with its last recorded step as
+velocity, wants to walk at its mean observed speed towards a goal: where its mean observed
+velocity would take it by the end of the forecast (no oracle destination). The pedestrians of
+a window meet each other through :func:`sgjax.humans.forces.moussaid_interaction`; there are no
+walls (the scenes' obstacles are not annotated). Each row of 0.4 s is ``substeps`` explicit
+steps, integrated as the environment integrates its pedestrians (``v <- cap(v + h F)``,
+``x <- x + h v``). Everything is a pure function of :class:`SocialForceParams`, so
+``jax.grad`` fits them."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+from jax import Array
+
+from sgjax.evaluation.forecasting import OBSERVE, scored
+from sgjax.humans.forces import SocialForceParams, cap_speed, desired_force, moussaid_interaction
+from sgjax.humans.tracks import TrackWindows
+
+SUBSTEPS = 4  # explicit steps per recorded row (0.1 s at ETH/UCY's 0.4 s)
+MAX_SPEED_FACTOR = 1.3  # a pedestrian never walks faster than this times its own speed
+
+
+def _walk(p: SocialForceParams, x: Array, y: Array, vx: Array, vy: Array, goal_x: Array,
+          goal_y: Array, speed: Array, mask: Array, h: float) -> tuple[Array, ...]:
+    """One explicit step of ``h`` s of pedestrians ``[P]`` (``mask``: the real ones)."""
+    fx, fy = desired_force(x, y, vx, vy, goal_x, goal_y, speed, p.tau)
+    pair = (mask[:, None] & mask[None, :] & ~jnp.eye(mask.shape[0], dtype=bool))
+    sx, sy = moussaid_interaction(x, y, vx, vy, x, y, vx, vy, pair.astype(jnp.float32), p)
+    vx, vy = cap_speed(vx + h * (fx + sx), vy + h * (fy + sy), MAX_SPEED_FACTOR * speed)
+    return x + h * vx, y + h * vy, vx, vy
+
+
+def intentions(windows: TrackWindows, dt: float, observe: int = OBSERVE
+               ) -> tuple[Array, Array, Array]:
+    """``(goal_x, goal_y, speed) [N, Pw]``: each pedestrian's mean observed velocity carried
+    from its last observed position over the forecast's length (m), and its mean observed
+    speed (m/s, at least 0.1)."""
+    rows = windows.x.shape[1] - observe
+    span = (observe - 1) * dt
+    vx = (windows.x[:, observe - 1] - windows.x[:, 0]) / span
+    vy = (windows.y[:, observe - 1] - windows.y[:, 0]) / span
+    steps = jnp.hypot(jnp.diff(windows.x[:, :observe], axis=1),
+                      jnp.diff(windows.y[:, :observe], axis=1))
+    speed = jnp.maximum(jnp.mean(steps, axis=1) / dt, 0.1)
+    return (windows.x[:, observe - 1] + vx * rows * dt,
+            windows.y[:, observe - 1] + vy * rows * dt, speed)
+
+
+def _rows(p: SocialForceParams, start: tuple[Array, ...], goal_x: Array, goal_y: Array,
+          speed: Array, mask: Array, rows: int, dt: float, substeps: int
+          ) -> tuple[Array, Array]:
+    """``(x, y) [rows, P]``: one window's pedestrians walked from ``start`` (x, y, vx, vy)."""
+    h = dt / substeps
+
+    def row(state: tuple[Array, ...], _: None) -> tuple[tuple[Array, ...], tuple[Array, Array]]:
+        for _ in range(substeps):
+            state = _walk(p, *state, goal_x, goal_y, speed, mask, h)
+        return state, (state[0], state[1])
+
+    return jax.lax.scan(row, start, None, length=rows)[1]
+
+
+def social_force_forecast(p: SocialForceParams, windows: TrackWindows, dt: float,
+                          observe: int = OBSERVE, substeps: int = SUBSTEPS
+                          ) -> tuple[Array, Array]:
+    """``(x, y) [N, P, Pw]`` (m): every window's scored pedestrians walked by the Moussaid law
+    from the last observed row over the ``P`` forecast rows (module doc)."""
+    rows = windows.x.shape[1] - observe
+    goal_x, goal_y, speed = intentions(windows, dt, observe)
+    mask = scored(windows)
+
+    def one(x: Array, y: Array, gx: Array, gy: Array, s: Array, m: Array
+            ) -> tuple[Array, Array]:
+        start = (x[observe - 1], y[observe - 1], (x[observe - 1] - x[observe - 2]) / dt,
+                 (y[observe - 1] - y[observe - 2]) / dt)
+        return _rows(p, start, gx, gy, s, m, rows, dt, substeps)
+
+    return jax.vmap(one)(windows.x, windows.y, goal_x, goal_y, speed, mask)
+
+
+def one_row_loss(p: SocialForceParams, windows: TrackWindows, dt: float,
+                 observe: int = OBSERVE, substeps: int = SUBSTEPS) -> Array:
+    """Mean squared error (m^2) of one row walked from each recorded row of the forecast
+    part (teacher forcing: position and velocity from the recording, the intentions of
+    :func:`intentions`) against the next recorded row, over every scored pedestrian."""
+    goal_x, goal_y, speed = intentions(windows, dt, observe)
+    mask = scored(windows)
+    last = windows.x.shape[1] - 1
+
+    def one(x: Array, y: Array, gx: Array, gy: Array, s: Array, m: Array) -> Array:
+        def at(k: Array) -> Array:
+            start = (x[k], y[k], (x[k] - x[k - 1]) / dt, (y[k] - y[k - 1]) / dt)
+            px, py = _rows(p, start, gx, gy, s, m, 1, dt, substeps)
+            error = jnp.square(px[0] - x[k + 1]) + jnp.square(py[0] - y[k + 1])
+            return jnp.sum(jnp.where(m, error, 0.0))
+
+        return jnp.sum(jax.vmap(at)(jnp.arange(observe - 1, last)))
+
+    total = jnp.sum(jax.vmap(one)(windows.x, windows.y, goal_x, goal_y, speed, mask))
+    return total / jnp.maximum(jnp.sum(mask) * (last - observe + 1), 1)
