@@ -262,14 +262,14 @@ def _range_rows(value: Any) -> tuple[tuple[str, float, float], ...]:
     else:
         try:
             items = [(row[0], tuple(row[1:])) for row in value]
-        except (TypeError, IndexError):
+        except (TypeError, IndexError, KeyError):  # a row that is no sequence ({} or a number)
             raise ValueError(f"world_ranges must be a mapping of parameter names to [low, high]"
                              f", got {value!r}") from None
     rows = []
     for name, pair in items:
         if isinstance(pair, int | float) and not isinstance(pair, bool):
             pair = (pair, pair)
-        if (not isinstance(name, str) or len(pair) != 2
+        if (not isinstance(name, str) or not isinstance(pair, tuple | list) or len(pair) != 2
                 or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in pair)):
             raise ValueError(f"world_ranges: {name!r}: expected [low, high] (or one number), "
                              f"got {pair!r}")

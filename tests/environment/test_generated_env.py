@@ -92,6 +92,11 @@ def test_bad_families_ranges_and_pedestrian_options_are_refused_by_name():
         sgjax.make("generated:doorway", world_ranges={"door_widht": [1, 2]})
     with pytest.raises(ValueError, match="world_ranges: 'door_width': expected"):
         sgjax.make("generated:doorway", world_ranges={"door_width": [1, 2, 3]})
+    # what the config fuzzer found: a row that is no sequence, a range that is None
+    with pytest.raises(ValueError, match="world_ranges must be a mapping"):
+        sgjax.make("generated:doorway", world_ranges=[{}])
+    with pytest.raises(ValueError, match="world_ranges: '': expected"):
+        sgjax.make("generated:doorway", world_ranges={"": None})
     with pytest.raises(ValueError, match="human_walls='points' needs a fixed map"):
         sgjax.make("generated:doorway", num_humans=2, human_walls="points")
     with pytest.raises(ValueError, match="human_goals='routes' needs a fixed map"):
