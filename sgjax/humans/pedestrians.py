@@ -433,6 +433,9 @@ def _social_forces(
             away_x = h.x[:, None] - hp.wall_points_x[None, :]
             away_y = h.y[:, None] - hp.wall_points_y[None, :]
             valid = jnp.ones(hp.wall_points_x.shape, bool)
+            if config.neighbor_range is not None:  # wall points beyond the range do not act
+                reach = config.neighbor_range
+                valid = valid & (away_x * away_x + away_y * away_y < reach * reach)
         else:
             away_x, away_y, valid, _ = wall_offsets(h.x, h.y, m, config.neighbor_range)
         wx, wy = exponential_wall_force(away_x, away_y, valid,

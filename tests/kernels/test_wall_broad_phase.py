@@ -117,7 +117,7 @@ def test_rollouts_on_building_floors_equal_the_all_walls_rollouts(floor, humans)
     assert moved > 1.0  # the robots went somewhere
 
 
-def walled_crowd(model: str, wall_range: float | None, humans: int = 64):
+def walled_crowd(model: str, wall_range: float | None, humans: int = 64, **options):
     """A pedestrian environment on a dense floor (600 random walls over a 30 m square, the
     route through it) and a state whose pedestrians stand at random places among the walls."""
     rng = np.random.default_rng(5)
@@ -132,7 +132,7 @@ def walled_crowd(model: str, wall_range: float | None, humans: int = 64):
             "edges": [[0, 1], [1, 2], [2, 3], [3, 0]],
             "groups": [{"starts": [0, 1], "goals": [2, 3]}]}
     env, params = sgjax.make(parse_map(data, clearance=0.5), num_agents=2, num_humans=humans,
-                             human_model=model, human_range=wall_range)
+                             human_model=model, human_range=wall_range, **options)
     _, state = env.reset(jax.random.key(0), params)
     h = state.humans
     x = jnp.asarray(rng.uniform(-15.0, 15.0, humans), jnp.float32)
@@ -191,3 +191,16 @@ def test_a_crowd_on_a_building_floor_follows_the_all_walls_rollout():
         assert float(np.max(np.abs(np.asarray(a) - np.asarray(b)))) < 1e-3
     moved = np.abs(np.asarray(listed[2][-1]) - np.asarray(listed[2][0])).max()
     assert moved > 1.0
+
+
+@pytest.mark.slow
+def test_pysocialforce_wall_points_beyond_the_range_do_not_act():
+    """The Moussaid wall term over sampled wall points (``human_walls="points"``): a range
+    wider than the floor changes nothing, a 1 m range leaves the farther points out."""
+    forces = {}
+    for wall_range in (None, 100.0, 1.0):
+        env, params, state = walled_crowd("moussaid", wall_range, human_walls="points")
+        forces[wall_range] = np.asarray(pedestrian_forces(env, state, params)[0])
+    np.testing.assert_allclose(forces[100.0], forces[None], atol=1e-5)
+    assert np.max(np.abs(forces[1.0] - forces[None])) > 1e-3
+
