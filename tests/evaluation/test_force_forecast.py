@@ -83,3 +83,24 @@ def test_the_social_force_forecasts_recorded_scenes(name):
         SocialForceParams(), w, tracks.dt), w))(windows)
     assert np.isfinite(float(scores.ade)) and 0.1 < float(scores.ade) < 1.5
     assert float(scores.fde) > float(scores.ade)
+
+
+def test_a_fit_recovers_the_relaxation_time_of_a_simulated_crowd(tmp_path):
+    """Tracks walked by the forecast's own model with tau = 1.2 s (five people crossing): a
+    fit from the published 0.5 s lowers the one-row loss and moves tau towards 1.2."""
+    from sgjax.evaluation.calibration import fit_social_force
+
+    rng = np.random.default_rng(3)
+    t = np.arange(24, dtype=np.float32)[:, None]
+    heading = rng.uniform(0.0, 2 * np.pi, 5)
+    x = rng.uniform(-2, 2, (1, 5)) + 0.45 * t * np.cos(heading)
+    y = rng.uniform(-2, 2, (1, 5)) + 0.45 * t * np.sin(heading)
+    windows = windows_of(tmp_path, x.astype(np.float32), y.astype(np.float32))
+    truth = SocialForceParams(tau=1.2)
+    px, py = social_force_forecast(truth, windows, DT)  # replace the forecast rows
+    windows = windows.replace(x=windows.x.at[:, 8:].set(px), y=windows.y.at[:, 8:].set(py))
+    fitted, history = fit_social_force([windows], DT, steps=60, names=("tau",))
+    assert history[-1] < 0.5 * history[0]
+    assert abs(float(fitted.tau) - 1.2) < abs(0.5 - 1.2) / 2
+    with pytest.raises(ValueError, match="no SocialForceParams constant 'tua'"):
+        fit_social_force([windows], DT, names=("tua",))
