@@ -10,12 +10,12 @@ decides where the lists pay: SocialGym 2.0's building floors, not the mini-games
 
 from __future__ import annotations
 
-import jax
 import jax.numpy as jnp
 from jax import Array
 
 from sgjax.kernels.contacts import uses_broad_phase
 from sgjax.kernels.geometry import point_segment_offset
+from sgjax.kernels.orca import nearest_places
 from sgjax.maps.arrays import MapArrays
 
 
@@ -53,7 +53,5 @@ def nearest_walls_in_range(x: Array, y: Array, m: MapArrays, k: int,
     """The rows of the ``k`` (static) nearest acting walls of pedestrians at ``x, y`` ``[H]``
     (:func:`wall_offsets`): ``(index [H, k'], valid [H, k'])``, ``k' = min(k, K)``."""
     ox, oy, valid, index = wall_offsets(x, y, m, wall_range)
-    gap = jnp.where(valid, ox * ox + oy * oy, jnp.inf)
-    _, near = jax.lax.top_k(-gap, min(k, gap.shape[1]))
-    return (jnp.take_along_axis(index, near, axis=1),
-            jnp.take_along_axis(jnp.isfinite(gap), near, axis=1))
+    near, acting = nearest_places(ox, oy, valid, k)
+    return jnp.take_along_axis(index, near, axis=1), acting

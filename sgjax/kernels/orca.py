@@ -144,8 +144,15 @@ def nearest_walls(x: Array, y: Array, m, k: int) -> tuple[Array, Array]:
     map arrays ``m``: ``(index [N, k'], valid [N, k'])``, ``k' = min(k, W)``."""
     ox, oy = point_segment_offset(x[:, None], y[:, None], m.wall_x1, m.wall_y1, m.wall_x2,
                                   m.wall_y2)
-    gap = jnp.where(m.wall_valid[None, :], ox * ox + oy * oy, jnp.inf)
-    _, near = jax.lax.top_k(-gap, min(k, m.wall_x1.shape[0]))
+    return nearest_places(ox, oy, jnp.broadcast_to(m.wall_valid, ox.shape), k)
+
+
+def nearest_places(ox: Array, oy: Array, valid: Array, k: int) -> tuple[Array, Array]:
+    """Of the offsets ``ox, oy`` ``[N, K]`` (m) from each agent's candidates, the places of the
+    ``k`` (static) nearest ``valid`` ones: ``(place [N, k'], valid [N, k'])``,
+    ``k' = min(k, K)``."""
+    gap = jnp.where(valid, ox * ox + oy * oy, jnp.inf)
+    _, near = jax.lax.top_k(-gap, min(k, gap.shape[1]))
     return near, jnp.take_along_axis(jnp.isfinite(gap), near, axis=1)
 
 

@@ -16,11 +16,11 @@ whether a route fits the route arrays needs no walk along ``next_hop`` (tests wa
 
 from __future__ import annotations
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jax import Array
 
+from sgjax.maps.generated.checks import route_steps
 from sgjax.maps.generated.floorplan_layout import (
     CELLS,
     DOORS,
@@ -31,6 +31,7 @@ from sgjax.maps.generated.floorplan_layout import (
     SLOTS,
     SPAWNS,
 )
+from sgjax.maps.generated.graph import relaxed
 from sgjax.maps.routing import NO_PATH
 
 NEAR = FIRST_APPROACH + np.arange(DOORS)  # door e's approach node on its first room's side
@@ -40,55 +41,27 @@ ROOM_A, ROOM_B = PAIRS[:, 0], PAIRS[:, 1]
 SPAWN_EDGES = 3 * DOORS  # the first edge row joining a spawn to its room (floorplan.build)
 
 
-def _door_tables() -> tuple[np.ndarray, np.ndarray]:
-    """``(door [CELLS, CELLS], step [CELLS, CELLS])``: the door joining two neighbouring rooms
-    (-1 for others) and the node a route from the first room enters it by (its approach node
-    on the first room's side)."""
-    door = np.full((CELLS, CELLS), -1, np.int32)
+def _entry_steps() -> np.ndarray:
+    """``[CELLS, CELLS]``: the node a route from the first room enters the door to the second,
+    a neighbouring room, by (its approach node on the first room's side; ``NO_PATH`` for
+    rooms that are not neighbours)."""
     step = np.full((CELLS, CELLS), NO_PATH, np.int32)
     for e, (a, b) in enumerate(PAIRS):
-        door[a, b] = door[b, a] = e
         step[a, b], step[b, a] = NEAR[e], FAR_SIDE[e]
-    return door, step
+    return step
 
 
-DOOR, ENTRY_STEP = _door_tables()
+ENTRY_STEP = _entry_steps()
 # a node's kind: centre, approach (either side) or spawn
 IS_CENTRE = np.arange(NODES) < CELLS
 IS_APPROACH = (np.arange(NODES) >= FIRST_APPROACH) & (np.arange(NODES) < FIRST_SPAWN)
-
-
-def room_routes(length: Array) -> tuple[Array, Array]:
-    """``(dist [R, R], next_room [R, R])`` of the rooms' graph with edge lengths ``length [R,
-    R]`` (m, ``inf`` without a door): Floyd-Warshall; ``next_room`` is ``NO_PATH`` where
-    unreachable and the room itself on the diagonal."""
-    count = length.shape[0]
-    eye = jnp.eye(count, dtype=bool)
-    dist = jnp.where(eye, 0.0, length)
-    index = jnp.arange(count, dtype=jnp.int32)
-    next_room = jnp.where(eye | jnp.isfinite(length), index[None, :], NO_PATH)
-
-    def relax(k: Array, carry: tuple[Array, Array]) -> tuple[Array, Array]:
-        dist, next_room = carry
-        through = dist[:, k][:, None] + dist[k, :][None, :]
-        better = through < dist
-        return (jnp.where(better, through, dist),
-                jnp.where(better, next_room[:, k][:, None], next_room))
-
-    return jax.lax.fori_loop(0, count, relax, (dist, next_room))
 
 
 def room_hops(next_room: Array) -> Array:
     """``[R, R]`` int32: the rooms a route passes after its first (its room hops), walking
     ``next_room`` (a route of the rooms' graph has fewer than ``R`` hops)."""
     count = next_room.shape[0]
-    goal = jnp.broadcast_to(jnp.arange(count)[None, :], (count, count))
-    at = jnp.broadcast_to(jnp.arange(count)[:, None], (count, count))
-    hops = jnp.zeros((count, count), jnp.int32)
-    for _ in range(count - 1):
-        hops = hops + (at != goal).astype(jnp.int32)
-        at = jnp.maximum(next_room[at, goal], 0)
-    return hops
+    return sum((hop != at).astype(jnp.int32) for at, hop in route_steps(next_room, count - 1))
 
 
 def attachments(gap: Array, adjacency: Array, edges: Array) -> tuple[Array, ...]:
@@ -173,7 +146,8 @@ def floorplan_routes(gap: Array, adjacency: Array, edges: Array
                             jnp.inf)
     length = jnp.full((CELLS, CELLS), jnp.inf).at[ROOM_A, ROOM_B].set(door_length)
     length = length.at[ROOM_B, ROOM_A].set(door_length)
-    rooms, next_room = room_routes(length)
+    rooms, next_room = relaxed(length, jnp.isfinite(length),
+                               jnp.arange(CELLS, dtype=jnp.int32))
     # per pair of rooms: the node a route from the first enters its next door by, and its
     # room hops, packed in one table (one gather per node pair)
     door_step = jnp.asarray(ENTRY_STEP)[jnp.arange(CELLS)[:, None], jnp.maximum(next_room, 0)]

@@ -19,7 +19,7 @@ TIE = 1e-6
 HUBS_APART = 16
 
 
-def _relaxed(gap: Array, adjacency: Array, order: Array) -> tuple[Array, Array]:
+def relaxed(gap: Array, adjacency: Array, order: Array) -> tuple[Array, Array]:
     """``(dist, next_hop)`` of every node pair, relaxing through the nodes ``order`` (node
     rows, in that order) on the whole ``[N, N]`` matrix."""
     count = gap.shape[0]
@@ -57,11 +57,11 @@ def shortest_paths(gap: Array, adjacency: Array, hubs: int) -> tuple[Array, Arra
     fits = jnp.sum(degree >= 2) <= hubs
     ranked = jnp.argsort(-degree, stable=True).astype(jnp.int32)
     if hubs < HUBS_APART or hubs >= count:  # relax through the hubs on the whole matrix
-        return (*_relaxed(gap, adjacency, ranked[:min(hubs, count)]), fits)
+        return (*relaxed(gap, adjacency, ranked[:min(hubs, count)]), fits)
     index = jnp.arange(count, dtype=jnp.int32)
     order = ranked[:hubs]  # hub -> node
     hub_of = jnp.full(count, -1, jnp.int32).at[order].set(jnp.arange(hubs, dtype=jnp.int32))
-    hub_dist, hub_hop = _relaxed(gap[order][:, order], adjacency[order][:, order],
+    hub_dist, hub_hop = relaxed(gap[order][:, order], adjacency[order][:, order],
                                  jnp.arange(hubs, dtype=jnp.int32))
     is_hub = hub_of >= 0
     neighbour = jnp.argmax(adjacency, axis=1).astype(jnp.int32)  # a leaf's one neighbour
