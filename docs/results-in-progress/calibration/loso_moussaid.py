@@ -3,9 +3,14 @@
 Prints one JSON line per held-out scene (loso_moussaid.jsonl is its output).
 
     python docs/results-in-progress/calibration/loso_moussaid.py > loso_moussaid.jsonl
+    python docs/results-in-progress/calibration/loso_moussaid.py --table loso_moussaid.jsonl
+
+(the second prints docs/humans.md's table from the output)
 """
 
 import json
+import sys
+from pathlib import Path
 
 import jax
 
@@ -24,7 +29,25 @@ def scores(s) -> list[float]:
     return [float(s.ade), float(s.fde), float(s.collisions)]
 
 
+def table(path: str) -> str:
+    """docs/humans.md's leave-one-scene-out table, from the output lines at ``path``."""
+    lines = ["| held-out scene | constant velocity ADE / FDE (m) | Moussaid, published | "
+             "Moussaid, fitted on the other four | fitted: tau (s), A (m/s^2), lambda, gamma, "
+             "n, n' |", "|---|---|---|---|---|"]
+    for text in Path(path).read_text().splitlines():
+        row = json.loads(text)
+        c = row["constants"]
+        cell = lambda v: f"{v[0]:.3f} / {v[1]:.3f}, {100 * v[2]:.1f}%"  # noqa: E731
+        lines.append(f"| {row['scene']} | {cell(row['cv'])} | {cell(row['published'])} | "
+                     f"{cell(row['fitted'])} | {c['tau']}, {c['social_strength']}, "
+                     f"{c['lambda_importance']}, {c['gamma']}, {c['n']}, {c['n_prime']} |")
+    return "\n".join(lines)
+
+
 def main() -> None:
+    if sys.argv[1:2] == ["--table"]:
+        print(table(sys.argv[2]))
+        return
     tracks = {s: read_tracks(f"../shared/pedestrians/eth_ucy/{f}.txt") for s, f in SCENES.items()}
     training = {s: forecast_windows(t, stride=4) for s, t in tracks.items()}
     moussaid = jax.jit(lambda p, w: score_forecast(*social_force_forecast(p, w, DT), w))
