@@ -26,6 +26,8 @@ from sgjax.environment.registry import registered
 from sgjax.evaluation.evaluate import evaluate, policy_environment, run_episodes
 from sgjax.evaluation.policies import BASELINES, load_policy, policy_options
 from sgjax.evaluation.protocols import PAPER, PROTOCOLS, load_protocol
+from sgjax.humans.pedestrians import FORCE_MODELS
+from sgjax.humans.replay import REPLAY_MODES
 from sgjax.maps.generated.families import FAMILIES
 from sgjax.maps.io import load as load_map
 from sgjax.types import ACTION_MODES, ARRIVED_SEMANTICS
@@ -35,6 +37,13 @@ from sgjax.version import __version__
 def _add_environment_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--num-humans", type=int, default=None,
                         help="pedestrians per episode (default: the scenario's)")
+    parser.add_argument("--human-model", default=None, choices=FORCE_MODELS,
+                        help="the pedestrians' force model (default: the policy's, else "
+                        "moussaid); with --human-replay handover, the handed-over people's")
+    parser.add_argument("--human-replay", default=None, choices=REPLAY_MODES,
+                        help="recorded:FILE scenarios: replayed people as ghosts, pausing "
+                        "when a robot touches them, or handed over to the force model when "
+                        "a robot comes near (default ghost; docs/humans.md)")
     parser.add_argument("--time-limit", type=float, default=None,
                         help="seconds before truncation (default 75)")
     parser.add_argument("--action-mode", default=None, choices=ACTION_MODES)
@@ -75,8 +84,8 @@ def _add_action_choice(parser: argparse.ArgumentParser) -> None:
                          help="trained checkpoints sample their actions")
 
 
-ENVIRONMENT_FLAGS = ("num_humans", "time_limit", "action_mode", "arrived", "observation_preset",
-                     "world_ranges", "world_seeds")
+ENVIRONMENT_FLAGS = ("num_humans", "human_model", "human_replay", "time_limit", "action_mode",
+                     "arrived", "observation_preset", "world_ranges", "world_seeds")
 
 
 def _options(args: argparse.Namespace, policy: Any) -> MakeOptions:
@@ -408,8 +417,8 @@ def build_parser() -> argparse.ArgumentParser:
                              description="Evaluate policies; writes metrics.json, metrics.csv, "
                                          "table.md and PNG charts")
     ev.add_argument("--scenario", nargs="+", default=None,
-                    help=f"scenario ids or map files (default: the five mini-games); "
-                         f"shipped: {', '.join(registered())}")
+                    help=f"scenario ids, map files or recorded:TRACK_FILE (default: the five "
+                         f"mini-games); shipped: {', '.join(registered())}")
     ev.add_argument("--policy", nargs="+", default=["only_local"], help=_policy_help())
     ev.add_argument("--num-agents", nargs="+", type=int, default=None,
                     help=f"robot counts (default: {' '.join(map(str, PAPER.num_agents))})")

@@ -36,6 +36,7 @@ from sgjax.dynamics.limits import RobotPreset
 from sgjax.humans.groups import leaders
 from sgjax.humans.neighbors import SEARCHES
 from sgjax.humans.pedestrians import FORCE_MODELS, GOAL_MODES, WALL_MODELS, HumanConfig
+from sgjax.humans.replay import REPLAY_MODES
 from sgjax.types import ACTION_MODES, ARRIVED_SEMANTICS, WORLD_SEMANTICS
 from sgjax.validation import (
     check_bool,
@@ -118,6 +119,9 @@ class HumanOptions:
     human_range: float | None = None
     human_search: str = "auto"  # with a range: "auto", "grid" (cell lists) or "all" (dense)
     human_cell_capacity: int = 0  # bodies per cell list (0: 6 per m^2 of cell)
+    # recorded people ("recorded:FILE" scenarios): "ghost", "pause" or "handover"
+    # (sgjax.humans.replay); None there means "ghost"
+    human_replay: str | None = None
 
     def __post_init__(self) -> None:
         check_bool("humans_see_robots", self.humans_see_robots)
@@ -133,6 +137,8 @@ class HumanOptions:
         _within_slots("num_humans", self.num_humans, "max_humans", self.max_humans, 0)
         check_positive("human_radius", self.human_radius)
         check_choice("human_model", self.human_model, FORCE_MODELS)
+        if self.human_replay is not None:
+            check_choice("human_replay", self.human_replay, REPLAY_MODES)
         check_choice("human_walls", self.human_walls, WALL_MODELS)
         check_choice("human_goals", self.human_goals, GOAL_MODES)
         if not isinstance(self.human_groups, list | tuple):
@@ -151,7 +157,7 @@ class HumanOptions:
         return HumanConfig(max_humans=self.slots, force_model=self.human_model,
                            wall_model=self.human_walls, goal_mode=self.human_goals,
                            neighbor_range=self.human_range, neighbor_search=self.human_search,
-                           cell_capacity=self.human_cell_capacity)
+                           cell_capacity=self.human_cell_capacity, replay=self.human_replay)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -24,6 +24,7 @@ from sgjax.humans.pedestrians import (
     move_humans,
     yield_to_robots,
 )
+from sgjax.humans.replay_step import meet_robots, move_replayed
 from sgjax.kernels.contacts import clamp_to_walls, separate_robots
 from sgjax.types import EnvParams, RobotState
 
@@ -70,11 +71,15 @@ def advance(
         overflow = jnp.zeros((), jnp.int32)
         if human_config.max_humans:
             velocity = robots.replace(kin=kin).body_velocity
-            fx, fy, heading, omega, overflow = human_forces(
-                human_config, params.humans, params.map, humans, x, y, velocity[:, 0],
-                velocity[:, 1], in_world, moving, rp.radius, dt_sub)
-            humans = move_humans(params.humans, params.map, humans, fx, fy, dt_sub).replace(
-                heading=heading, omega=omega)
+            robot_bodies = (x, y, velocity[:, 0], velocity[:, 1], in_world, moving, rp.radius)
+            if human_config.replay:
+                humans, overflow = move_replayed(human_config, params.humans, params.map,
+                                                 humans, *robot_bodies, dt_sub)
+            else:
+                fx, fy, heading, omega, overflow = human_forces(
+                    human_config, params.humans, params.map, humans, *robot_bodies, dt_sub)
+                humans = move_humans(params.humans, params.map, humans, fx, fy,
+                                     dt_sub).replace(heading=heading, omega=omega)
         new_kin, dx, dy = integrate(kin, commands.forward, commands.lateral, commands.turn, rp,
                                     dt_sub)
         dx, dy = jnp.where(moving, dx, 0.0), jnp.where(moving, dy, 0.0)
@@ -88,7 +93,10 @@ def advance(
             push_x, push_y, _ = separate_robots(x, y, rp.radius, in_world, moving)
             push_x, push_y, pinned = clamp_to_walls(x, y, push_x, push_y, rp.radius, params.map)
             x, y, wall = x + push_x, y + push_y, wall | pinned
-        if human_config.max_humans:
+        if human_config.replay:
+            humans, met = meet_robots(human_config, params.humans, params.map, humans, x, y,
+                                      rp.radius, in_world)
+        elif human_config.max_humans:
             humans, met = yield_to_robots(params.humans, params.map, humans, x, y, rp.radius,
                                           in_world)
         else:

@@ -22,6 +22,8 @@ from sgjax.environment.worlds import WorldDraw, WorldSource, source_for
 from sgjax.humans.hsfm import MAX_SUBSTEP as HSFM_MAX_SUBSTEP
 from sgjax.humans.map_params import human_params
 from sgjax.humans.pedestrians import HumanConfig, HumanParams, spawn_humans
+from sgjax.humans.recorded_scene import PREFIX as RECORDED
+from sgjax.humans.recorded_scene import recorded_scene
 from sgjax.maps.arrays import MapArrays, compile_map, spawn_groups
 from sgjax.maps.crowd_scenarios import CROWD_SCENARIOS
 from sgjax.maps.generated.export import world_map
@@ -70,6 +72,12 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
             options is None or options.humans.human_goals == "random"):
         keywords["human_goals"] = "routes"  # pedestrians walk the scenario's routes
     opts = (options or MakeOptions()).replace(where=f"make({str(label)!r})", **keywords)
+    recording = None
+    if isinstance(scenario, str) and scenario.startswith(RECORDED):
+        scenario, recording, opts = _recorded(scenario, opts)
+    elif opts.humans.human_replay is not None:
+        raise ValueError(f"make({str(label)!r}): human_replay={opts.humans.human_replay!r} "
+                         f"replays a recording: give a '{RECORDED}FILE' scenario")
     robot_opts, human_opts, term_opts, physics = opts.robots, opts.humans, opts.terms, opts.physics
     is_spec = isinstance(scenario, MapSpec)
     generated = isinstance(scenario, str) and scenario.startswith(GENERATED)
@@ -122,8 +130,25 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
     )
     if template is not None:  # a generated family: the template world's pedestrian slots too
         params = template.params_of(params)
+    if recording is not None:
+        params = params.replace(humans=params.humans.replace(recording=recording))
     _check_capacity(spec.source, params, max_agents, human_config)
     return SocialNavEnv(config, params), params
+
+
+def _recorded(name: str, opts: MakeOptions) -> tuple[MapSpec, Any, MakeOptions]:
+    """A ``recorded:FILE`` scenario: its map, its recording (windows of the episode's
+    length) and the options with one pedestrian slot per person of the fullest window
+    (``num_humans`` and ``max_humans`` are the recording's to set)."""
+    humans = opts.humans
+    if humans.num_humans or humans.max_humans is not None:
+        raise ValueError(f"make({name!r}): num_humans and max_humans come from the recording "
+                         "(one slot per person of its fullest window); leave them out")
+    spec, recording = recorded_scene(name[len(RECORDED):], opts.physics.time_limit)
+    people = int(recording.x.shape[2])
+    opts = opts.replace(where=f"make({name!r})", num_humans=people, max_humans=people,
+                        human_replay=humans.human_replay or "ghost")
+    return spec, recording, opts
 
 
 def _grid_reach(planner_config: PlannerConfig, planner_params: PlannerParams, largest: float,
@@ -254,7 +279,7 @@ def _check_capacity(source: str, params: EnvParams, max_agents: int,
                     human_config: HumanConfig) -> None:
     """Fail early if the map cannot place ``max_agents`` robots with distinct starts and goals,
     or ``max_humans`` pedestrians on free spawn slots beside them."""
-    wanted = human_config.max_humans
+    wanted = 0 if human_config.replay else human_config.max_humans  # replayed: no slots
     valid = params.humans.spawn_valid  # a generated world's lattice is masked
     slots = int(params.humans.spawn_x.shape[0] if valid is None else jnp.sum(valid))
     radius = float(params.humans.radius)

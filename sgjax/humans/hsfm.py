@@ -40,6 +40,7 @@ from jax import Array
 from sgjax.humans.groups import group_forces
 from sgjax.humans.near_walls import wall_offsets
 from sgjax.humans.neighbors import Each, Pairs, every_body
+from sgjax.humans.replay import walking_target
 from sgjax.kernels.geometry import polynomial_atan2, safe_norm, wrap_angle
 from sgjax.maps.arrays import MapArrays
 
@@ -89,7 +90,7 @@ def hsfm_update(
     num = h.x.shape[0]
     radius = jnp.broadcast_to(hp.radius, h.x.shape)
     inertia = 0.5 * p.mass * radius * radius
-    tx, ty = m.node_x[h.target], m.node_y[h.target]
+    tx, ty = walking_target(m, h)
     ex, ey = tx - h.x, ty - h.y
     dist = safe_norm(ex, ey)
     ex, ey = ex / jnp.maximum(dist, 1e-9), ey / jnp.maximum(dist, 1e-9)

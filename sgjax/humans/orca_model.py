@@ -35,6 +35,7 @@ from jax import Array
 
 from sgjax.humans.near_walls import nearest_walls_in_range
 from sgjax.humans.neighbors import Each, Pairs, every_body
+from sgjax.humans.replay import walking_target
 from sgjax.kernels.geometry import safe_norm
 from sgjax.kernels.neighbor_grid import pad_row
 from sgjax.kernels.orca import nearest_bodies, orca_velocity, wall_lines
@@ -65,7 +66,7 @@ def orca_forces(
     ``neighborDist``; ``None``: every body)."""
     h, p = humans, hp.orca
     num = h.x.shape[0]
-    tx, ty = m.node_x[h.target], m.node_y[h.target]
+    tx, ty = walking_target(m, h)
     gx, gy = tx - h.x, ty - h.y
     distance = safe_norm(gx, gy)
     speed = jnp.minimum(h.desired_speed, distance / dt)

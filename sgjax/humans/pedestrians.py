@@ -40,6 +40,7 @@ from sgjax.humans.neighbors import (
     uses_grid,
 )
 from sgjax.humans.orca_model import OrcaParams, orca_forces
+from sgjax.humans.replay import REPLAY_MODES, Recording, ReplayState, start_replay, walking_target
 from sgjax.humans.slots import SPAWN_JITTER, SPAWN_MARGIN
 from sgjax.kernels.contacts import clamp_to_walls, uses_broad_phase
 from sgjax.kernels.geometry import (
@@ -91,6 +92,7 @@ class HumanConfig:
     neighbor_range: float | None = None
     neighbor_search: str = "auto"
     cell_capacity: int = 0
+    replay: str | None = None
 
     def __post_init__(self):
         for name, allowed in (("force_model", FORCE_MODELS), ("wall_model", WALL_MODELS),
@@ -109,6 +111,9 @@ class HumanConfig:
         if self.cell_capacity < 0:
             raise ValueError(f"HumanConfig.cell_capacity must be >= 0, got "
                              f"{self.cell_capacity}")
+        if self.replay is not None and self.replay not in REPLAY_MODES:
+            raise ValueError(f"HumanConfig.replay must be one of {REPLAY_MODES} or None, got "
+                             f"{self.replay!r}")
         uses_grid(self.neighbor_range, self.neighbor_search, self.max_humans)  # checks both
 
     @property
@@ -170,6 +175,12 @@ class HumanParams:
     # [S] and which node rows are nodes [N] (random goals are drawn among them); None: all
     spawn_valid: Array | None = None
     node_valid: Array | None = None
+    # replayed people (HumanConfig.replay): the recording's windows, how long a person a
+    # robot touched stands (s, "pause"; SocNavBench's collision_cooldown_amnt) and the body gap
+    # to a robot (m) that hands a person over to the force model ("handover")
+    recording: Recording | None = None
+    pause_seconds: Array | float = 1.0
+    handover_radius: Array | float = 1.5
 
 
 @struct.dataclass
@@ -187,6 +198,7 @@ class HumanState:
     active: Array  # bool: takes part in this episode
     heading: Array  # rad: the body's facing (HSFM turns it; other models face their motion)
     omega: Array  # rad/s: turn rate
+    replay: ReplayState | None = None  # replayed people's clocks and books (HumanConfig.replay)
 
     @property
     def position(self) -> Array:
@@ -236,6 +248,8 @@ def spawn_humans(
     """
     if not config.max_humans:
         return no_humans()
+    if config.replay:
+        return replayed_humans(key, hp)
     num = config.max_humans
     num_nodes = m.node_x.shape[0]
     k_slot, k_jitter, k_goal, k_speed = jax.random.split(key, 4)
@@ -289,6 +303,19 @@ def spawn_humans(
                       desired_speed=speed, active=active, heading=heading, omega=zeros)
 
 
+def replayed_humans(key: Array, hp: HumanParams) -> HumanState:
+    """The people of a random window of ``hp.recording`` at its first row (replay mode): each
+    at their recorded position and velocity, active where the recording holds them, wanting
+    their recorded mean speed; their node rows are unused (0)."""
+    rec = hp.recording
+    replay, (x, y, vx, vy, present) = start_replay(key, rec)
+    rows = jnp.zeros(x.shape, jnp.int32)
+    return HumanState(x=x, y=y, vx=vx, vy=vy, target=rows, goal=rows, origin=rows,
+                      desired_speed=rec.speed[replay.window], active=present,
+                      heading=polynomial_atan2(vy, vx), omega=jnp.zeros(x.shape, jnp.float32),
+                      replay=replay)
+
+
 def _nearest_free_slots(anchor_x: Array, anchor_y: Array, slot: Array, free: Array,
                         spawn_x: Array, spawn_y: Array) -> Array:
     """``[H]`` distinct slots: pedestrian ``i`` (in index order) takes the free slot nearest
@@ -312,7 +339,7 @@ def advance_waypoints(
     (``goal_mode``). Without the view rule a pedestrian that turned early for a waypoint round a
     corner walked into the corner's wall. Without pedestrians (``config.max_humans == 0``)
     ``humans`` is returned as it is."""
-    if not config.max_humans:
+    if not config.max_humans or config.replay:
         return humans
     tx, ty = m.node_x[humans.target], m.node_y[humans.target]
     distance = safe_norm(tx - humans.x, ty - humans.y)
@@ -409,7 +436,7 @@ def _social_forces(
     lists' overflow (``find``: how the pedestrians meet the bodies, :meth:`HumanConfig.each`)."""
     p = hp.forces
     h = humans
-    tx, ty = m.node_x[h.target], m.node_y[h.target]
+    tx, ty = walking_target(m, h)
     fx, fy = desired_force(h.x, h.y, h.vx, h.vy, tx, ty, h.desired_speed, p.tau)
     bx, by = jnp.concatenate([h.x, robot_x]), jnp.concatenate([h.y, robot_y])
     bvx, bvy = jnp.concatenate([h.vx, robot_vx]), jnp.concatenate([h.vy, robot_vy])

@@ -16,6 +16,7 @@ registered metric; :func:`start`, :func:`update`, :func:`finalize`, :func:`per_e
 * ``proximity``: closest approach, personal spaces;
 * ``ttc``: time to collision;
 * ``mini_game``: order violations at conflict zones, makespan, flow rate;
+* ``recorded``: log deviation and people reached, among recorded people;
 * and the counterfactual metrics (``counterfactuals``), filled in by the lanes of
   :mod:`sgjax.evaluation.counterfactual`.
 
@@ -33,6 +34,7 @@ from sgjax.evaluation.metrics import outcome, collisions, paths, stops  # noqa: 
 from sgjax.evaluation.metrics import smoothness, proximity, ttc, mini_game  # noqa: F401
 from sgjax.evaluation.metrics import actions  # noqa: F401
 from sgjax.evaluation.metrics import counterfactuals  # noqa: F401
+from sgjax.evaluation.metrics import recorded  # noqa: F401
 # isort: on
 from sgjax.evaluation.metrics.accumulate import (
     MetricState,
