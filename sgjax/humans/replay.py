@@ -42,10 +42,10 @@ FRACTION_TOLERANCE = 1e-3  # of a row: a time this close past a track's last row
 class Recording:
     """A recording cut into windows (device arrays): ``x, y, valid [N, L, H]`` (m; 0 where not
     valid), ``ids [N, H]`` (each slot's person in the file; -1: an empty slot), ``start [N]``
-    (each window's first row in the recording), ``row_seconds`` (s between rows, scalar), ``speed [N, H]`` (each person's mean
-    recorded speed in the window, m/s), ``end [N, H]`` (s: the time of each person's last
-    valid row in the window; -1 for an empty slot), ``goal_x, goal_y [N, H]`` (m: its
-    position there)."""
+    (each window's first row in the recording), ``row_seconds`` (s between rows, scalar),
+    ``speed [N, H]`` (each person's mean recorded speed in the window, m/s), ``end [N, H]``
+    (s: the time of each person's last valid row in the window; -1 for an empty slot),
+    ``goal_x, goal_y [N, H]`` (m: its position there)."""
 
     x: Array
     y: Array
