@@ -349,11 +349,18 @@ def drawing_of_arrays(arrays: Any, name: str) -> MapSpec:
 
 def recorded_map(scenario: Any, states: Any) -> MapSpec:
     """The map one recorded episode (``states [T + 1, ...]``) played on: a generated world's
-    (from its first state) or the scenario's map file."""
+    (from its first state), a recording's open space (``recorded:FILE``) or the scenario's map
+    file."""
+    from sgjax.humans.recorded_scene import PREFIX as RECORDED
+    from sgjax.humans.recorded_scene import scene_map
+    from sgjax.humans.tracks import read_tracks
     from sgjax.maps.io import load
 
     world = getattr(states, "world", None)
     if world is not None:
         first = jax.tree.map(lambda leaf: leaf[0], world.map)
         return drawing_of_arrays(first, str(scenario))
+    if isinstance(scenario, str) and scenario.startswith(RECORDED):
+        path = scenario[len(RECORDED):]
+        return scene_map(read_tracks(path), f"{RECORDED}{Path(path).stem}")
     return load(scenario)

@@ -3,7 +3,8 @@ people walked, robots that cross it, and the recording's windows as the episodes
 (:mod:`sgjax.humans.replay`).
 
 The map: the rectangle the recorded people cover (every valid position), with robot start and
-goal nodes on a ring :data:`NODE_MARGIN` m outside it, :data:`NODE_SPACING` m apart, and walls
+goal nodes on a ring :data:`NODE_MARGIN` m outside it, :data:`NODE_SPACING` m apart, each
+joined to every node of the opposite side (robots cross in straight lines), and walls
 :data:`WALL_MARGIN` m beyond the nodes. Four route groups send robots across the scene: west
 side to east, east to west, south to north, north to south, so every robot crosses the
 people's space. No obstacle of the scene is in the map: ETH/UCY annotate people, not the
@@ -27,7 +28,7 @@ from sgjax.maps.schema import MapSpec, parse_map
 
 PREFIX = "recorded:"
 NODE_MARGIN = 1.0  # m: robot starts and goals lie this far outside the recorded people's extent
-NODE_SPACING = 1.5  # m between two start/goal nodes on a side
+NODE_SPACING = 3.0  # m between two start/goal nodes on a side
 WALL_MARGIN = 1.5  # m: the scene's walls lie this far beyond the nodes
 WINDOW_STRIDE = 4.0  # s between the starts of two windows
 
@@ -60,7 +61,8 @@ def scene_map(tracks: Tracks, name: str) -> MapSpec:
         "walls": [[round(v, 4) for v in w] for w in walls],
         "nodes": [{"id": i, "position": [round(x, 4), round(y, 4)]}
                   for i, (x, y) in enumerate(points)],
-        "edges": [[a, b] for a in range(len(points)) for b in range(a + 1, len(points))],
+        "edges": [[a, b] for one, other in (("west", "east"), ("south", "north"))
+                  for a in rows[one] for b in rows[other]],
         "groups": [{"starts": rows[a], "goals": rows[b]}
                    for a, b in (("west", "east"), ("east", "west"), ("south", "north"),
                                 ("north", "south"))],
