@@ -50,18 +50,18 @@ def registered() -> list[str]:
 
 def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
          **keywords: Any) -> tuple[SocialNavEnv, EnvParams]:
-    """Build the environment for ``scenario``: a shipped id, a path to a map JSON file, or a
-    ``MapSpec`` (for example from ``sgjax.maps.import_socialgym``). Returns ``(env, params)``.
+    """Build the environment for ``scenario``: a shipped id, a path to a map JSON file, a
+    ``MapSpec`` (for example from ``sgjax.maps.import_socialgym``), ``generated:FAMILY`` or
+    ``recorded:TRACK_FILE``. Returns ``(env, params)``.
 
-    Options (``sgjax.environment.options``: defaults, units and groups) come as flat keywords, on
-    top of
-    ``options`` when given: for robots ``num_agents``, ``max_agents``, ``robots``,
+    Options (``sgjax.environment.options``: defaults, units and groups) come as flat keywords,
+    on top of ``options`` when given: for robots ``num_agents``, ``max_agents``, ``robots``,
     ``action_mode``, ``goal_tolerance``; for pedestrians ``num_humans``, ``max_humans``,
     ``human_model``, ``human_walls``, ``human_goals``, ``human_radius``, ``human_range``,
-    ``human_search``, ``human_cell_capacity``; for the observation /
-    reward / ender terms ``observations``, ``rewards``, ``enders``, ``terms``,
-    ``observation_preset``, ``reward_preset`` (``docs/terms.md``); for physics ``dt``,
-    ``substeps``, ``time_limit``, ``num_arcs``, ``contact_passes``.
+    ``human_search``, ``human_cell_capacity``, ``human_replay``; for the observation / reward /
+    ender terms ``observations``, ``rewards``, ``enders``, ``terms``, ``observation_preset``,
+    ``reward_preset`` (``docs/terms.md``); for physics ``dt``, ``substeps``, ``time_limit``,
+    ``num_arcs``, ``contact_passes``.
     """
     label = scenario if isinstance(scenario, str | Path) else getattr(scenario, "name", "map")
     if isinstance(scenario, str) and scenario in CROWD_SCENARIOS:
@@ -72,12 +72,7 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
             options is None or options.humans.human_goals == "random"):
         keywords["human_goals"] = "routes"  # pedestrians walk the scenario's routes
     opts = (options or MakeOptions()).replace(where=f"make({str(label)!r})", **keywords)
-    recording = None
-    if isinstance(scenario, str) and scenario.startswith(RECORDED):
-        scenario, recording, opts = _recorded(scenario, opts)
-    elif opts.humans.human_replay is not None:
-        raise ValueError(f"make({str(label)!r}): human_replay={opts.humans.human_replay!r} "
-                         f"replays a recording: give a '{RECORDED}FILE' scenario")
+    scenario, recording, opts = _recorded(scenario, opts, label)
     robot_opts, human_opts, term_opts, physics = opts.robots, opts.humans, opts.terms, opts.physics
     is_spec = isinstance(scenario, MapSpec)
     generated = isinstance(scenario, str) and scenario.startswith(GENERATED)
@@ -89,8 +84,7 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
                        "to a map .json file)")
 
     max_agents = robot_opts.slots
-    slots = resolve_robots(robot_opts.robots, max_agents)
-    presets: list[RobotPreset] = [p for _, p in slots]
+    presets: list[RobotPreset] = [p for _, p in resolve_robots(robot_opts.robots, max_agents)]
     human_config = human_opts.config()
     observer, rewarder, reward_params, enders = resolve_terms(
         observations=term_opts.resolved_observations, rewards=term_opts.resolved_rewards,
@@ -136,11 +130,17 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
     return SocialNavEnv(config, params), params
 
 
-def _recorded(name: str, opts: MakeOptions) -> tuple[MapSpec, Any, MakeOptions]:
+def _recorded(name: Any, opts: MakeOptions, label: Any) -> tuple[Any, Any, MakeOptions]:
     """A ``recorded:FILE`` scenario: its map, its recording (windows of the episode's
     length) and the options with one pedestrian slot per person of the fullest window
-    (``num_humans`` and ``max_humans`` are the recording's to set)."""
+    (``num_humans`` and ``max_humans`` are the recording's to set). Any other scenario:
+    ``(name, None, opts)``, refusing ``human_replay``."""
     humans = opts.humans
+    if not (isinstance(name, str) and name.startswith(RECORDED)):
+        if humans.human_replay is not None:
+            raise ValueError(f"make({str(label)!r}): human_replay={humans.human_replay!r} "
+                             f"replays a recording: give a '{RECORDED}FILE' scenario")
+        return name, None, opts
     if humans.num_humans or humans.max_humans is not None:
         raise ValueError(f"make({name!r}): num_humans and max_humans come from the recording "
                          "(one slot per person of its fullest window); leave them out")

@@ -12,7 +12,8 @@ and the robot-robot contact's 10 um gap (robots resting against each other flipp
 touching and apart with the last bit, so collision counts differed between an Intel and an AMD
 CPU; CHANGELOG.md);
 ``invalid_actions`` (issue 42) added by hand, 0 in every pinned episode (their policies' actions
-are all valid).
+are all valid); the recorded-people metrics (``log_deviation``, ``log_deviation_max``,
+``people_reached``, issue 68) added by hand, NaN in every pinned episode (no recorded people).
 """
 
 from __future__ import annotations
