@@ -1,5 +1,6 @@
 """The ``sgjax`` command: ``sgjax evaluate ...``, ``sgjax render ...``, ``sgjax maps show ...``,
-``sgjax maps check ...``, ``sgjax maps generate ...`` and ``sgjax edit ...``.
+``sgjax maps check ...``, ``sgjax maps generate ...``, ``sgjax crowd fit ...``, ``sgjax crowd
+loso ...`` and ``sgjax edit ...``.
 
 Examples::
 
@@ -9,12 +10,15 @@ Examples::
     sgjax maps show doorway --out doorway.png
     sgjax maps show path/to/SocialGym2/door --socialgym-scenario envs_door
     sgjax maps check mygame.json other.json
+    sgjax crowd fit --model moussaid --data ../shared/pedestrians/eth_ucy --test ZARA1 \\
+        --out runs/crowd_fit
     sgjax edit --new mygame
 """
 
 from __future__ import annotations
 
 import argparse
+import time
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +27,7 @@ import jax
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.environment.options import MakeOptions
 from sgjax.environment.registry import registered
+from sgjax.evaluation.calibration import FITTED_BY_MODEL
 from sgjax.evaluation.evaluate import evaluate, policy_environment, run_episodes
 from sgjax.evaluation.policies import BASELINES, load_policy, policy_options
 from sgjax.evaluation.protocols import PAPER, PROTOCOLS, load_protocol
@@ -388,6 +393,64 @@ def _add_maps_commands(commands: Any) -> None:
 
 
 
+def _add_crowd_commands(commands: Any) -> None:
+    """``sgjax crowd fit`` and ``sgjax crowd loso``."""
+    crowd = commands.add_parser(
+        "crowd", help="calibrate the pedestrian models to recorded people").add_subparsers(
+        dest="crowd_command", required=True)
+    fit = crowd.add_parser(
+        "fit", help="fit a social-force law to recorded scenes, score it on a held-out one",
+        description="Fit a law's constants by gradient on the training scenes' tracks and "
+                    "forecast the held-out scene (observe 8 rows, predict 12: ADE, FDE, "
+                    "predicted collisions) beside constant velocity and the published "
+                    "constants; writes crowd_fit.json (with provenance) and crowd_fit.md")
+    loso = crowd.add_parser(
+        "loso", help="leave each of ETH, HOTEL, UNIV, ZARA1, ZARA2 out once",
+        description="crowd fit five times, each standard ETH/UCY scene held out once; one "
+                    "result file")
+    for command in (fit, loso):
+        command.add_argument("--model", default="moussaid", choices=list(FITTED_BY_MODEL))
+        command.add_argument("--data", required=True, type=Path,
+                             help="the folder of track files (frame id x y), e.g. "
+                                  "../shared/pedestrians/eth_ucy")
+        command.add_argument("--steps", type=int, default=100, help="Adam steps per fit")
+        command.add_argument("--max-seconds", type=float, default=None,
+                             help="stop each fit after this long (compile included)")
+        command.add_argument("--out", required=True, type=Path, help="result folder")
+        add_cache_arguments(command)
+    fit.add_argument("--test", default=None,
+                     help="the held-out scene (ZARA1, a file stem such as crowds_zara01, or a "
+                          "file name); without it, fit only")
+    fit.add_argument("--train", nargs="+", default=None,
+                     help="training scenes (default: the standard five but --test)")
+    fit.set_defaults(run=run_crowd_fit)
+    loso.set_defaults(run=run_crowd_loso)
+
+
+def run_crowd_fit(args: argparse.Namespace) -> None:
+    from sgjax.evaluation.crowd_fit import fit_scene, write_result
+
+    began = time.perf_counter()
+    row = fit_scene(args.model, args.data, args.test, args.train, args.steps, args.max_seconds)
+    path = write_result(args.out, [row], {"fit": time.perf_counter() - began})
+    print(f"{args.model} fitted on {', '.join(row['train'])} in {row['fit_seconds']} s "
+          f"({row['steps']} steps): " + ", ".join(f"{k} {v:.4g}"
+                                                  for k, v in row["constants"].items()))
+    print(f"wrote {path}")
+    if row["test"] is not None:
+        print((args.out / "crowd_fit.md").read_text())
+
+
+def run_crowd_loso(args: argparse.Namespace) -> None:
+    from sgjax.evaluation.crowd_fit import loso, write_result
+
+    began = time.perf_counter()
+    rows = loso(args.model, args.data, args.steps, args.max_seconds,
+                log=lambda line: print(line, flush=True))
+    path = write_result(args.out, rows, {"loso": time.perf_counter() - began})
+    print(f"wrote {path}\n" + (args.out / "crowd_fit.md").read_text())
+
+
 def _add_edit_command(commands: Any) -> None:
     """``sgjax edit``."""
     edit = commands.add_parser(
@@ -458,6 +521,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     _add_maps_commands(commands)
     _add_generalise_command(commands)
+    _add_crowd_commands(commands)
     _add_edit_command(commands)
     return parser
 

@@ -1,11 +1,12 @@
-"""The Moussaid law's constants fitted to recorded pedestrians by gradient (issue 68): Adam
-(optax) on the logarithms of the constants (so they stay positive) over the teacher-forced
-one-row loss of :func:`sgjax.evaluation.force_forecast.one_row_loss`, averaged over the
-recordings given (the leave-one-scene-out protocol fits on four scenes and forecasts the
-fifth)."""
+"""A social-force law's constants (Moussaid, or Helbing and Molnar) fitted to recorded
+pedestrians by gradient (issue 68): Adam (optax) on the logarithms of the constants (so they
+stay positive) over the teacher-forced one-row loss of
+:func:`sgjax.evaluation.force_forecast.one_row_loss`, averaged over the recordings given (the
+leave-one-scene-out protocol fits on four scenes and forecasts the fifth)."""
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 
 import jax
@@ -17,18 +18,25 @@ from sgjax.evaluation.force_forecast import one_row_loss
 from sgjax.humans.forces import SocialForceParams
 from sgjax.humans.tracks import TrackWindows
 
-# The interaction and relaxation constants a fit moves (the wall and Helbing constants play no
-# part in an open recording)
+# The interaction and relaxation constants a fit moves, per law (the wall constants play no
+# part in an open recording; Helbing's field-of-view weight is a share, not fitted)
 FITTED = ("tau", "social_strength", "lambda_importance", "gamma", "n", "n_prime")
+FITTED_BY_MODEL = {"moussaid": FITTED, "helbing": ("tau", "v0", "sigma", "ellipse_dt")}
 
 
 def fit_social_force(windows: Sequence[TrackWindows], dt: float, steps: int = 100,
                      learning_rate: float = 0.05, start: SocialForceParams | None = None,
-                     names: Sequence[str] = FITTED) -> tuple[SocialForceParams, list[float]]:
+                     names: Sequence[str] | None = None, model: str = "moussaid",
+                     max_seconds: float | None = None
+                     ) -> tuple[SocialForceParams, list[float]]:
     """``(fitted constants, the loss before each step)``: ``steps`` Adam steps (gradient
-    clipped to norm 1) on the log of the constants ``names``, from ``start`` (default the
-    published ones), minimising the mean of each recording's one-row loss (m^2; ``dt`` s per
-    row)."""
+    clipped to norm 1) on the log of the constants ``names`` (default
+    ``FITTED_BY_MODEL[model]``), from ``start`` (default the published ones), minimising the
+    mean of each recording's one-row loss (m^2; ``dt`` s per row) under the ``model`` law;
+    ``max_seconds`` stops earlier once that much time has passed (the compile included)."""
+    if model not in FITTED_BY_MODEL:
+        raise ValueError(f"model must be one of {tuple(FITTED_BY_MODEL)}, got {model!r}")
+    names = FITTED_BY_MODEL[model] if names is None else tuple(names)
     if steps < 1:
         raise ValueError(f"steps must be >= 1, got {steps}")
     if not windows:
@@ -36,14 +44,16 @@ def fit_social_force(windows: Sequence[TrackWindows], dt: float, steps: int = 10
     start = start or SocialForceParams()
     unknown = [n for n in names if not hasattr(start, n)]
     if unknown:
-        raise ValueError(f"no SocialForceParams constant {unknown[0]!r}; fit among {FITTED}")
+        raise ValueError(f"no SocialForceParams constant {unknown[0]!r}; fit among "
+                         f"{FITTED_BY_MODEL[model]}")
     theta = {n: jnp.log(jnp.float32(getattr(start, n))) for n in names}
 
     def constants(theta: dict[str, Array]) -> SocialForceParams:
         return start.replace(**{n: jnp.exp(v) for n, v in theta.items()})
 
     def loss(theta: dict[str, Array]) -> Array:
-        return sum(one_row_loss(constants(theta), w, dt) for w in windows) / len(windows)
+        return sum(one_row_loss(constants(theta), w, dt, model=model)
+                   for w in windows) / len(windows)
 
     optimiser = optax.chain(optax.clip_by_global_norm(1.0), optax.adam(learning_rate))
 
@@ -55,7 +65,10 @@ def fit_social_force(windows: Sequence[TrackWindows], dt: float, steps: int = 10
 
     state = optimiser.init(theta)
     history = []
+    began = time.perf_counter()
     for _ in range(steps):
         theta, state, value = step(theta, state)
         history.append(float(value))
+        if max_seconds is not None and time.perf_counter() - began > max_seconds:
+            break
     return constants(theta), history
