@@ -60,7 +60,7 @@ def test_crowd_fit_refuses_a_missing_scene_by_name(tmp_path):
     with pytest.raises(SystemExit, match="no track file nowhere.txt for scene 'nowhere'"):
         main(["crowd", "fit", "--data", str(tmp_path), "--test", "nowhere", "--train", "x",
               "--out", str(tmp_path / "out")])
-    with pytest.raises(SystemExit, match="model must be one of"):
+    with pytest.raises(ValueError, match="model must be one of"):
         fit_social_force([], DT, model="orca")
 
 
