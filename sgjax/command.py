@@ -45,10 +45,11 @@ def _add_environment_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--human-model", default=None, choices=FORCE_MODELS,
                         help="the pedestrians' force model (default: the policy's, else "
                         "moussaid); with --human-replay handover, the handed-over people's")
-    parser.add_argument("--human-replay", default=None, choices=REPLAY_MODES,
+    parser.add_argument("--human-replay", default=None, choices=(*REPLAY_MODES, "off"),
                         help="recorded:FILE scenarios: replayed people as ghosts, pausing "
                         "when a robot touches them, or handed over to the force model when "
-                        "a robot comes near (default ghost; docs/humans.md)")
+                        "a robot comes near (default ghost), or off: --num-humans simulated "
+                        "pedestrians in the recording's space (docs/humans.md)")
     parser.add_argument("--time-limit", type=float, default=None,
                         help="seconds before truncation (default 75)")
     parser.add_argument("--action-mode", default=None, choices=ACTION_MODES)

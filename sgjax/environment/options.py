@@ -120,7 +120,8 @@ class HumanOptions:
     human_search: str = "auto"  # with a range: "auto", "grid" (cell lists) or "all" (dense)
     human_cell_capacity: int = 0  # bodies per cell list (0: 6 per m^2 of cell)
     # recorded people ("recorded:FILE" scenarios): "ghost", "pause" or "handover"
-    # (sgjax.humans.replay); None there means "ghost"
+    # (sgjax.humans.replay), or "off" (the recording's space with num_humans simulated
+    # pedestrians instead); None there means "ghost"
     human_replay: str | None = None
 
     def __post_init__(self) -> None:
@@ -138,7 +139,7 @@ class HumanOptions:
         check_positive("human_radius", self.human_radius)
         check_choice("human_model", self.human_model, FORCE_MODELS)
         if self.human_replay is not None:
-            check_choice("human_replay", self.human_replay, REPLAY_MODES)
+            check_choice("human_replay", self.human_replay, (*REPLAY_MODES, "off"))
         check_choice("human_walls", self.human_walls, WALL_MODELS)
         check_choice("human_goals", self.human_goals, GOAL_MODES)
         if not isinstance(self.human_groups, list | tuple):
@@ -157,7 +158,8 @@ class HumanOptions:
         return HumanConfig(max_humans=self.slots, force_model=self.human_model,
                            wall_model=self.human_walls, goal_mode=self.human_goals,
                            neighbor_range=self.human_range, neighbor_search=self.human_search,
-                           cell_capacity=self.human_cell_capacity, replay=self.human_replay)
+                           cell_capacity=self.human_cell_capacity,
+                           replay=None if self.human_replay == "off" else self.human_replay)
 
 
 @dataclasses.dataclass(frozen=True)

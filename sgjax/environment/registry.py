@@ -141,10 +141,13 @@ def _recorded(name: Any, opts: MakeOptions, label: Any) -> tuple[Any, Any, MakeO
             raise ValueError(f"make({str(label)!r}): human_replay={humans.human_replay!r} "
                              f"replays a recording: give a '{RECORDED}FILE' scenario")
         return name, None, opts
+    spec, recording = recorded_scene(name[len(RECORDED):], opts.physics.time_limit)
+    if humans.human_replay == "off":  # the recording's space, simulated pedestrians
+        return spec, None, opts
     if humans.num_humans or humans.max_humans is not None:
         raise ValueError(f"make({name!r}): num_humans and max_humans come from the recording "
-                         "(one slot per person of its fullest window); leave them out")
-    spec, recording = recorded_scene(name[len(RECORDED):], opts.physics.time_limit)
+                         "(one slot per person of its fullest window); leave them out, or "
+                         "give human_replay='off' for simulated pedestrians in its space")
     people = int(recording.x.shape[2])
     opts = opts.replace(where=f"make({name!r})", num_humans=people, max_humans=people,
                         human_replay=humans.human_replay or "ghost")

@@ -296,3 +296,16 @@ def test_an_eth_ucy_scene_replays_its_recording():
         np.testing.assert_array_equal(np.asarray(state.humans.active), np.asarray(present))
         np.testing.assert_allclose(np.asarray(state.humans.x), np.asarray(x), atol=1e-4)
     assert int(jnp.sum(states[0].humans.active)) > 3
+
+
+def test_replay_off_puts_simulated_pedestrians_in_the_recordings_space(scene):
+    path, _ = scene
+    env, params = sgjax.make(f"recorded:{path}", num_agents=2, human_replay="off",
+                             num_humans=6, time_limit=12.0)
+    replayed_env, replayed = env_of(scene)
+    assert env.config.humans.replay is None and params.humans.recording is None
+    assert env.config.humans.max_humans == 6
+    np.testing.assert_array_equal(np.asarray(params.map.node_x),
+                                  np.asarray(replayed.map.node_x))  # the same space
+    humans = _people(env, params, jax.random.key(0))
+    assert humans.replay is None and int(jnp.sum(humans.active)) == 6
