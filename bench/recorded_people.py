@@ -24,7 +24,6 @@ from throughput import _prepare_jax as prepare_jax
 from throughput import staggered_states
 
 import sgjax
-from sgjax.humans.recorded_scene import recorded_scene
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "pedestrians" / "eth_ucy"
 
@@ -69,8 +68,8 @@ def main() -> None:
             people = env.config.humans.max_humans
             rows.append((scene, f"replayed ({mode})", people,
                          prepare(env, params, args.robots, args.envs, args.steps)))
-        spec, _ = recorded_scene(path, args.time_limit)
-        env, params = sgjax.make(spec, num_humans=people, **common)
+        env, params = sgjax.make(f"recorded:{path}", human_replay="off", num_humans=people,
+                                 **common)
         rows.append((scene, "simulated (moussaid)", people,
                      prepare(env, params, args.robots, args.envs, args.steps)))
     best = [float("inf")] * len(rows)

@@ -18,12 +18,11 @@ episode."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 
 from sgjax.humans.replay import Recording, recording
-from sgjax.humans.tracks import Tracks, read_tracks, track_windows
+from sgjax.humans.tracks import Tracks, track_windows
 from sgjax.maps.schema import MapSpec, parse_map
 
 PREFIX = "recorded:"
@@ -76,11 +75,3 @@ def scene_recording(tracks: Tracks, time_limit: float) -> Recording:
     rows = int(math.ceil(time_limit / tracks.dt)) + 1
     stride = max(1, int(round(WINDOW_STRIDE / tracks.dt)))
     return recording(track_windows(tracks, rows, stride), tracks.dt)
-
-
-def recorded_scene(path: str | Path, time_limit: float) -> tuple[MapSpec, Recording]:
-    """The map and the episodes' people of the track file ``path`` (``frame id x y``,
-    :func:`sgjax.humans.tracks.read_tracks`: errors name the file and line) for episodes of
-    ``time_limit`` s."""
-    tracks = read_tracks(path)
-    return scene_map(tracks, f"{PREFIX}{Path(path).stem}"), scene_recording(tracks, time_limit)
