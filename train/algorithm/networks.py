@@ -116,7 +116,8 @@ class OthersEncoder(nn.Module):
             pooled = jnp.sum(weights[..., None] * values, axis=-2)
         else:  # LSTM over the bodies, farthest first; empty slots leave the state unchanged
             cell = nn.OptimizedLSTMCell(self.size, recurrent_kernel_init=orthogonal())
-            carry = cell.initialize_carry(jax.random.key(0), bodies[..., 0, :].shape)
+            zeros = jnp.zeros(bodies.shape[:-2] + (self.size,), bodies.dtype)
+            carry = (zeros, zeros)  # (cell, hidden) at rest: no key drawn for zeros
             read = lay.k if self.bodies is None else min(max(self.bodies, 1), lay.k)
             for j in reversed(range(read)):
                 new_carry, _ = cell(carry, bodies[..., j, :])
