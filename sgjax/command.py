@@ -90,6 +90,7 @@ def _add_action_choice(parser: argparse.ArgumentParser) -> None:
                          help="trained checkpoints sample their actions")
 
 
+RENDER_FORMATS = ("gif", "mp4", "mcap")
 ENVIRONMENT_FLAGS = ("num_humans", "human_model", "human_replay", "time_limit", "action_mode",
                      "arrived", "observation_preset", "world_ranges", "world_seeds")
 
@@ -159,8 +160,10 @@ def run_render(args: argparse.Namespace) -> None:
     )
 
     out = Path(args.out)
-    if out.suffix.lower() not in (".gif", ".mp4"):
-        raise SystemExit(f"sgjax render: --out {args.out!r} must end in .gif or .mp4")
+    kind = args.format or out.suffix.lower().lstrip(".")
+    if kind not in RENDER_FORMATS:
+        raise SystemExit(f"sgjax render: --out {args.out!r} must end in .gif, .mp4 or .mcap "
+                         "(or give --format)")
     # exactly --num-agents robots in the settings the policy needs, as sgjax evaluate plays
     env, by_count = policy_environment(args.scenario, [args.num_agents], args.policy,
                                        _options(args, args.policy))
@@ -170,6 +173,14 @@ def run_render(args: argparse.Namespace) -> None:
     states = jax.tree.map(lambda leaf: leaf[:, 0], batch.states)
     length = int(batch.values["episode_length"][0])
     spec = recorded_map(args.scenario, states)
+    if kind == "mcap":
+        from sgjax.evaluation.episode_log import write_mcap
+
+        metrics = {name: float(values[0]) for name, values in batch.values.items()}
+        write_mcap(out, spec, states, params, env.config.layout, length, metrics=metrics)
+        print(f"{spec.name}, {args.num_agents} robots, policy {args.policy}: {length} steps "
+              f"({length * float(params.dt):.1f} s); wrote {out} (open it in Foxglove)")
+        return
     title = f"{spec.name} / {args.policy}"
     frames, stride = episode_frames(spec, states, params, length, title=title,
                                     width_px=args.width, max_frames=args.max_frames)
@@ -511,7 +522,11 @@ def build_parser() -> argparse.ArgumentParser:
     rd.add_argument("--policy", default="only_local", help=_policy_help())
     rd.add_argument("--num-agents", type=int, default=4)
     rd.add_argument("--seed", type=int, default=0)
-    rd.add_argument("--out", default="episode.gif", help=".gif (pillow) or .mp4 (ffmpeg)")
+    rd.add_argument("--out", default="episode.gif",
+                    help=".gif (pillow), .mp4 (ffmpeg) or .mcap (Foxglove's schemas: "
+                         "docs/interop.md)")
+    rd.add_argument("--format", default=None, choices=RENDER_FORMATS,
+                    help="what to write (default: --out's suffix)")
     rd.add_argument("--trajectory", default=None,
                     help="trajectory plot PNG (default: --out with .png)")
     rd.add_argument("--width", type=int, default=480, help="frame width in pixels")

@@ -1,0 +1,95 @@
+"""Episodes as MCAP files in Foxglove's schemas (``sgjax.evaluation.episode_log``, ``sgjax
+render --format mcap``): read back with ``mcap``'s own reader and protobuf decoder, every
+topic holds the rollout's values at the simulation clock's times."""
+
+from __future__ import annotations
+
+import json
+from collections import defaultdict
+
+import jax
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+from mcap_protobuf.decoder import DecoderFactory
+
+from sgjax.command import main
+from sgjax.environment.options import MakeOptions
+from sgjax.evaluation.episode_log import SCAN_BEAMS, episode_scans, write_mcap
+from sgjax.evaluation.evaluate import policy_environment, run_episodes
+from sgjax.evaluation.policies import load_policy
+from sgjax.evaluation.render import recorded_map
+
+
+def read_back(path):
+    """``{topic: [(log_time ns, message)]}``: protobuf messages decoded by ``mcap_protobuf``,
+    JSON ones parsed."""
+    out = defaultdict(list)
+    factory = DecoderFactory()
+    with open(path, "rb") as f:
+        for schema, channel, message in make_reader(f).iter_messages():
+            if channel.message_encoding == "json":
+                value = json.loads(message.data)
+            else:
+                value = factory.decoder_for(channel.message_encoding, schema)(message.data)
+            out[channel.topic].append((message.log_time, value))
+    return out
+
+
+@pytest.fixture(scope="module")
+def episode():
+    options = MakeOptions().replace(num_humans=3, time_limit=8.0)
+    env, by_count = policy_environment("doorway", [3], "only_local", options)
+    params = by_count[3]
+    batch = run_episodes(env, params, load_policy("only_local", env), jax.random.key(2), 1,
+                         record=True)
+    states = jax.tree.map(lambda leaf: leaf[:, 0], batch.states)
+    length = int(batch.values["episode_length"][0])
+    return env, params, states, length
+
+
+def test_an_episode_reads_back_as_the_rollout(tmp_path, episode):
+    env, params, states, length = episode
+    spec = recorded_map("doorway", states)
+    path = write_mcap(tmp_path / "e.mcap", spec, states, params, env.config.layout, length,
+                      metrics={"team_success": 1.0})
+    topics = read_back(path)
+    count = length + 1
+    assert {"/map", "/robots", "/pedestrians", "/tf", "/step", "/metrics",
+            "/robot_0/scan", "/robot_2/scan"} <= set(topics)
+    walls = topics["/map"][0][1].entities[0]
+    assert len(walls.lines[0].points) == 2 * len(spec.walls)
+    dt_ns = round(float(params.dt) * 1e6) * 1000
+    assert [t for t, _ in topics["/tf"]] == [k * dt_ns for k in range(count)]
+    scans = episode_scans(states, params, env.config.layout, count)
+    for k, (_, tf) in enumerate(topics["/tf"]):
+        xy = np.asarray([[f.translation.x, f.translation.y] for f in tf.transforms])
+        np.testing.assert_allclose(xy[:, 0], np.asarray(states.robots.x[k]), atol=1e-6)
+        np.testing.assert_allclose(xy[:, 1], np.asarray(states.robots.y[k]), atol=1e-6)
+        scan = topics["/robot_1/scan"][k][1]
+        assert len(scan.ranges) == SCAN_BEAMS
+        np.testing.assert_allclose(scan.ranges, scans[k, 1], atol=1e-5)
+        people = {e.id: e for e in topics["/pedestrians"][k][1].entities}
+        active = np.flatnonzero(np.asarray(states.humans.active[k]))
+        assert sorted(people) == sorted(f"pedestrian_{i}" for i in active)
+        for i in active:
+            pose = people[f"pedestrian_{i}"].cylinders[0].pose.position
+            assert pose.x == pytest.approx(float(states.humans.x[k, i]), abs=1e-6)
+        robots = topics["/robots"][k][1].entities
+        assert len(robots) == int(np.sum(np.asarray(states.robots.in_world[k])))
+        step = topics["/step"][k][1]
+        assert step["decision"] == np.asarray(states.held_action[k]).tolist()
+        assert step["time"] == pytest.approx(k * float(params.dt))
+    assert topics["/metrics"][0][1] == {"team_success": 1.0}
+
+
+def test_sgjax_render_writes_mcap(tmp_path, capsys):
+    out = tmp_path / "episode.mcap"
+    main(["render", "--scenario", "open", "--policy", "only_local", "--num-agents", "2",
+          "--time-limit", "5", "--out", str(out)])
+    topics = read_back(out)
+    assert "team_success" in topics["/metrics"][0][1]
+    assert len(topics["/tf"]) == len(topics["/step"]) >= 2
+    assert "open it in Foxglove" in capsys.readouterr().out
+    with pytest.raises(SystemExit, match=r"must end in \.gif, \.mp4 or \.mcap"):
+        main(["render", "--scenario", "open", "--out", str(tmp_path / "x.txt")])
