@@ -90,7 +90,7 @@ def _add_action_choice(parser: argparse.ArgumentParser) -> None:
                          help="trained checkpoints sample their actions")
 
 
-RENDER_FORMATS = ("gif", "mp4", "mcap")
+RENDER_FORMATS = ("gif", "mp4", "mcap", "rosbag2")
 ENVIRONMENT_FLAGS = ("num_humans", "human_model", "human_replay", "time_limit", "action_mode",
                      "arrived", "observation_preset", "world_ranges", "world_seeds")
 
@@ -163,7 +163,7 @@ def run_render(args: argparse.Namespace) -> None:
     kind = args.format or out.suffix.lower().lstrip(".")
     if kind not in RENDER_FORMATS:
         raise SystemExit(f"sgjax render: --out {args.out!r} must end in .gif, .mp4 or .mcap "
-                         "(or give --format)")
+                         "(or give --format, rosbag2 for a ROS 2 bag folder)")
     # exactly --num-agents robots in the settings the policy needs, as sgjax evaluate plays
     env, by_count = policy_environment(args.scenario, [args.num_agents], args.policy,
                                        _options(args, args.policy))
@@ -173,13 +173,18 @@ def run_render(args: argparse.Namespace) -> None:
     states = jax.tree.map(lambda leaf: leaf[:, 0], batch.states)
     length = int(batch.values["episode_length"][0])
     spec = recorded_map(args.scenario, states)
-    if kind == "mcap":
+    if kind in ("mcap", "rosbag2"):
+        from sgjax.evaluation.episode_bag import write_rosbag2
         from sgjax.evaluation.episode_log import write_mcap
 
         metrics = {name: float(values[0]) for name, values in batch.values.items()}
-        write_mcap(out, spec, states, params, env.config.layout, length, metrics=metrics)
+        if kind == "mcap":
+            write_mcap(out, spec, states, params, env.config.layout, length, metrics=metrics)
+        else:
+            write_rosbag2(out, spec, states, params, env.config.layout, length)
         print(f"{spec.name}, {args.num_agents} robots, policy {args.policy}: {length} steps "
-              f"({length * float(params.dt):.1f} s); wrote {out} (open it in Foxglove)")
+              f"({length * float(params.dt):.1f} s); wrote {out} ("
+              + ("open it in Foxglove)" if kind == "mcap" else "ros2 bag play it)"))
         return
     title = f"{spec.name} / {args.policy}"
     frames, stride = episode_frames(spec, states, params, length, title=title,
@@ -523,8 +528,8 @@ def build_parser() -> argparse.ArgumentParser:
     rd.add_argument("--num-agents", type=int, default=4)
     rd.add_argument("--seed", type=int, default=0)
     rd.add_argument("--out", default="episode.gif",
-                    help=".gif (pillow), .mp4 (ffmpeg) or .mcap (Foxglove's schemas: "
-                         "docs/interop.md)")
+                    help=".gif (pillow), .mp4 (ffmpeg), .mcap (Foxglove's schemas) or, "
+                         "with --format rosbag2, a ROS 2 bag folder (docs/interop.md)")
     rd.add_argument("--format", default=None, choices=RENDER_FORMATS,
                     help="what to write (default: --out's suffix)")
     rd.add_argument("--trajectory", default=None,

@@ -93,3 +93,43 @@ def test_sgjax_render_writes_mcap(tmp_path, capsys):
     assert "open it in Foxglove" in capsys.readouterr().out
     with pytest.raises(SystemExit, match=r"must end in \.gif, \.mp4 or \.mcap"):
         main(["render", "--scenario", "open", "--out", str(tmp_path / "x.txt")])
+
+
+def test_an_episode_reads_back_from_a_ros2_bag(tmp_path, episode):
+    """rosbags' own reader and typestore: odometry, scans, pedestrians and decisions are the
+    rollout's at the simulation clock's times."""
+    from rosbags.rosbag2 import Reader
+    from rosbags.typesys import Stores, get_typestore
+
+    from sgjax.evaluation.episode_bag import write_rosbag2
+
+    env, params, states, length = episode
+    spec = recorded_map("doorway", states)
+    path = write_rosbag2(tmp_path / "bag", spec, states, params, env.config.layout, length)
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    topics = defaultdict(list)
+    with Reader(path) as reader:
+        for connection, stamp, raw in reader.messages():
+            topics[connection.topic].append(
+                (stamp, store.deserialize_cdr(raw, connection.msgtype)))
+    count = length + 1
+    dt_ns = round(float(params.dt) * 1e6) * 1000
+    scans = episode_scans(states, params, env.config.layout, count)
+    assert len(topics["/map_markers"][0][1].markers[0].points) == 2 * len(spec.walls)
+    odom = topics["/robot_1/odom"]
+    in_world = np.asarray(states.robots.in_world[:count, 1])
+    assert [t for t, _ in odom] == [k * dt_ns for k in np.flatnonzero(in_world)]
+    for (stamp, message), k in zip(odom, np.flatnonzero(in_world), strict=True):
+        assert message.header.stamp.sec * 10**9 + message.header.stamp.nanosec == stamp
+        assert message.pose.pose.position.x == pytest.approx(float(states.robots.x[k, 1]),
+                                                             abs=1e-6)
+        assert message.twist.twist.linear.x == pytest.approx(
+            float(states.robots.kin.v_forward[k, 1]), abs=1e-6)
+    for (_, scan), k in zip(topics["/robot_1/scan"], np.flatnonzero(in_world), strict=True):
+        np.testing.assert_allclose(scan.ranges, scans[k, 1], atol=1e-5)
+    for k, (_, people) in enumerate(topics["/pedestrians"]):
+        active = np.asarray(states.humans.active[k])
+        xs = [p.position.x for p in people.poses]
+        np.testing.assert_allclose(xs, np.asarray(states.humans.x[k])[active], atol=1e-6)
+    for k, (_, decision) in enumerate(topics["/robots/decision"]):
+        assert decision.data.tolist() == np.asarray(states.held_action[k]).tolist()
