@@ -173,6 +173,17 @@ def run_render(args: argparse.Namespace) -> None:
     states = jax.tree.map(lambda leaf: leaf[:, 0], batch.states)
     length = int(batch.values["episode_length"][0])
     spec = recorded_map(args.scenario, states)
+    if args.live:
+        from sgjax.evaluation.episode_log import serve_episode
+
+        served = serve_episode(spec, states, params, env.config.layout, length, host=args.host,
+                               port=args.port, speed=args.speed, wait_for_client=600.0,
+                               started=lambda port: print(
+                                   f"serving {spec.name} to Foxglove at ws://{args.host}:{port} "
+                                   "(open connection, Foxglove WebSocket); it plays once a "
+                                   "client subscribes", flush=True))
+        print(f"served {served} steps")
+        return
     if kind in ("mcap", "rosbag2"):
         from sgjax.evaluation.episode_bag import write_rosbag2
         from sgjax.evaluation.episode_log import write_mcap
@@ -532,6 +543,14 @@ def build_parser() -> argparse.ArgumentParser:
                          "with --format rosbag2, a ROS 2 bag folder (docs/interop.md)")
     rd.add_argument("--format", default=None, choices=RENDER_FORMATS,
                     help="what to write (default: --out's suffix)")
+    rd.add_argument("--live", action="store_true",
+                    help="serve the episode to Foxglove over its WebSocket protocol instead "
+                         "of writing a file (docs/interop.md)")
+    rd.add_argument("--host", default="127.0.0.1",
+                    help="--live: the address to serve on (default loopback: this machine)")
+    rd.add_argument("--port", type=int, default=8765, help="--live: the port")
+    rd.add_argument("--speed", type=float, default=1.0,
+                    help="--live: times the simulation clock")
     rd.add_argument("--trajectory", default=None,
                     help="trajectory plot PNG (default: --out with .png)")
     rd.add_argument("--width", type=int, default=480, help="frame width in pixels")

@@ -27,7 +27,9 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping
+import threading
+import time
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -176,12 +178,15 @@ def _people_entities(t: int, seconds: float, states: Any, params: Any) -> list[A
             for k in np.flatnonzero(active)]
 
 
-def write_mcap(path: str | Path, spec: MapSpec, states: Any, params: Any, layout: Any,
-               length: int, rewards: np.ndarray | None = None,
-               metrics: Mapping[str, Any] | None = None) -> Path:
-    """Write one recorded episode (``states`` stacked ``[T + 1, ...]`` of one environment,
-    the first ``length + 1`` drawn; ``rewards [T, R]`` of its steps when known; ``metrics``
-    its final values) as the MCAP file ``path`` (module doc). Returns the path."""
+def log_episode(context: Any, spec: MapSpec, states: Any, params: Any, layout: Any,
+                length: int, rewards: np.ndarray | None = None,
+                metrics: Mapping[str, Any] | None = None,
+                pace: Callable[[int], None] | None = None) -> int:
+    """Log one recorded episode (``states`` stacked ``[T + 1, ...]`` of one environment, the
+    first ``length + 1`` logged; ``rewards [T, R]`` of its steps when known; ``metrics`` its
+    final values) on the module doc's topics of the :class:`foxglove.Context` ``context``,
+    whatever its sinks (an MCAP file, a WebSocket server). ``pace(t)`` runs before step ``t``
+    is logged (a live view waits there). Returns the steps logged."""
     import foxglove
     from foxglove.channels import FrameTransformsChannel, LaserScanChannel, SceneUpdateChannel
     from foxglove.messages import (
@@ -193,8 +198,6 @@ def write_mcap(path: str | Path, spec: MapSpec, states: Any, params: Any, layout
         Vector3,
     )
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     count = min(length + 1, int(np.shape(states.time)[0]))
     # ns per step: dt rounded to the microsecond (float32's 0.1 s is 0.100000001 s)
     step_ns = int(round(float(np.asarray(params.dt)) * 1e6)) * 1000
@@ -203,52 +206,107 @@ def write_mcap(path: str | Path, spec: MapSpec, states: Any, params: Any, layout
     angles = np.asarray(beam_angles(SCAN_BEAMS, 2.0 * math.pi))
     held = np.asarray(states.held_action[:count])
     discrete = held.ndim == 2
+    scene_map = SceneUpdateChannel("/map", context=context)
+    scene_robots = SceneUpdateChannel("/robots", context=context)
+    scene_people = SceneUpdateChannel("/pedestrians", context=context)
+    tf = FrameTransformsChannel("/tf", context=context)
+    lidar = [LaserScanChannel(f"/robot_{i}/scan", context=context) for i in range(robots)]
+    step_channel = foxglove.Channel("/step", message_encoding="json", context=context)
+    goal = np.asarray(states.route.x[:count, :, -1]), np.asarray(states.route.y[:count, :, -1])
+    for t in range(count):
+        if pace is not None:
+            pace(t)
+        if t == 0:  # after the first pace: a live client has subscribed by then
+            scene_map.log(map_scene(spec), log_time=0)
+        nanos = t * step_ns
+        seconds = nanos / 1e9
+        scene_robots.log(SceneUpdate(entities=_robot_entities(
+            t, seconds, states, params, held[t], discrete)), log_time=nanos)
+        scene_people.log(SceneUpdate(entities=_people_entities(t, seconds, states, params)),
+                         log_time=nanos)
+        r = states.robots
+        x, y = np.asarray(r.x[t]), np.asarray(r.y[t])
+        heading = np.asarray(r.kin.heading[t])
+        stamp = _stamp(seconds)
+        tf.log(FrameTransforms(transforms=[FrameTransform(
+            timestamp=stamp, parent_frame_id="map", child_frame_id=f"robot_{i}",
+            translation=Vector3(x=float(x[i]), y=float(y[i]), z=0.0),
+            rotation=Quaternion(x=0.0, y=0.0, z=math.sin(heading[i] / 2),
+                                w=math.cos(heading[i] / 2))) for i in range(robots)]),
+            log_time=nanos)
+        for i in range(robots):
+            lidar[i].log(LaserScan(timestamp=stamp, frame_id=f"robot_{i}", pose=_pose(0, 0),
+                                   start_angle=float(angles[0]), end_angle=float(angles[-1]),
+                                   ranges=[float(v) for v in scans[t, i]]), log_time=nanos)
+        step_channel.log({
+            "time": seconds,
+            "reward": (None if rewards is None or t == 0
+                       else [float(v) for v in rewards[t - 1]]),
+            "decision": held[t].tolist(),
+            "active": np.asarray(r.active[t]).tolist(),
+            "goal_distance": np.hypot(goal[0][t] - x, goal[1][t] - y).round(4).tolist(),
+        }, log_time=nanos)
+    if metrics is not None:
+        end = foxglove.Channel("/metrics", message_encoding="json", context=context)
+        end.log(json.loads(json.dumps(dict(metrics), default=float)),
+                log_time=(count - 1) * step_ns)
+    return count
+
+
+def write_mcap(path: str | Path, spec: MapSpec, states: Any, params: Any, layout: Any,
+               length: int, rewards: np.ndarray | None = None,
+               metrics: Mapping[str, Any] | None = None) -> Path:
+    """Write one recorded episode as the MCAP file ``path`` (:func:`log_episode`'s topics,
+    in a context of its own). Returns the path."""
+    import foxglove
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
     context = foxglove.Context()
     writer = foxglove.open_mcap(str(path), allow_overwrite=True, context=context)
     try:
-        scene_map = SceneUpdateChannel("/map", context=context)
-        scene_robots = SceneUpdateChannel("/robots", context=context)
-        scene_people = SceneUpdateChannel("/pedestrians", context=context)
-        tf = FrameTransformsChannel("/tf", context=context)
-        lidar = [LaserScanChannel(f"/robot_{i}/scan", context=context) for i in range(robots)]
-        step_channel = foxglove.Channel("/step", message_encoding="json", context=context)
-        scene_map.log(map_scene(spec), log_time=0)
-        goal = np.asarray(states.route.x[:count, :, -1]), np.asarray(states.route.y[:count, :, -1])
-        for t in range(count):
-            nanos = t * step_ns
-            seconds = nanos / 1e9
-            scene_robots.log(SceneUpdate(entities=_robot_entities(
-                t, seconds, states, params, held[t], discrete)), log_time=nanos)
-            scene_people.log(SceneUpdate(entities=_people_entities(t, seconds, states, params)),
-                             log_time=nanos)
-            r = states.robots
-            x, y = np.asarray(r.x[t]), np.asarray(r.y[t])
-            heading = np.asarray(r.kin.heading[t])
-            stamp = _stamp(seconds)
-            tf.log(FrameTransforms(transforms=[FrameTransform(
-                timestamp=stamp, parent_frame_id="map", child_frame_id=f"robot_{i}",
-                translation=Vector3(x=float(x[i]), y=float(y[i]), z=0.0),
-                rotation=Quaternion(x=0.0, y=0.0, z=math.sin(heading[i] / 2),
-                                    w=math.cos(heading[i] / 2))) for i in range(robots)]),
-                log_time=nanos)
-            for i in range(robots):
-                lidar[i].log(LaserScan(timestamp=stamp, frame_id=f"robot_{i}", pose=_pose(0, 0),
-                                       start_angle=float(angles[0]),
-                                       end_angle=float(angles[-1]),
-                                       ranges=[float(v) for v in scans[t, i]]), log_time=nanos)
-            active = np.asarray(r.active[t])
-            step_channel.log({
-                "time": seconds,
-                "reward": (None if rewards is None or t == 0
-                           else [float(v) for v in rewards[t - 1]]),
-                "decision": held[t].tolist(),
-                "active": active.tolist(),
-                "goal_distance": np.hypot(goal[0][t] - x, goal[1][t] - y).round(4).tolist(),
-            }, log_time=nanos)
-        if metrics is not None:
-            end = foxglove.Channel("/metrics", message_encoding="json", context=context)
-            end.log(json.loads(json.dumps(dict(metrics), default=float)),
-                    log_time=(count - 1) * step_ns)
+        log_episode(context, spec, states, params, layout, length, rewards, metrics)
     finally:
         writer.close()
     return path
+
+
+def serve_episode(spec: MapSpec, states: Any, params: Any, layout: Any, length: int,
+                  host: str = "127.0.0.1", port: int = 8765, speed: float = 1.0,
+                  wait_for_client: float = 0.0, metrics: Mapping[str, Any] | None = None,
+                  started: Callable[[int], None] | None = None) -> int:
+    """Serve one recorded episode live to Foxglove over its WebSocket protocol (foxglove-sdk's
+    server, subprotocol ``foxglove.sdk.v1``, bound to ``host``: loopback unless told
+    otherwise), step by step at ``speed`` times the simulation clock, once a client has
+    subscribed to one of its channels (or ``wait_for_client`` s have passed).
+    ``started(port)`` runs once the server listens (``port`` 0 picks a free one). Returns the
+    steps served."""
+    import foxglove
+
+    context = foxglove.Context()
+    subscribed = threading.Event()
+
+    class Listener(foxglove.ServerListener):
+        def on_subscribe(self, client: Any, channel: Any) -> None:
+            subscribed.set()
+
+    server = foxglove.start_server(name="sgjax", host=host, port=port, context=context,
+                                   server_listener=Listener())
+    try:
+        if started is not None:
+            started(server.port)
+        step_s = float(np.asarray(params.dt)) / max(speed, 1e-9)
+        clock = [0.0]
+
+        def pace(t: int) -> None:
+            if t == 0:  # the channels are advertised now: wait for a subscriber
+                subscribed.wait(wait_for_client)
+                clock[0] = time.perf_counter()
+            delay = clock[0] + t * step_s - time.perf_counter()
+            if delay > 0:
+                time.sleep(delay)
+
+        return log_episode(context, spec, states, params, layout, length, metrics=metrics,
+                           pace=pace)
+    finally:
+        server.stop()

@@ -133,3 +133,54 @@ def test_an_episode_reads_back_from_a_ros2_bag(tmp_path, episode):
         np.testing.assert_allclose(xs, np.asarray(states.humans.x[k])[active], atol=1e-6)
     for k, (_, decision) in enumerate(topics["/robots/decision"]):
         assert decision.data.tolist() == np.asarray(states.held_action[k]).tolist()
+
+
+def test_a_live_view_serves_foxglove_clients_on_loopback(episode):
+    """A WebSocket client speaking Foxglove's protocol sees the episode's channels advertised,
+    subscribes to /step and receives its messages."""
+    import struct
+    import threading
+
+    import websocket
+
+    from sgjax.evaluation.episode_log import serve_episode
+
+    env, params, states, length = episode
+    spec = recorded_map("doorway", states)
+    ports = []
+    ready = threading.Event()
+    served = []
+
+    def started(port):
+        ports.append(port)
+        ready.set()
+
+    thread = threading.Thread(target=lambda: served.append(serve_episode(
+        spec, states, params, env.config.layout, length, port=0, speed=20.0,
+        wait_for_client=20.0, started=started)), daemon=True)
+    thread.start()
+    assert ready.wait(20.0)
+    client = websocket.create_connection(f"ws://127.0.0.1:{ports[0]}",
+                                         subprotocols=["foxglove.sdk.v1"], timeout=20)
+    channels = {}
+    while "/step" not in channels:
+        frame = client.recv()
+        if isinstance(frame, str):
+            message = json.loads(frame)
+            if message["op"] == "advertise":
+                channels.update({c["topic"]: c for c in message["channels"]})
+    assert {"/map", "/robots", "/pedestrians", "/tf", "/robot_0/scan"} <= set(channels)
+    client.send(json.dumps({"op": "subscribe", "subscriptions": [
+        {"id": 7, "channelId": channels["/step"]["id"]}]}))
+    steps = []
+    while len(steps) < 3:
+        frame = client.recv()
+        if isinstance(frame, bytes) and frame[0] == 1:
+            subscription, stamp = struct.unpack_from("<IQ", frame, 1)
+            assert subscription == 7
+            steps.append((stamp, json.loads(frame[13:])))
+    client.close()
+    thread.join(60.0)
+    assert served == [length + 1]
+    assert [s["decision"] for _, s in steps] == [
+        np.asarray(states.held_action[round(stamp / 1e8)]).tolist() for stamp, _ in steps]
