@@ -33,6 +33,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from sgjax.dynamics.limits import RobotPreset
+from sgjax.humans.calibrated import CONSTANT_SETS, force_constants
 from sgjax.humans.groups import leaders
 from sgjax.humans.neighbors import SEARCHES
 from sgjax.humans.pedestrians import FORCE_MODELS, GOAL_MODES, WALL_MODELS, HumanConfig
@@ -119,6 +120,9 @@ class HumanOptions:
     human_range: float | None = None
     human_search: str = "auto"  # with a range: "auto", "grid" (cell lists) or "all" (dense)
     human_cell_capacity: int = 0  # bodies per cell list (0: 6 per m^2 of cell)
+    # the social-force constants: "published", or a preset fitted to recorded people
+    # ("eth_ucy": sgjax.humans.calibrated)
+    human_constants: str = "published"
     # recorded people ("recorded:FILE" scenarios): "ghost", "pause" or "handover"
     # (sgjax.humans.replay), or "off" (the recording's space with num_humans simulated
     # pedestrians instead); None there means "ghost"
@@ -138,6 +142,9 @@ class HumanOptions:
         _within_slots("num_humans", self.num_humans, "max_humans", self.max_humans, 0)
         check_positive("human_radius", self.human_radius)
         check_choice("human_model", self.human_model, FORCE_MODELS)
+        check_choice("human_constants", self.human_constants, CONSTANT_SETS)
+        if self.human_constants != "published":
+            force_constants(self.human_constants, self.human_model)  # the law has a fit
         if self.human_replay is not None:
             check_choice("human_replay", self.human_replay, (*REPLAY_MODES, "off"))
         check_choice("human_walls", self.human_walls, WALL_MODELS)

@@ -60,7 +60,44 @@ EVALUATE_SCHEMA: dict[str, Any] = {
     },
 }
 
-RESULT_SCHEMAS: dict[str, dict[str, Any]] = {EVALUATE: EVALUATE_SCHEMA}
+CROWD_FIT = "sgjax.crowd_fit/1"
+_SCORES = {"type": "object", "required": ["ade", "fde", "collisions", "pedestrians"],
+           "properties": {"ade": {"type": "number", "minimum": 0},
+                          "fde": {"type": "number", "minimum": 0},
+                          "collisions": {"type": "number", "minimum": 0, "maximum": 1},
+                          "pedestrians": {"type": "integer", "minimum": 0}}}
+_DIFFERENCE = {"type": "object", "required": ["mean", "ci_low", "ci_high", "windows"],
+               "properties": {"mean": NUMBER_OR_NULL, "ci_low": NUMBER_OR_NULL,
+                              "ci_high": NUMBER_OR_NULL,
+                              "windows": {"type": "integer", "minimum": 0}}}
+CROWD_FIT_SCHEMA: dict[str, Any] = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "title": "sgjax crowd fit / crowd loso crowd_fit.json",
+    "type": "object",
+    "required": ["schema_version", "provenance", "row_seconds", "observe", "predict", "rows"],
+    "properties": {
+        "schema_version": {"const": CROWD_FIT},
+        "provenance": PROVENANCE_SCHEMA,
+        "row_seconds": {"type": "number", "exclusiveMinimum": 0},
+        "observe": {"type": "integer", "minimum": 2},
+        "predict": {"type": "integer", "minimum": 1},
+        "rows": {"type": "array", "minItems": 1, "items": {
+            "type": "object",
+            "required": ["model", "train", "test", "steps", "loss", "constants", "published",
+                         "fit_seconds"],
+            "properties": {
+                "model": {"enum": ["moussaid", "helbing"]},
+                "train": {"type": "array", "items": {"type": "string"}, "minItems": 1},
+                "test": {"type": ["string", "null"]},
+                "steps": {"type": "integer", "minimum": 1},
+                "constants": {"type": "object", "additionalProperties": {"type": "number"}},
+                "scores": {"type": "object", "additionalProperties": _SCORES},
+                "fitted_minus": {"type": "object", "additionalProperties": _DIFFERENCE}}}},
+    },
+}
+
+RESULT_SCHEMAS: dict[str, dict[str, Any]] = {EVALUATE: EVALUATE_SCHEMA,
+                                             CROWD_FIT: CROWD_FIT_SCHEMA}
 
 
 def schema_for(document: Any, schemas: dict[str, dict[str, Any]] = RESULT_SCHEMAS

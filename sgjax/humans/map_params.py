@@ -9,6 +9,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from sgjax.humans.calibrated import force_constants
 from sgjax.humans.groups import GroupParams, leaders
 from sgjax.humans.pedestrians import HumanConfig, HumanParams
 from sgjax.humans.slots import spawn_slots, wall_sample_points
@@ -24,14 +25,15 @@ WALL_RESOLUTION = 10.0  # wall points per metre for human_walls="points" (PySoci
 
 def human_params(
     spec: MapSpec, config: HumanConfig, num_humans: int, radius: float,
-    see_robots: bool = True, groups: tuple[int, ...] = (),
+    see_robots: bool = True, groups: tuple[int, ...] = (), constants: str = "published",
 ) -> HumanParams:
     """Pedestrian params for a map: spawn slots for ``radius`` (m), the map's routes, and the
     constants' defaults (``HumanParams``, ``SocialForceParams``, ``OrcaParams``,
     ``HsfmParams``, ``GroupParams``). ``see_robots`` False zeroes the robots' weight in the
     force laws and in ORCA (``robot_weight``, ``orca.robot_share``): pedestrians that do not
     see robots. ``groups``: sizes of the groups the first pedestrians walk in
-    (``sgjax.humans.groups``)."""
+    (``sgjax.humans.groups``). ``constants``: ``"published"`` or a preset of force constants
+    fitted to recorded people (:mod:`sgjax.humans.calibrated`)."""
     slots, slot_nodes = spawn_slots(spec, radius) if config.max_humans else (
         np.zeros((0, 2)), np.zeros((0, 2), np.int64))
     points = (wall_sample_points(spec.walls, WALL_RESOLUTION) if config.wall_model == "points"
@@ -51,6 +53,8 @@ def human_params(
         route_start=jnp.asarray(routes[:, 0], jnp.int32),
         route_goal=jnp.asarray(routes[:, 1], jnp.int32),
     )
+    if constants != "published":  # a preset fitted to recorded people
+        hp = hp.replace(forces=force_constants(constants, config.force_model))
     if not see_robots:
         hp = hp.replace(robot_weight=0.0, orca=hp.orca.replace(robot_share=0.0))
     as_f32 = functools.partial(jax.tree.map, lambda v: jnp.asarray(v, f32))

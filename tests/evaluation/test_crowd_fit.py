@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 
+import jsonschema
 import numpy as np
 import pytest
 
@@ -15,6 +16,7 @@ from sgjax.evaluation.calibration import fit_social_force
 from sgjax.evaluation.crowd_fit import table
 from sgjax.evaluation.force_forecast import social_force_forecast
 from sgjax.evaluation.forecasting import forecast_windows
+from sgjax.evaluation.result_schema import schema_for
 from sgjax.humans.forces import SocialForceParams
 from sgjax.humans.tracks import read_tracks, write_rollout_tracks
 
@@ -42,6 +44,7 @@ def test_crowd_fit_writes_a_result_with_provenance_and_a_table(tmp_path, capsys)
           "--train", "walk_a", "walk_b", "--steps", "3", "--out", str(tmp_path / "out")])
     result = json.loads((tmp_path / "out" / "crowd_fit.json").read_text())
     assert result["schema_version"] == "sgjax.crowd_fit/1"
+    jsonschema.validate(result, schema_for(result))
     assert {"git", "versions", "machine", "command"} <= set(result["provenance"])
     row = result["rows"][0]
     assert row["train"] == ["walk_a", "walk_b"] and row["test"] == "walk_c"

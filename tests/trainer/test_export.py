@@ -120,3 +120,22 @@ def test_the_sidecar_names_layout_action_and_provenance(tmp_path):
 def test_a_missing_run_is_refused_by_name(tmp_path):
     with pytest.raises(SystemExit, match="no checkpoints/best.msgpack or latest.msgpack"):
         main([str(tmp_path), "--out", str(tmp_path / "a.onnx")])
+
+
+def test_an_acting_copy_acts_as_the_full_checkpoint(tmp_path):
+    from sgjax.evaluation.evaluate import params_by_count, run_episodes
+    from train.run.checkpoint import load_checkpoint_policy
+
+    run = tiny_run(tmp_path / "run", num_seeds=2)
+    full = run / "checkpoints" / "latest.msgpack"
+    slim = tmp_path / "acting.msgpack"
+    main([str(run), "--format", "acting", "--out", str(slim)])
+    assert slim.stat().st_size < full.stat().st_size
+    env, by_count = params_by_count("open", [2])
+    for path in (full, slim):
+        policy = load_checkpoint_policy(path, env, seed_index=1, deterministic=True)
+        values = run_episodes(env, by_count[2], policy, jax.random.key(0), 4).values
+        if path == full:
+            expected = values
+    for name in ("team_success", "episode_length", "collisions"):
+        np.testing.assert_array_equal(values[name], expected[name])
