@@ -5,8 +5,9 @@ For each ETH/UCY scene (``--scenes``, files of ``--data``): the scene as ``recor
 its people replayed as ghosts, pausing and handed over (``human_replay``), and the same map with
 as many simulated Moussaid pedestrians as the recording's slots (``num_humans`` = the most people
 a window holds, random goals). Each row is ``jit(scan(env.step_batch))`` over ``--envs``
-environments, 4 robots mostly GO; agent-steps count robots and pedestrian slots alike. Rows are
-compiled first, then timed in turn ``--rounds`` times, keeping each row's best.
+environments, 4 robots mostly GO (``building_scale.prepare``); agent-steps count robots and
+pedestrian slots alike. Rows are compiled first, then timed in turn ``--rounds`` times,
+keeping each row's best.
 
     python bench/recorded_people.py
     python bench/recorded_people.py --scenes crowds_zara01.txt students001.txt --envs 64
@@ -19,28 +20,11 @@ import os
 from pathlib import Path
 
 import jax
-import jax.numpy as jnp
-from throughput import _prepare_jax as prepare_jax
-from throughput import staggered_states
+from building_scale import prepare
 
 import sgjax
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "pedestrians" / "eth_ucy"
-
-
-def prepare(env, params, robots: int, envs: int, steps: int):
-    """``(compile s, peak bytes, timer)`` of ``steps`` batched steps (as building_scale.py)."""
-    state = staggered_states(env, params, envs)
-
-    def rollout(state, key):
-        def body(carry, k):
-            k_act, k_step = jax.random.split(k)
-            stop = (jax.random.uniform(k_act, (envs, robots)) < 0.2).astype(jnp.int32)
-            return env.step_batch(jax.random.split(k_step, envs), carry, stop, params)[1], None
-
-        return jax.lax.scan(body, state, jax.random.split(key, steps))[0]
-
-    return prepare_jax(jax.jit(rollout), state, steps)
 
 
 def main() -> None:

@@ -24,9 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from sgjax.evaluation.episode_log import SCAN_BEAMS, SCAN_RANGE, episode_scans
+from sgjax.evaluation.episode_log import SCAN_RANGE, episode_frame
 from sgjax.maps.schema import MapSpec
-from sgjax.observations.lidar import beam_angles
 
 STORE = "ROS2_HUMBLE"  # the rosbags typestore of the message definitions
 
@@ -125,12 +124,8 @@ def write_rosbag2(path: str | Path, spec: MapSpec, states: Any, params: Any, lay
         shutil.rmtree(path)
     store = _types()
     make = _Messages(store)
-    count = min(length + 1, int(np.shape(states.time)[0]))
-    step_ns = int(round(float(np.asarray(params.dt)) * 1e6)) * 1000
+    count, step_ns, scans, angles, held = episode_frame(states, params, layout, length)
     robots = int(np.shape(states.robots.x)[1])
-    scans = episode_scans(states, params, layout, count)
-    angles = np.asarray(beam_angles(SCAN_BEAMS, 2.0 * math.pi))
-    held = np.asarray(states.held_action[:count])
     r, h = states.robots, states.humans
     in_world = np.asarray(r.in_world[:count])
     x, y, heading = (np.asarray(v[:count]) for v in (r.x, r.y, r.kin.heading))

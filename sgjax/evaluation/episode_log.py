@@ -59,6 +59,19 @@ def episode_scans(states: Any, params: Any, layout: Any, count: int) -> np.ndarr
     return np.asarray(jax.jit(jax.vmap(one))(first))
 
 
+def episode_frame(states: Any, params: Any, layout: Any, length: int
+                  ) -> tuple[int, int, np.ndarray, np.ndarray, np.ndarray]:
+    """What every episode file needs of a recorded episode (``states [T + 1, ...]``, its
+    first ``length + 1`` written): ``(count, ns per step, scans [count, R, beams] (m), beam
+    angles [beams] (rad), held actions [count, R(, A)])``; the step's ns are ``dt`` rounded
+    to the microsecond (float32's 0.1 s is 0.100000001 s)."""
+    count = min(length + 1, int(np.shape(states.time)[0]))
+    step_ns = int(round(float(np.asarray(params.dt)) * 1e6)) * 1000
+    scans = episode_scans(states, params, layout, count)
+    angles = np.asarray(beam_angles(SCAN_BEAMS, 2.0 * math.pi))
+    return count, step_ns, scans, angles, np.asarray(states.held_action[:count])
+
+
 def _stamp(seconds: float) -> Any:
     from foxglove.messages import Timestamp
 
@@ -198,13 +211,8 @@ def log_episode(context: Any, spec: MapSpec, states: Any, params: Any, layout: A
         Vector3,
     )
 
-    count = min(length + 1, int(np.shape(states.time)[0]))
-    # ns per step: dt rounded to the microsecond (float32's 0.1 s is 0.100000001 s)
-    step_ns = int(round(float(np.asarray(params.dt)) * 1e6)) * 1000
+    count, step_ns, scans, angles, held = episode_frame(states, params, layout, length)
     robots = int(np.shape(states.robots.x)[1])
-    scans = episode_scans(states, params, layout, count)
-    angles = np.asarray(beam_angles(SCAN_BEAMS, 2.0 * math.pi))
-    held = np.asarray(states.held_action[:count])
     discrete = held.ndim == 2
     scene_map = SceneUpdateChannel("/map", context=context)
     scene_robots = SceneUpdateChannel("/robots", context=context)
