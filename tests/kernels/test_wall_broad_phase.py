@@ -179,14 +179,17 @@ def test_pedestrians_meet_the_walls_in_range_through_the_lists(model):
 
 @pytest.mark.slow
 def test_a_crowd_on_a_building_floor_follows_the_all_walls_rollout():
-    """GDC1 (1,374 walls), 4 robots GO and 120 pedestrians with a 3 m range, 250 steps of 2
-    episodes: through the wall lists (contacts and pedestrians' wall terms) every position
-    stays within 1 mm of the rollout over every wall with the same range."""
+    """GDC1 (1,374 walls), 4 robots GO and 120 pedestrians with a 3 m range, 100 steps (10 s)
+    of 2 episodes: through the wall lists (contacts and pedestrians' wall terms) every position
+    stays within 1 mm of the rollout over every wall with the same range. Not longer: a crowd
+    of 120 in corridors is chaotic, and the two paths' float rounding (1e-5 m at 10 s) grows
+    to metres by 25 s on some CPUs (an AMD EPYC under the suite's XLA flags; an Intel Xeon
+    stayed within 1 mm for 25 s). A missed wall or neighbour shows within the first steps."""
     from sgjax.maps.socialgym import import_socialgym
 
     spec = import_socialgym(require(SG2MAPS / "GDC1", "SocialGym 2.0's maps"))
     env, params = sgjax.make(spec, num_agents=4, num_humans=120, human_range=3.0)
-    listed, every = floor_rollouts(env, params, 2)
+    listed, every = floor_rollouts(env, params, 2, steps=100)
     for a, b in zip(listed, every, strict=True):
         assert float(np.max(np.abs(np.asarray(a) - np.asarray(b)))) < 1e-3
     moved = np.abs(np.asarray(listed[2][-1]) - np.asarray(listed[2][0])).max()
