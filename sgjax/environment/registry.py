@@ -40,6 +40,7 @@ CAPACITY_TRIALS = 64
 _HUMAN_DEFAULTS = {f.name: f.default for f in dataclasses.fields(HumanParams)}
 # m/s: the fastest pedestrian at the default params (top desired speed x the speed cap)
 HUMAN_TOP_SPEED = _HUMAN_DEFAULTS["speed_max"] * _HUMAN_DEFAULTS["max_speed_factor"]
+CROWD_SOURCE = "sgjax.maps.crowd_scenarios."  # a crowd scenario's MapSpec.source prefix
 PLANNER_SLACK = 0.2  # m: how much obstacle_margin may grow after make() with walls still seen
 
 
@@ -67,8 +68,7 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
     label = scenario if isinstance(scenario, str | Path) else getattr(scenario, "name", "map")
     if isinstance(scenario, str) and scenario in CROWD_SCENARIOS:
         scenario = CROWD_SCENARIOS[scenario]()
-    crowd = isinstance(scenario, MapSpec) and scenario.source.startswith(
-        "sgjax.maps.crowd_scenarios.")
+    crowd = isinstance(scenario, MapSpec) and scenario.source.startswith(CROWD_SOURCE)
     if crowd and "human_goals" not in keywords and (
             options is None or options.humans.human_goals == "random"):
         keywords["human_goals"] = "routes"  # pedestrians walk the scenario's routes

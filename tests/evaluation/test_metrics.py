@@ -282,7 +282,7 @@ def test_docs_tables_agree_with_the_registry():
         "docs/metrics.md is out of date: run python -m sgjax.evaluation.metrics.catalogue")
     for info in metrics.METRICS:
         assert text.count(f"| `{info.name}` |") == 1, info.name
-    assert len(set(metrics.METRICS.names())) == len(metrics.METRICS) == 50
+    assert len(set(metrics.METRICS.names())) == len(metrics.METRICS) == 53
     assert catalogue.main([str(DOCS), "--check"]) == 0
 
 
@@ -351,7 +351,7 @@ def test_a_metric_registered_from_outside_reaches_run_episodes(toy_metric):
     np.testing.assert_allclose(batch.values["toy_seconds"],
                                batch.values["episode_length"] * DT, rtol=1e-6)
     metrics.unregister_metric(ToyMetric)
-    assert "toy_seconds" not in metrics.METRICS and len(metrics.METRICS) == 50
+    assert "toy_seconds" not in metrics.METRICS and len(metrics.METRICS) == 53
     metrics.register_metric(ToyMetric)  # for the fixture to remove
 
 
