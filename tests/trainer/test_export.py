@@ -139,3 +139,23 @@ def test_an_acting_copy_acts_as_the_full_checkpoint(tmp_path):
             expected = values
     for name in ("team_success", "episode_length", "collisions"):
         np.testing.assert_array_equal(values[name], expected[name])
+
+
+def test_a_checkpoint_from_before_replayed_people_resumes(tmp_path):
+    """A runner state saved before ``HumanState.replay`` existed (no such key under the
+    environments' pedestrians) restores, the field None as it was."""
+    from flax import serialization
+
+    from train.algorithm.trainer import Trainer
+    from train.run.checkpoint import read, restore
+
+    run = tiny_run(tmp_path / "run", num_seeds=1, num_humans=2)
+    path = run / "checkpoints" / "latest.msgpack"
+    payload = serialization.msgpack_restore(path.read_bytes())
+    humans = payload["runner"]["env_states"]["0"]["humans"]  # scenario 0's environments
+    assert "replay" in humans
+    del humans["replay"]
+    path.write_bytes(serialization.msgpack_serialize(payload))
+    config, _, _ = read(path)
+    state, _ = restore(path, Trainer(config))
+    assert state.env_states[0].humans.replay is None

@@ -123,8 +123,10 @@ def restore(path: str | Path, trainer: Any, contents: tuple | None = None
 
 
 # Fields the runner state gained on 2026-11-28 (curricula over generated worlds, pedestrians
-# in them): a checkpoint saved before lacks them, and held what these defaults say.
-ADDED_FIELDS = ("levels", "curriculum", "next_level", "seed", "humans", "pedestrians")
+# in them) and 2026-11-29 (``HumanState.replay``: None unless recorded people are replayed): a
+# checkpoint saved before lacks them, and held what these defaults say.
+ADDED_FIELDS = ("levels", "curriculum", "next_level", "seed", "humans", "pedestrians",
+                "replay")
 ADDED_FILL = {"pedestrians": -1}  # an array field's value before it existed, where not 0
 
 
@@ -133,9 +135,9 @@ def with_added_fields(raw: Any, shapes: Any) -> Any:
     made before them held: zeros for arrays (``WorldDraw.seed``: no seed) but those of
     :data:`ADDED_FILL` (``pedestrians``: -1, the environment's count), empty for
     containers (``RunnerState.levels``, ``curriculum``) and None (``EnvState.next_level``,
-    ``WorldDraw.humans``). ``shapes``: the state dict of the trainer's runner template
-    (``ShapeDtypeStruct`` leaves). Any other missing field stays missing (the checkpoint does
-    not fit: :func:`restore` says so)."""
+    ``WorldDraw.humans``, ``HumanState.replay``). ``shapes``: the state dict of the
+    trainer's runner template (``ShapeDtypeStruct`` leaves). Any other missing field stays
+    missing (the checkpoint does not fit: :func:`restore` says so)."""
     if not isinstance(shapes, dict) or not isinstance(raw, dict):
         return raw
     out = dict(raw)
