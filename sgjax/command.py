@@ -146,7 +146,8 @@ def run_evaluate(args: argparse.Namespace) -> None:
     evaluate(args.scenario, args.policy, num_agents=args.num_agents, episodes=args.episodes,
              seed=args.seed, out=args.out,
              options=[_options(args, policy) for policy in args.policy],
-             counterfactual=args.counterfactual, deterministic=args.deterministic)
+             counterfactual=args.counterfactual, deterministic=args.deterministic,
+             record=args.record_mcap)
     print(f"table: {Path(args.out) / 'table.md'}")
 
 
@@ -526,6 +527,9 @@ def build_parser() -> argparse.ArgumentParser:
                          "file fixing scenarios, robot counts, episodes, seed, time limit and "
                          "counterfactual lanes (sgjax.evaluation.protocols)")
     _add_action_choice(ev)
+    ev.add_argument("--record-mcap", default=None, metavar="DIR",
+                    help="also write each configuration's first episode as an MCAP file for "
+                         "Foxglove into DIR (docs/interop.md)")
     ev.add_argument("--out", default="runs/eval",
                     help="output folder (its files written atomically when the evaluation "
                          "ends; a killed evaluation does not resume: run it again)")

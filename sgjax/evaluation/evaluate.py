@@ -146,6 +146,7 @@ def evaluate(
     policy_names: Sequence[str] | None = None,
     counterfactual: bool = False,
     deterministic: bool | None = None,
+    record: str | Path | None = None,
 ) -> list[ConfigResult]:
     """Evaluate every policy on every scenario and robot count; with ``out``, write
     ``metrics.json``, ``metrics.csv``, ``table.md`` and PNG charts there
@@ -169,7 +170,9 @@ def evaluate(
     ``deterministic`` makes trained checkpoints act greedily (True) or sample their actions
     (False) instead of their run's ``evaluation.deterministic``
     (:func:`sgjax.evaluation.policies.load_policy`;
-    baselines and policy objects are unaffected)."""
+    baselines and policy objects are unaffected). ``record``: a folder where each
+    configuration's first episode is written as an MCAP file for Foxglove
+    (``<scenario>_<policy>_<robots>.mcap``, :mod:`sgjax.evaluation.episode_log`)."""
     if not scenarios or not policies or not num_agents:
         raise ValueError("evaluate: scenarios, policies and num_agents must not be empty")
     if episodes < 1:
@@ -189,19 +192,17 @@ def evaluate(
             env, by_count = policy_environment(scenario, num_agents, policy, by_policy[p])
             params = by_count[num_agents[0]]
             runner = EpisodeRunner(env, load_policy(policy, env, deterministic), episodes,
-                                   int(params.max_steps), constants,
-                                   counterfactual=counterfactual)
+                                   int(params.max_steps), constants, counterfactual=counterfactual,
+                                   record_lanes=None if record is None else [0])
             compiled, _ = runner.compile(key, params)
             compile_seconds = time.perf_counter() - t0
             for n in num_agents:
                 params = by_count[n]
                 batch = runner.play_compiled(compiled, key, params, compile_seconds)
-                result = ConfigResult(
-                    scenario=str(scenario), policy=name, num_agents=n, episodes=episodes,
-                    seed=seed, dt=float(params.dt), max_steps=int(params.max_steps),
-                    metrics=summarize_episodes(batch), seconds=time.perf_counter() - t0,
-                    compile_seconds=batch.compile_seconds, run_seconds=batch.run_seconds,
-                    counterfactual=counterfactual, steps_played=steps_played(batch, params))
+                result = _config_result(str(scenario), name, n, episodes, seed, params, batch,
+                                        time.perf_counter() - t0, counterfactual)
+                if record is not None:
+                    record_first_episode(Path(record), scenario, name, env, params, batch)
                 results.append(result)
                 if log is not None:
                     log(_progress_line(result))
@@ -212,6 +213,32 @@ def evaluate(
         if log is not None:
             log("wrote " + ", ".join(str(p) for p in paths))
     return results
+
+
+def _config_result(scenario: str, name: str, n: int, episodes: int, seed: int, params: EnvParams,
+                   batch: Episodes, seconds: float, counterfactual: bool) -> ConfigResult:
+    """The :class:`ConfigResult` of one configuration's played ``batch``."""
+    return ConfigResult(
+        scenario=scenario, policy=name, num_agents=n, episodes=episodes, seed=seed,
+        dt=float(params.dt), max_steps=int(params.max_steps), metrics=summarize_episodes(batch),
+        seconds=seconds, compile_seconds=batch.compile_seconds, run_seconds=batch.run_seconds,
+        counterfactual=counterfactual, steps_played=steps_played(batch, params))
+
+
+def record_first_episode(folder: Path, scenario: str, policy: str, env: SocialNavEnv,
+                         params: EnvParams, batch: Episodes) -> Path:
+    """Write the first episode recorded in ``batch`` (``record_lanes=[0]``) as
+    ``folder/<scenario>_<policy>_<robots>.mcap`` with its metrics."""
+    from sgjax.evaluation.episode_log import write_mcap
+    from sgjax.evaluation.render import recorded_map
+
+    states = jax.tree.map(lambda leaf: leaf[:, 0], batch.states)
+    robots = int(np.asarray(params.num_agents))
+    stem = "_".join(Path(str(part)).stem.replace(":", "-") for part in (scenario, policy))
+    return write_mcap(folder / f"{stem}_{robots}.mcap", recorded_map(scenario, states),
+                      states, params, env.config.layout,
+                      int(batch.values["episode_length"][0]),
+                      metrics={k: float(v[0]) for k, v in batch.values.items()})
 
 
 def evaluate_lanes(

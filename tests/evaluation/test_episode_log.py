@@ -184,3 +184,17 @@ def test_a_live_view_serves_foxglove_clients_on_loopback(episode):
     assert served == [length + 1]
     assert [s["decision"] for _, s in steps] == [
         np.asarray(states.held_action[round(stamp / 1e8)]).tolist() for stamp, _ in steps]
+
+
+def test_sgjax_evaluate_records_each_configurations_first_episode(tmp_path):
+    main(["evaluate", "--scenario", "open", "--policy", "only_local", "random",
+          "--num-agents", "2", "3", "--episodes", "3", "--time-limit", "5",
+          "--out", str(tmp_path / "eval"), "--record-mcap", str(tmp_path / "mcap")])
+    files = sorted(p.name for p in (tmp_path / "mcap").iterdir())
+    assert files == ["open_only_local_2.mcap", "open_only_local_3.mcap", "open_random_2.mcap",
+                     "open_random_3.mcap"]
+    metrics = json.loads((tmp_path / "eval" / "metrics.json").read_text())
+    first = read_back(tmp_path / "mcap" / "open_random_3.mcap")
+    assert len(first["/tf"][0][1].transforms) == 3
+    assert first["/metrics"][0][1]["episode_length"] == len(first["/tf"]) - 1
+    assert any(r["policy"] == "random" for r in metrics["results"])
