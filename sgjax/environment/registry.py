@@ -23,8 +23,7 @@ from sgjax.humans.hsfm import MAX_SUBSTEP as HSFM_MAX_SUBSTEP
 from sgjax.humans.map_params import human_params
 from sgjax.humans.pedestrians import HumanConfig, HumanParams, spawn_humans
 from sgjax.humans.recorded_scene import PREFIX as RECORDED
-from sgjax.humans.recorded_scene import scene_map, scene_recording
-from sgjax.humans.tracks import read_tracks
+from sgjax.humans.recorded_scene import read_scene, scene_recording
 from sgjax.maps.arrays import MapArrays, compile_map, spawn_groups
 from sgjax.maps.crowd_scenarios import CROWD_SCENARIOS
 from sgjax.maps.generated.export import world_map
@@ -143,9 +142,7 @@ def _recorded(name: Any, opts: MakeOptions, label: Any) -> tuple[Any, Any, MakeO
             raise ValueError(f"make({str(label)!r}): human_replay={humans.human_replay!r} "
                              f"replays a recording: give a '{RECORDED}FILE' scenario")
         return name, None, opts
-    path = name[len(RECORDED):]
-    tracks = read_tracks(path)
-    spec = scene_map(tracks, f"{RECORDED}{Path(path).stem}")
+    tracks, spec = read_scene(name[len(RECORDED):])
     if humans.human_replay == "off":  # the recording's space, simulated pedestrians
         return spec, None, opts
     if humans.num_humans or humans.max_humans is not None:

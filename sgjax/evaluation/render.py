@@ -352,8 +352,7 @@ def recorded_map(scenario: Any, states: Any) -> MapSpec:
     (from its first state), a recording's open space (``recorded:FILE``) or the scenario's map
     file."""
     from sgjax.humans.recorded_scene import PREFIX as RECORDED
-    from sgjax.humans.recorded_scene import scene_map
-    from sgjax.humans.tracks import read_tracks
+    from sgjax.humans.recorded_scene import read_scene
     from sgjax.maps.io import load
 
     world = getattr(states, "world", None)
@@ -361,6 +360,5 @@ def recorded_map(scenario: Any, states: Any) -> MapSpec:
         first = jax.tree.map(lambda leaf: leaf[0], world.map)
         return drawing_of_arrays(first, str(scenario))
     if isinstance(scenario, str) and scenario.startswith(RECORDED):
-        path = scenario[len(RECORDED):]
-        return scene_map(read_tracks(path), f"{RECORDED}{Path(path).stem}")
+        return read_scene(scenario[len(RECORDED):])[1]
     return load(scenario)

@@ -18,11 +18,12 @@ episode."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
 from sgjax.humans.replay import Recording, recording
-from sgjax.humans.tracks import Tracks, track_windows
+from sgjax.humans.tracks import Tracks, read_tracks, track_windows
 from sgjax.maps.schema import MapSpec, parse_map
 
 PREFIX = "recorded:"
@@ -75,3 +76,10 @@ def scene_recording(tracks: Tracks, time_limit: float) -> Recording:
     rows = int(math.ceil(time_limit / tracks.dt)) + 1
     stride = max(1, int(round(WINDOW_STRIDE / tracks.dt)))
     return recording(track_windows(tracks, rows, stride), tracks.dt)
+
+
+def read_scene(path: str | Path) -> tuple[Tracks, MapSpec]:
+    """The tracks of the file ``path`` (:func:`sgjax.humans.tracks.read_tracks`: errors name
+    the file and line) and its scene's map, named ``recorded:<file stem>``."""
+    tracks = read_tracks(path)
+    return tracks, scene_map(tracks, f"{PREFIX}{Path(path).stem}")

@@ -39,7 +39,7 @@ from sgjax.files import write_atomic
 from sgjax.types import GO, STOP
 from train.algorithm.actor import ActorLayout, ActorWeights, actor_features
 from train.algorithm.config import NetworkConfig, TrainConfig
-from train.algorithm.networks import ActorCritic, greedy
+from train.algorithm.networks import ActorCritic, carry_size, greedy
 from train.run.checkpoint import actor_layout, read, resolve, stored_weights
 
 SIDECAR_SCHEMA = "sgjax.onnx_actor/1"
@@ -78,12 +78,6 @@ def _as_traced(fn: Callable[..., tuple], shapes: list[Any]) -> Callable[..., tup
     return traced
 
 
-def memory_size(network: NetworkConfig) -> int:
-    """``C``: the width of the recurrent state (a GRU's hidden size, an LSTM's cell and hidden
-    side by side)."""
-    return {"gru": network.recurrent_size, "lstm": 2 * network.recurrent_size}[network.kind]
-
-
 def load_actor(run: str | Path, seed_index: int | None = None
                ) -> tuple[Path, TrainConfig, ActorLayout, ActorWeights, int]:
     """``(checkpoint, config, layout, one seed's weights, that seed's index)`` of a run folder
@@ -112,7 +106,7 @@ def export_onnx(run: str | Path, out: str | Path, seed_index: int | None = None
     inputs: list[Any] = [(rows, layout.obs_size)]
     names_in, names_out = ["observation"], ["logits" if layout.discrete else "mean", "action"]
     if network.recurrent:
-        inputs.append((rows, memory_size(network)))
+        inputs.append((rows, carry_size(network)))
         names_in.append("memory")
         names_out.append("memory_out")
     out = Path(out)
@@ -152,7 +146,7 @@ def sidecar(path: Path, config: TrainConfig, layout: ActorLayout, seed_index: in
                     "robot_slots": layout.slots,
                     "rows": layout.slots if config.network.agent_id or config.network.recurrent
                     else "any",
-                    "memory": memory_size(config.network) if config.network.recurrent
+                    "memory": carry_size(config.network) if config.network.recurrent
                     else 0},
         "checkpoint": {"path": str(path), "sha256": hashlib.sha256(
             path.read_bytes()).hexdigest(), "seed_index": seed_index},
