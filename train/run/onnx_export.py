@@ -23,6 +23,7 @@ the file names the observation layout, the action meaning and the provenance
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 from collections.abc import Callable
@@ -33,6 +34,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from sgjax.dynamics.limits import ACKERMANN, MODEL_NAMES
 from sgjax.environment.registry import make
 from sgjax.evaluation.provenance import provenance
 from sgjax.files import write_atomic
@@ -126,11 +128,13 @@ def sidecar(path: Path, config: TrainConfig, layout: ActorLayout, seed_index: in
     an environment built with the run's settings), the action meaning, the inputs and outputs,
     and the provenance (the checkpoint's hash, the seed, the run's configuration)."""
     options = config.env.options
-    env, _ = make(config.env.scenarios[0], options=options,
-                  num_agents=config.env.curriculum[0][1], max_agents=config.env.slots)
+    env, params = make(config.env.scenarios[0], options=options,
+                       num_agents=config.env.curriculum[0][1], max_agents=config.env.slots)
+    spans = env.config.observer.columns(env.config.layout).terms
     terms = [{"name": name, "start": start, "stop": start + columns.size,
-              "columns": list(columns.names)}
-             for name, start, columns in env.config.observer.columns(env.config.layout).terms]
+              "columns": list(columns.names), "options": term_options(term)}
+             for (name, start, columns), term in zip(spans, env.config.observer.terms,
+                                                     strict=True)]
     action = ({"kind": "go_stop", "values": {str(GO): "GO", str(STOP): "STOP"},
                "meaning": "GO follows the local planner toward the next waypoint; STOP brakes"}
               if layout.discrete else
@@ -142,6 +146,8 @@ def sidecar(path: Path, config: TrainConfig, layout: ActorLayout, seed_index: in
         "observation": {"size": layout.obs_size, "preset": options.terms.observation_preset,
                         "terms": terms, "dt": options.physics.dt},
         "action": action,
+        "robots": robot_limits(params.robots),
+        "humans": {"radius": float(np.asarray(params.humans.radius))},
         "network": {"kind": config.network.kind, "agent_id": config.network.agent_id,
                     "robot_slots": layout.slots,
                     "rows": layout.slots if config.network.agent_id or config.network.recurrent
@@ -153,6 +159,27 @@ def sidecar(path: Path, config: TrainConfig, layout: ActorLayout, seed_index: in
         "trained_on": list(config.env.scenarios),
         "provenance": provenance(config=config.to_dict()),
     }
+
+
+def term_options(term: Any) -> dict[str, Any]:
+    """An observation term's settings (its dataclass fields) as JSON values."""
+    return {field.name: (list(value) if isinstance(value, tuple) else value)
+            for field in dataclasses.fields(term)
+            for value in [getattr(term, field.name)]}
+
+
+def robot_limits(robots: Any) -> list[dict[str, Any]]:
+    """Each robot slot's kind and limits (SI units: m, m/s, rad/s, rad) as the environment the
+    actor was exported from sets them: what a robot-side node needs to turn continuous actions
+    into velocity commands and to read the others' radii."""
+    kind = {code: name for name, code in MODEL_NAMES.items()}
+    fields = ("radius", "max_speed", "max_reverse_speed", "max_omega", "wheelbase",
+              "min_turn_radius")
+    values = {name: np.asarray(getattr(robots, name), np.float64) for name in fields}
+    steering = np.asarray(robots.max_steering, np.float64)
+    return [{"model": kind[int(code)], **{name: float(values[name][i]) for name in fields},
+             "max_steering": float(steering[i]) if int(code) == ACKERMANN else 0.0}
+            for i, code in enumerate(np.asarray(robots.model))]
 
 
 class OnnxActor:
