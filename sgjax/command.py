@@ -179,6 +179,7 @@ def run_render(args: argparse.Namespace) -> None:
 
         served = serve_episode(spec, states, params, env.config.layout, length, host=args.host,
                                port=args.port, speed=args.speed, wait_for_client=600.0,
+                               rewards=batch.rewards[:, 0],
                                started=lambda port: print(
                                    f"serving {spec.name} to Foxglove at ws://{args.host}:{port} "
                                    "(open connection, Foxglove WebSocket); it plays once a "
@@ -190,10 +191,13 @@ def run_render(args: argparse.Namespace) -> None:
         from sgjax.evaluation.episode_log import write_mcap
 
         metrics = {name: float(values[0]) for name, values in batch.values.items()}
+        rewards = batch.rewards[:, 0]  # [T, R]
         if kind == "mcap":
-            write_mcap(out, spec, states, params, env.config.layout, length, metrics=metrics)
+            write_mcap(out, spec, states, params, env.config.layout, length, rewards=rewards,
+                       metrics=metrics)
         else:
-            write_rosbag2(out, spec, states, params, env.config.layout, length)
+            write_rosbag2(out, spec, states, params, env.config.layout, length,
+                          rewards=rewards)
         print(f"{spec.name}, {args.num_agents} robots, policy {args.policy}: {length} steps "
               f"({length * float(params.dt):.1f} s); wrote {out} ("
               + ("open it in Foxglove)" if kind == "mcap" else "ros2 bag play it)"))

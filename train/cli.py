@@ -499,7 +499,7 @@ def _evaluate_scenario(config: TrainConfig, actor: tuple, scenario: str,
     many = seeds is not None and len(seeds) > 1
     for n in counts:
         t0 = time.perf_counter()
-        (values, _, states), compile_s = evaluation.paired(weights, jax.random.key(seed), n)
+        (values, _, states, _), compile_s = evaluation.paired(weights, jax.random.key(seed), n)
         values, states = jax.device_get((values, states))
         batch = Episodes(values={k: np.asarray(v) for k, v in values.items()}, robot={},
                          compile_seconds=compile_s,
@@ -538,7 +538,7 @@ def _seed_cell(evaluation: TrainedEvaluation, seeds: list[tuple[int, ActorWeight
                              run_seconds=first.run_seconds)
         else:
             t0 = time.perf_counter()
-            (values, _, _), compile_s = evaluation.paired(weights, jax.random.key(key_seed),
+            (values, *_), compile_s = evaluation.paired(weights, jax.random.key(key_seed),
                                                           count)
             values = {k: np.asarray(v)[:1] for k, v in jax.device_get(values).items()}
             batch = Episodes(values=values, robot={}, compile_seconds=compile_s,

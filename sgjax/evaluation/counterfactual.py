@@ -82,7 +82,7 @@ def play_alone(player: LanePlayer, reset_keys: Array, step_keys: Array, params: 
     masks = jnp.tile(alone_masks(lanes), (episodes, 1))
     obs, state = player.reset_lanes(jnp.repeat(reset_keys, lanes, axis=0), params, masks)
 
-    def own_xy(s: EnvState) -> Array:  # [E, R, 2]: robot i in lane i
+    def own_xy(s: EnvState, reward: Array | None = None) -> Array:  # [E, R, 2]: i in lane i
         r = by_episode(s.robots, episodes, lanes)
         return jnp.stack([r.x[:, own, own], r.y[:, own, own]], axis=-1)
 
@@ -99,9 +99,10 @@ def play_counterfactual(player: LanePlayer, reset_keys: Array, step_keys: Array,
     """The lane plan: every robot alone (:func:`play_alone`), then the episode (lane 0) and
     the episode without each robot (lane ``1 + i``) compared step by step.
 
-    Returns ``(robot, episode, states, first)``: every metric, the counterfactual ones filled
-    in (``{name: [E, R]}``, ``{name: [E]}``); with ``record`` the episodes' states after each
-    step ``[T, E, ...]`` (else None); ``first``, their states after the reset ``[E, ...]``."""
+    Returns ``(robot, episode, recorded, first)``: every metric, the counterfactual ones
+    filled in (``{name: [E, R]}``, ``{name: [E]}``); with ``record`` the episodes' states after
+    each step and the step's rewards, ``([T, E, ...], [T, E, R])`` (else None); ``first``,
+    their states after the reset ``[E, ...]``."""
     episodes, num = player.num_episodes, player.num_robots
     solo = play_alone(player, reset_keys, step_keys, params)
     lanes = 1 + num
@@ -115,10 +116,13 @@ def play_counterfactual(player: LanePlayer, reset_keys: Array, step_keys: Array,
     def episode_lane(tree: Any) -> Any:  # lane 0 of every episode
         return jax.tree.map(lambda v: v[::lanes], tree)
 
+    def recorded_lane(state: EnvState, reward: Array) -> Any:
+        return episode_lane((state, reward))
+
     first = by_episode(state.robots, episodes, lanes)
     c0 = start(first.x[:, 0], first.y[:, 0], solo)
     final, tally, c, out = player.play(params, obs, state, lanes, step_keys, hook=compare,
-                                       extra=c0, emit=episode_lane if record else None)
+                                       extra=c0, emit=recorded_lane if record else None)
     final, tally = episode_lane((final, tally))
     robot, episode = player.finalize(tally, final, params)
     extra_robot, extra_episode = finalize(c, solo, final, episode["makespan"], params)

@@ -12,6 +12,8 @@ s, ``dt`` to the microsecond):
 * ``/pedestrians`` (``geometry_msgs/msg/PoseArray``): the active pedestrians in ``map``;
 * ``/robots/decision`` (``std_msgs/msg/Int8MultiArray``): each robot's GO (0) / STOP (1)
   decision (GO/STOP episodes only);
+* ``/robots/reward`` (``std_msgs/msg/Float32MultiArray``, from the first step on, when the
+  rewards were recorded): each robot's reward for the step that led to this time;
 * ``/map_markers`` (``visualization_msgs/msg/MarkerArray``, once at 0 s): the walls as a
   line list."""
 
@@ -86,12 +88,13 @@ class _Messages:
             header=self.header(nanos, "map"), poses=[self.pose(x, y) for x, y in zip(
                 xs, ys, strict=True)])
 
-    def decisions(self, values: np.ndarray) -> Any:
+    def per_robot(self, values: np.ndarray, kind: str, dtype: Any) -> Any:
+        """A ``std_msgs`` multi-array ``kind`` (``Int8MultiArray``, ``Float32MultiArray``) of
+        one value per robot."""
         t = self.t
         layout = t["std_msgs/msg/MultiArrayLayout"](dim=[t["std_msgs/msg/MultiArrayDimension"](
             label="robot", size=int(values.size), stride=int(values.size))], data_offset=0)
-        return t["std_msgs/msg/Int8MultiArray"](layout=layout,
-                                               data=np.asarray(values, np.int8))
+        return t[f"std_msgs/msg/{kind}"](layout=layout, data=np.asarray(values, dtype))
 
     def walls(self, spec: MapSpec) -> Any:
         t = self.t
@@ -113,10 +116,10 @@ class _Messages:
 
 
 def write_rosbag2(path: str | Path, spec: MapSpec, states: Any, params: Any, layout: Any,
-                  length: int) -> Path:
+                  length: int, rewards: np.ndarray | None = None) -> Path:
     """Write one recorded episode (``states`` stacked ``[T + 1, ...]`` of one environment,
-    the first ``length + 1`` written) as the rosbag2 folder ``path`` (module doc; an existing
-    folder is replaced). Returns the path."""
+    the first ``length + 1`` written; ``rewards [T, R]`` its steps' rewards, if known) as the
+    rosbag2 folder ``path`` (module doc; an existing folder is replaced). Returns the path."""
     from rosbags.rosbag2 import Writer
 
     path = Path(path)
@@ -142,6 +145,8 @@ def write_rosbag2(path: str | Path, spec: MapSpec, states: Any, params: Any, lay
         decision = topic("/robots/decision", "std_msgs/msg/Int8MultiArray") \
             if held.ndim == 2 else None
         walls = topic("/map_markers", "visualization_msgs/msg/MarkerArray")
+        reward = topic("/robots/reward", "std_msgs/msg/Float32MultiArray") \
+            if rewards is not None else None
 
         def put(connection: Any, nanos: int, message: Any, kind: str) -> None:
             writer.write(connection, nanos, store.serialize_cdr(message, kind))
@@ -159,5 +164,9 @@ def write_rosbag2(path: str | Path, spec: MapSpec, states: Any, params: Any, lay
             put(people, nanos, make.poses(nanos, hx[t][ha[t]], hy[t][ha[t]]),
                 "geometry_msgs/msg/PoseArray")
             if decision is not None:
-                put(decision, nanos, make.decisions(held[t]), "std_msgs/msg/Int8MultiArray")
+                put(decision, nanos, make.per_robot(held[t], "Int8MultiArray", np.int8),
+                    "std_msgs/msg/Int8MultiArray")
+            if reward is not None and t > 0:
+                put(reward, nanos, make.per_robot(rewards[t - 1], "Float32MultiArray",
+                                                  np.float32), "std_msgs/msg/Float32MultiArray")
     return path

@@ -17,8 +17,9 @@ else logged in the process reaches it):
 * ``/robot_i/scan`` (``foxglove.LaserScan``, every step): a 2D lidar from the robot's centre
   (:data:`SCAN_BEAMS` beams over the full circle, :data:`SCAN_RANGE` m: walls, robots,
   pedestrians), in the robot's frame;
-* ``/step`` (JSON, every step): the time (s), and per robot its reward, its GO/STOP decision
-  (or continuous action), whether it is active and its goal distance (m);
+* ``/step`` (JSON, every step): the time (s), and per robot its reward for the step that
+  led here (null at 0 s, or when not recorded), its GO/STOP decision (or continuous action),
+  whether it is active and its goal distance (m);
 * ``/metrics`` (JSON, at the episode's end): the episode's metrics.
 
 Reading a file back: ``mcap``'s reader with ``mcap_protobuf``'s decoder (the tests do)."""
@@ -282,7 +283,8 @@ def write_mcap(path: str | Path, spec: MapSpec, states: Any, params: Any, layout
 def serve_episode(spec: MapSpec, states: Any, params: Any, layout: Any, length: int,
                   host: str = "127.0.0.1", port: int = 8765, speed: float = 1.0,
                   wait_for_client: float = 0.0, metrics: Mapping[str, Any] | None = None,
-                  started: Callable[[int], None] | None = None) -> int:
+                  started: Callable[[int], None] | None = None,
+                  rewards: np.ndarray | None = None) -> int:
     """Serve one recorded episode live to Foxglove over its WebSocket protocol (foxglove-sdk's
     server, subprotocol ``foxglove.sdk.v1``, bound to ``host``: loopback unless told
     otherwise), step by step at ``speed`` times the simulation clock, once a client has
@@ -314,7 +316,7 @@ def serve_episode(spec: MapSpec, states: Any, params: Any, layout: Any, length: 
             if delay > 0:
                 time.sleep(delay)
 
-        return log_episode(context, spec, states, params, layout, length, metrics=metrics,
-                           pace=pace)
+        return log_episode(context, spec, states, params, layout, length, rewards=rewards,
+                           metrics=metrics, pace=pace)
     finally:
         server.stop()

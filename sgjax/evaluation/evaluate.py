@@ -237,7 +237,7 @@ def record_first_episode(folder: Path, scenario: str, policy: str, env: SocialNa
     stem = "_".join(Path(str(part)).stem.replace(":", "-") for part in (scenario, policy))
     return write_mcap(folder / f"{stem}_{robots}.mcap", recorded_map(scenario, states),
                       states, params, env.config.layout,
-                      int(batch.values["episode_length"][0]),
+                      int(batch.values["episode_length"][0]), rewards=batch.rewards[:, 0],
                       metrics={k: float(v[0]) for k, v in batch.values.items()})
 
 

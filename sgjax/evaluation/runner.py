@@ -4,7 +4,7 @@ one ``jit(scan(vmap(step_env)))`` with the metrics accumulated inside.
 ::
 
     runner = EpisodeRunner(env, policy, num_episodes=25, max_steps=int(params.max_steps))
-    values, robot, states = runner.run(key, params)  # jitted; params are an argument
+    values, robot, states, rewards = runner.run(key, params)  # jitted; params an argument
     batch = runner(key, params)  # compiled, played and brought to the host: Episodes
 
 ``params`` is an argument, so one compiled ``run`` serves every robot count up to
@@ -20,7 +20,7 @@ every state of chosen episodes only (the episode of a GIF, say).
 
     runner = LaneRunner(env, [trained, baseline], num_counts=5, num_episodes=192, max_steps=750,
                         record_lanes=[(2, 0)])  # policy 0 at counts[2], episode 0
-    values, robot, states = runner.run(key, params, jnp.array([3, 4, 5, 7, 10]))  # [C, E]
+    values, robot, *_ = runner.run(key, params, jnp.array([3, 4, 5, 7, 10]))  # [C, E]
 
 :class:`ParamLaneRunner` plays one policy under ``L`` sets of parameters (the seeds or variants
 of a training run) as the lanes of one loop, each lane the episodes an ``EpisodeRunner`` of
@@ -28,7 +28,7 @@ that lane's policy plays with the same key (inside a ``jit`` whose arguments hol
 parameters)::
 
     runner = ParamLaneRunner(env, make_policy, lane_params, num_episodes=25, max_steps=750)
-    values, robot, _ = runner.episodes(key, params)  # {name: [L, E]}, {name: [L, E, R]}
+    values, robot, *_ = runner.episodes(key, params)  # {name: [L, E]}, {name: [L, E, R]}
 """
 
 from __future__ import annotations
@@ -115,6 +115,9 @@ class Episodes:
     # with record=True: EnvState stacked [T + 1, E, ...] (T = time limit); with record_lanes:
     # [T + 1, len(record_lanes), ...], the recorded episodes in the order given
     states: Any = None
+    # with either: each robot's reward at every step [T, E or len(record_lanes), R] (row t is
+    # the step from states[t] to states[t + 1]; 0 once the episode has ended)
+    rewards: np.ndarray | None = None
     compile_seconds: float | None = None  # compiling the batched run
     run_seconds: float | None = None  # running it once compiled (results on the host)
 
@@ -127,6 +130,7 @@ class LoopCarry(NamedTuple):
     tally: metrics.MetricState
     memory: Any  # the policy's (zeros for a policy without memory)
     extra: Any  # what a hook folds the steps into (the counterfactual comparisons)
+    reward: Array  # [N, R] each robot's reward at the last step (0 once its episode ended)
 
 
 def act(policy: Policy | RecurrentPolicy, memory: Any, obs: Array, keys: Array,
@@ -159,6 +163,19 @@ def _checked_lanes(lanes: Sequence[int] | None, count: int, what: str) -> tuple[
         raise ValueError(f"{what} must be a non-empty list of indices in [0, {count}), got "
                          f"{list(lanes)}")
     return lanes
+
+
+def with_first_state(recorder: Callable[..., Any] | None, first: EnvState, recorded: Any
+                     ) -> tuple[Any, Any]:
+    """``(states [T + 1, ...], rewards [T, ..., R])``: the recorded steps ``(states [T, ...],
+    rewards)`` with the state after the reset (``first``, batched) before them; ``(None,
+    None)`` when nothing was recorded."""
+    if recorder is None:
+        return None, None
+    states, rewards = recorded
+    start, _ = recorder(first)
+    return jax.tree.map(lambda a, rest: jnp.concatenate([a[None], rest]), start,
+                        states), rewards
 
 
 class EpisodeRunner:
@@ -209,23 +226,25 @@ class EpisodeRunner:
     def _first_memory(self, count: int) -> Any:
         return first_memory(self.policy, count, self.num_robots)
 
-    def _recorder(self) -> Callable[[EnvState], EnvState] | None:
-        """What the loop keeps of each step's batched state ``[N, ...]``: all of it
-        (``record``), the ``record_lanes`` rows, or nothing (None)."""
+    def _recorder(self) -> Callable[..., Any] | None:
+        """What the loop keeps of each step's batched state ``[N, ...]`` and rewards ``[N, R]``
+        (``recorder(state, reward) -> (state, reward)``): all of them (``record``), the
+        ``record_lanes`` rows, or nothing (None)."""
         if self.record:
-            return lambda s: s
+            return lambda s, r=None: (s, r)
         if self.record_lanes is None:
             return None
         rows = np.asarray(self.record_lanes)
-        return lambda s: jax.tree.map(lambda leaf: leaf[rows], s)
+        return lambda s, r=None: jax.tree.map(lambda leaf: leaf[rows], (s, r))
 
     def play(self, params: EnvParams, obs: Array, state: EnvState, lanes: int,
              step_keys: Array, hook: Callable | None = None, extra: Any = None,
              emit: Callable | None = None) -> tuple[EnvState, metrics.MetricState, Any, Any]:
         """Play ``num_episodes x lanes`` episodes (episode-major) from ``obs, state`` for the
         time limit; the lanes of an episode share its per-step keys (``step_keys [T]``).
-        ``hook(extra, prev, state, running)`` folds each step into ``extra``; ``emit(state)``
-        is returned for every step ``[T, ...]``. Returns ``(final, tally, extra, out)``."""
+        ``hook(extra, prev, state, running)`` folds each step into ``extra``;
+        ``emit(state, reward)`` (the state after each step, the step's rewards ``[N, R]``) is
+        returned for every step ``[T, ...]``. Returns ``(final, tally, extra, out)``."""
         count, episodes, constants = self.num_episodes * lanes, self.num_episodes, self.constants
         step = jax.vmap(self.env.step_env, in_axes=(0, 0, 0, None))
         update = jax.vmap(lambda m, s0, s1, info, done: metrics.update(
@@ -242,7 +261,7 @@ class EpisodeRunner:
             memory, actions = self._act(c.memory, c.obs,
                                         per_lane(jax.random.split(k_act, episodes)), c.state,
                                         params)
-            next_obs, next_state, _, term, trunc, info = step(
+            next_obs, next_state, reward, term, trunc, info = step(
                 per_lane(jax.random.split(k_step, episodes)), c.state, actions, params)
             done = jax.vmap(metrics.episode_done)(next_state, term, trunc)
             tally_next = update(c.tally, c.state, next_state, info, done)
@@ -253,12 +272,14 @@ class EpisodeRunner:
 
             kept = jax.tree.map(keep, next_state, c.state)
             extra = c.extra if hook is None else hook(c.extra, c.state, kept, c.tally.running)
-            return LoopCarry(keep(next_obs, c.obs), kept, tally_next, memory, extra)
+            reward = jnp.where(c.tally.running[:, None], reward, 0.0)
+            return LoopCarry(keep(next_obs, c.obs), kept, tally_next, memory, extra, reward)
 
-        start = LoopCarry(obs, state, tally, self._first_memory(count), extra)
+        start = LoopCarry(obs, state, tally, self._first_memory(count), extra,
+                          jnp.zeros((count, self.num_robots), jnp.float32))
         final, out, _ = scan_until_done(
             one_step, start, lambda c: ~jnp.any(c.tally.running), self.num_steps, STEP_CHUNK,
-            xs=step_keys, record=None if emit is None else (lambda c: emit(c.state)),
+            xs=step_keys, record=None if emit is None else (lambda c: emit(c.state, c.reward)),
             stop_early=not self.every_step)
         return final.state, final.tally, final.extra, out
 
@@ -276,28 +297,27 @@ class EpisodeRunner:
         return jax.vmap(self.env.reset, in_axes=(0, None))(keys, params)
 
     def episodes(self, key: Array, params: EnvParams, *args: Any) -> tuple:
-        """``(values, robot, states)``: every metric per episode ``{name: [E]}`` and per robot
-        ``{name: [E, R]}``; with ``record`` the states ``[T + 1, E, ...]`` (the reset first),
-        with ``record_lanes`` those episodes' ``[T + 1, len(record_lanes), ...]``, else None.
+        """``(values, robot, states, rewards)``: every metric per episode ``{name: [E]}`` and
+        per robot ``{name: [E, R]}``; with ``record`` the states ``[T + 1, E, ...]`` (the reset
+        first) and each step's rewards ``[T, E, R]``, with ``record_lanes`` those episodes'
+        ``[T + 1, len(record_lanes), ...]`` and ``[T, len(record_lanes), R]``, else None.
         Traceable: :attr:`run` is its ``jit``; ``params.max_steps`` must be at most
         ``max_steps`` (:func:`check_steps`), as an episode is cut off there."""
         reset_keys, step_keys = self.episode_keys(key)
         recorder = self._recorder()
         if self.counterfactual:
-            robot, episode, states, first = cf.play_counterfactual(
+            robot, episode, recorded, first = cf.play_counterfactual(
                 self, reset_keys, step_keys, params, recorder is not None)
             if self.record_lanes is not None:  # the lanes' rows of every recorded step
                 rows = np.asarray(self.record_lanes)
-                states = jax.tree.map(lambda leaf: leaf[:, rows], states)
+                recorded = jax.tree.map(lambda leaf: leaf[:, rows], recorded)
         else:
             obs, first = self.reset_batch(reset_keys, params, *args)
-            final, tally, _, states = self.play(params, obs, first, 1, step_keys, emit=recorder)
+            final, tally, _, recorded = self.play(params, obs, first, 1, step_keys,
+                                                  emit=recorder)
             robot, episode = self.finalize(tally, final, params)
         values = jax.vmap(metrics.per_episode)(robot, episode)
-        if recorder is not None:
-            states = jax.tree.map(lambda a, rest: jnp.concatenate([a[None], rest]),
-                                  recorder(first), states)
-        return values, robot, states
+        return values, robot, *with_first_state(recorder, first, recorded)
 
     def compile(self, key: Array, params: EnvParams, *args: Any) -> tuple[Callable, float]:
         """:attr:`run` compiled for the shapes of its arguments (``key``, ``params`` and, for a
@@ -312,9 +332,10 @@ class EpisodeRunner:
         host, timed."""
         check_steps(params, self.num_steps, type(self).__name__)
         t0 = time.perf_counter()
-        values, robot, states = jax.device_get(compiled(key, params, *args))
+        values, robot, states, rewards = jax.device_get(compiled(key, params, *args))
         return Episodes(values={k: np.asarray(v) for k, v in values.items()},
                         robot={k: np.asarray(v) for k, v in robot.items()}, states=states,
+                        rewards=None if rewards is None else np.asarray(rewards),
                         compile_seconds=compile_seconds, run_seconds=time.perf_counter() - t0)
 
     def __call__(self, key: Array, params: EnvParams, *args: Any) -> Episodes:
@@ -418,14 +439,12 @@ class LaneRunner(EpisodeRunner):
         obs, first = jax.tree.map(lambda v: v.reshape((v.shape[0] * v.shape[1],) + v.shape[2:]),
                                   (obs, first))
         recorder = self._recorder()
-        final, tally, _, states = self.play(params, obs, first, self.num_configs, step_keys,
-                                            emit=recorder)
+        final, tally, _, recorded = self.play(params, obs, first, self.num_configs, step_keys,
+                                              emit=recorder)
         robot, episode = self.finalize(tally, final, params)
         values = jax.vmap(metrics.per_episode)(robot, episode)
-        if recorder is not None:
-            states = jax.tree.map(lambda a, rest: jnp.concatenate([a[None], rest]),
-                                  recorder(first), states)
-        return (*lanes_first((values, robot), self.num_episodes, self.num_configs), states)
+        return (*lanes_first((values, robot), self.num_episodes, self.num_configs),
+                *with_first_state(recorder, first, recorded))
 
 
 class ParamLaneRunner(EpisodeRunner):
@@ -493,4 +512,4 @@ class ParamLaneRunner(EpisodeRunner):
         final, tally, _, _ = self.play(params, obs, first, self.num_lanes, step_keys)
         robot, episode = self.finalize(tally, final, params)
         values = jax.vmap(metrics.per_episode)(robot, episode)
-        return (*lanes_first((values, robot), self.num_episodes, self.num_lanes), None)
+        return (*lanes_first((values, robot), self.num_episodes, self.num_lanes), None, None)

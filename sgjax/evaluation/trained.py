@@ -81,7 +81,7 @@ def _lanes_program(actor: ActorSpec, env: Any, episodes: int, num_steps: int,
 
     def play(lanes: Any, key: Array, params: Any) -> tuple[dict, dict]:
         runner = ParamLaneRunner(env, make_policy, lanes, episodes, num_steps)
-        values, robot, _ = runner.episodes(key, params)
+        values, robot, *_ = runner.episodes(key, params)
         return values, robot
 
     if isinstance(modes, bool):
@@ -186,7 +186,7 @@ class TrainedEvaluation:
 
     def paired(self, weights: Any, key: Array, count: int) -> tuple[tuple, float]:
         """One lane's ``weights`` and every baseline at ``count`` robots on the same episodes:
-        ``((values, robot, states), compile_s)``, ``values`` ``{metric: [1 + baselines,
+        ``((values, robot, states, rewards), compile_s)``, ``values`` ``{metric: [1 + baselines,
         E]}`` (the actor first), ``states`` the recorded episode ``[T + 1, 1, ...]`` (None
         without ``record``), ``compile_s`` the seconds this call spent compiling."""
         self._checked(count)

@@ -94,7 +94,7 @@ def test_counterfactual_metrics_equal_brute_force_from_separate_episodes(doorway
     key = jax.random.key(5)
     steps = int(params.max_steps)
     plain = EpisodeRunner(env, policy, EPISODES, steps).run(key, params)[0]
-    values, robot, _ = counterfactual.run(key, params)
+    values, robot, *_ = counterfactual.run(key, params)
     for name in metrics.METRICS.names():
         if name not in metrics.counterfactuals.COUNTERFACTUAL_NAMES:
             np.testing.assert_array_equal(np.asarray(values[name]), np.asarray(plain[name]),
@@ -175,7 +175,7 @@ def test_a_robot_alone_deviates_from_nothing_and_invades_nobody(doorway):
     deviation and Hausdorff are 0, the makespan ratio 1, and invasiveness undefined (nobody
     else)."""
     _, by_count, _, runner = doorway
-    values, robot, _ = runner.run(jax.random.key(1), by_count[1])
+    values, robot, *_ = runner.run(jax.random.key(1), by_count[1])
     np.testing.assert_allclose(np.asarray(robot["hausdorff"][:, 0]), 0.0, atol=1e-5)
     np.testing.assert_allclose(np.asarray(robot["path_deviation_max"][:, 0]), 0.0, atol=1e-5)
     np.testing.assert_allclose(np.asarray(values["makespan_ratio"]), 1.0)

@@ -45,14 +45,40 @@ def episode():
                          record=True)
     states = jax.tree.map(lambda leaf: leaf[:, 0], batch.states)
     length = int(batch.values["episode_length"][0])
-    return env, params, states, length
+    return env, params, states, length, batch.rewards[:, 0]
+
+
+def test_recorded_rewards_are_the_steps_rewards():
+    """The runner's recorded rewards ``[T, E, R]``: each step's reward as ``env.step_env``
+    gives it from the recorded state and the action held after it (robots alone, so the step
+    is deterministic), zero once the episode has ended."""
+    options = MakeOptions().replace(time_limit=6.0)
+    env, by_count = policy_environment("open", [3], "only_local", options)
+    params = by_count[3]
+    batch = run_episodes(env, params, load_policy("only_local", env), jax.random.key(5), 2,
+                         record=True)
+    steps = batch.rewards.shape[0]
+    assert batch.rewards.shape == (steps, 2, env.max_agents)
+    assert jax.tree.leaves(batch.states)[0].shape[0] == steps + 1
+    step = jax.jit(env.step_env)
+    for e in range(2):
+        length = int(batch.values["episode_length"][e])
+        for t in range(length):
+            before = jax.tree.map(lambda leaf, t=t, e=e: leaf[t, e], batch.states)
+            after = jax.tree.map(lambda leaf, t=t, e=e: leaf[t + 1, e], batch.states)
+            _, replayed, reward, *_ = step(jax.random.key(0), before, after.held_action, params)
+            np.testing.assert_allclose(np.asarray(replayed.robots.x), np.asarray(after.robots.x),
+                                       atol=1e-6)
+            np.testing.assert_allclose(batch.rewards[t, e], np.asarray(reward), atol=1e-5)
+        assert not np.any(batch.rewards[length:, e])
+        assert np.any(batch.rewards[:length, e])
 
 
 def test_an_episode_reads_back_as_the_rollout(tmp_path, episode):
-    env, params, states, length = episode
+    env, params, states, length, rewards = episode
     spec = recorded_map("doorway", states)
     path = write_mcap(tmp_path / "e.mcap", spec, states, params, env.config.layout, length,
-                      metrics={"team_success": 1.0})
+                      rewards=rewards, metrics={"team_success": 1.0})
     topics = read_back(path)
     count = length + 1
     assert {"/map", "/robots", "/pedestrians", "/tf", "/step", "/metrics",
@@ -80,6 +106,8 @@ def test_an_episode_reads_back_as_the_rollout(tmp_path, episode):
         step = topics["/step"][k][1]
         assert step["decision"] == np.asarray(states.held_action[k]).tolist()
         assert step["time"] == pytest.approx(k * float(params.dt))
+        if k:
+            np.testing.assert_allclose(step["reward"], rewards[k - 1], rtol=1e-6)
     assert topics["/metrics"][0][1] == {"team_success": 1.0}
 
 
@@ -103,9 +131,10 @@ def test_an_episode_reads_back_from_a_ros2_bag(tmp_path, episode):
 
     from sgjax.evaluation.episode_bag import write_rosbag2
 
-    env, params, states, length = episode
+    env, params, states, length, rewards = episode
     spec = recorded_map("doorway", states)
-    path = write_rosbag2(tmp_path / "bag", spec, states, params, env.config.layout, length)
+    path = write_rosbag2(tmp_path / "bag", spec, states, params, env.config.layout, length,
+                         rewards=rewards)
     store = get_typestore(Stores.ROS2_HUMBLE)
     topics = defaultdict(list)
     with Reader(path) as reader:
@@ -133,6 +162,9 @@ def test_an_episode_reads_back_from_a_ros2_bag(tmp_path, episode):
         np.testing.assert_allclose(xs, np.asarray(states.humans.x[k])[active], atol=1e-6)
     for k, (_, decision) in enumerate(topics["/robots/decision"]):
         assert decision.data.tolist() == np.asarray(states.held_action[k]).tolist()
+    assert [t for t, _ in topics["/robots/reward"]] == [k * dt_ns for k in range(1, count)]
+    for k, (_, reward) in enumerate(topics["/robots/reward"]):
+        np.testing.assert_allclose(reward.data, rewards[k], rtol=1e-6)
 
 
 def test_a_live_view_serves_foxglove_clients_on_loopback(episode):
@@ -145,7 +177,7 @@ def test_a_live_view_serves_foxglove_clients_on_loopback(episode):
 
     from sgjax.evaluation.episode_log import serve_episode
 
-    env, params, states, length = episode
+    env, params, states, length, rewards = episode
     spec = recorded_map("doorway", states)
     ports = []
     ready = threading.Event()
@@ -157,7 +189,7 @@ def test_a_live_view_serves_foxglove_clients_on_loopback(episode):
 
     thread = threading.Thread(target=lambda: served.append(serve_episode(
         spec, states, params, env.config.layout, length, port=0, speed=20.0,
-        wait_for_client=20.0, started=started)), daemon=True)
+        wait_for_client=20.0, started=started, rewards=rewards)), daemon=True)
     thread.start()
     assert ready.wait(20.0)
     client = websocket.create_connection(f"ws://127.0.0.1:{ports[0]}",
@@ -184,6 +216,10 @@ def test_a_live_view_serves_foxglove_clients_on_loopback(episode):
     assert served == [length + 1]
     assert [s["decision"] for _, s in steps] == [
         np.asarray(states.held_action[round(stamp / 1e8)]).tolist() for stamp, _ in steps]
+    for stamp, step in steps:
+        if round(stamp / 1e8):
+            np.testing.assert_allclose(step["reward"], rewards[round(stamp / 1e8) - 1],
+                                       rtol=1e-6)
 
 
 def test_sgjax_evaluate_records_each_configurations_first_episode(tmp_path):
@@ -197,4 +233,6 @@ def test_sgjax_evaluate_records_each_configurations_first_episode(tmp_path):
     first = read_back(tmp_path / "mcap" / "open_random_3.mcap")
     assert len(first["/tf"][0][1].transforms) == 3
     assert first["/metrics"][0][1]["episode_length"] == len(first["/tf"]) - 1
+    rewarded = [step["reward"] for _, step in first["/step"]]
+    assert rewarded[0] is None and all(len(r) == 3 for r in rewarded[1:])
     assert any(r["policy"] == "random" for r in metrics["results"])

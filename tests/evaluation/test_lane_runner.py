@@ -128,8 +128,8 @@ def test_param_lanes_play_the_episodes_of_separate_runs(make_policy, lanes):
     def together(lanes, key, params):
         return ParamLaneRunner(env, make_policy, lanes, EPISODES, steps).episodes(key, params)
 
-    values, robot, states = together(lanes, key, params)
-    assert states is None and values["success"].shape == (3, EPISODES)
+    values, robot, states, rewards = together(lanes, key, params)
+    assert states is None and rewards is None and values["success"].shape == (3, EPISODES)
     assert robot["success"].shape == (3, EPISODES, env.max_agents)
 
     @jax.jit
@@ -137,7 +137,7 @@ def test_param_lanes_play_the_episodes_of_separate_runs(make_policy, lanes):
         return EpisodeRunner(env, make_policy(lane), EPISODES, steps).episodes(key, params)
 
     for lane in range(3):
-        separate, separate_robot, _ = alone(jax.tree.map(lambda v, i=lane: v[i], lanes), key,
+        separate, separate_robot, *_ = alone(jax.tree.map(lambda v, i=lane: v[i], lanes), key,
                                             params)
         for ours, theirs in ((values, separate), (robot, separate_robot)):
             assert ours.keys() == theirs.keys()
