@@ -432,11 +432,12 @@ def _add_crowd_commands(commands: Any) -> None:
         "crowd", help="calibrate the pedestrian models to recorded people").add_subparsers(
         dest="crowd_command", required=True)
     fit = crowd.add_parser(
-        "fit", help="fit a social-force law to recorded scenes, score it on a held-out one",
-        description="Fit a law's constants by gradient on the training scenes' tracks and "
-                    "forecast the held-out scene (observe 8 rows, predict 12: ADE, FDE, "
-                    "predicted collisions) beside constant velocity and the published "
-                    "constants; writes crowd_fit.json (with provenance) and crowd_fit.md")
+        "fit", help="fit a pedestrian model to recorded scenes, score it on a held-out one",
+        description="Fit a model's constants by gradient on the training scenes' tracks (the "
+                    "one-row loss, then optionally short rollouts) and forecast the held-out "
+                    "scene (observe 8 rows, predict 12: ADE, FDE, predicted collisions) beside "
+                    "constant velocity, the published and TrajNet++'s constants; writes "
+                    "crowd_fit.json (with provenance) and crowd_fit.md")
     loso = crowd.add_parser(
         "loso", help="leave each of ETH, HOTEL, UNIV, ZARA1, ZARA2 out once",
         description="crowd fit five times, each standard ETH/UCY scene held out once; one "
@@ -446,9 +447,15 @@ def _add_crowd_commands(commands: Any) -> None:
         command.add_argument("--data", required=True, type=Path,
                              help="the folder of track files (frame id x y), e.g. "
                                   "../shared/pedestrians/eth_ucy")
-        command.add_argument("--steps", type=int, default=100, help="Adam steps per fit")
+        command.add_argument("--steps", type=int, default=100,
+                             help="Adam steps on the one-row loss")
+        command.add_argument("--rollout-steps", type=int, default=0,
+                             help="then Adam steps on short rollouts (0: none)")
+        command.add_argument("--rollout-rows", type=int, default=4,
+                             help="rows (0.4 s each) per short rollout")
         command.add_argument("--max-seconds", type=float, default=None,
-                             help="stop each fit after this long (compile included)")
+                             help="stop each phase of a fit after this long (compile "
+                                  "included)")
         command.add_argument("--out", required=True, type=Path, help="result folder")
         add_cache_arguments(command)
     fit.add_argument("--test", default=None,
@@ -464,7 +471,8 @@ def run_crowd_fit(args: argparse.Namespace) -> None:
     from sgjax.evaluation.crowd_fit import fit_scene, write_result
 
     began = time.perf_counter()
-    row = fit_scene(args.model, args.data, args.test, args.train, args.steps, args.max_seconds)
+    row = fit_scene(args.model, args.data, args.test, args.train, args.steps, args.max_seconds,
+                    args.rollout_steps, args.rollout_rows)
     path = write_result(args.out, [row], {"fit": time.perf_counter() - began})
     print(f"{args.model} fitted on {', '.join(row['train'])} in {row['fit_seconds']} s "
           f"({row['steps']} steps): " + ", ".join(f"{k} {v:.4g}"
@@ -479,7 +487,8 @@ def run_crowd_loso(args: argparse.Namespace) -> None:
 
     began = time.perf_counter()
     rows = loso(args.model, args.data, args.steps, args.max_seconds,
-                log=lambda line: print(line, flush=True))
+                log=lambda line: print(line, flush=True), rollout_steps=args.rollout_steps,
+                rollout_rows=args.rollout_rows)
     path = write_result(args.out, rows, {"loso": time.perf_counter() - began})
     print(f"wrote {path}\n" + (args.out / "crowd_fit.md").read_text())
 

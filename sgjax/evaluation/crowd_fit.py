@@ -1,12 +1,15 @@
-"""``sgjax crowd fit`` and ``sgjax crowd loso``: a social-force law calibrated to recorded
+"""``sgjax crowd fit`` and ``sgjax crowd loso``: a pedestrian model calibrated to recorded
 people, scored on a held-out scene as the forecasting literature scores it, written as a result
 file with its provenance (issue 68).
 
 A fit (:func:`fit_scene`) reads the training scenes' tracks (every 4th window of 8 observed +
-12 predicted rows), fits the law's constants by gradient
-(:func:`sgjax.evaluation.calibration.fit_social_force`), and forecasts every window of the
-held-out scene with the constant-velocity floor, the law's published constants and the fitted
-ones: ADE and FDE (m) and the share of pedestrians in a predicted collision. Differences come
+12 predicted rows), fits the model's constants by gradient
+(:func:`sgjax.evaluation.calibration.fit_social_force`): first on the teacher-forced one-row
+loss, then (``rollout_steps``) on short rollouts of ``rollout_rows`` rows from the first fit.
+It forecasts every window of the held-out scene with the constant-velocity floor, the model's
+published (sgjax's default) constants, TrajNet++'s hand-tuned ones where the model has them
+(Helbing and Molnar's potentials) and the fitted ones: ADE and FDE (m) and the share of
+pedestrians in a predicted collision. Differences come
 with 95% paired t intervals over the held-out scene's non-overlapping windows (20 rows, 8 s
 apart: consecutive windows share 19 of 20 rows, so intervals over all of them would count one
 walk twenty times). ``loso`` runs the five standard scenes (ETH, HOTEL, UNIV, ZARA1, ZARA2),
@@ -24,8 +27,8 @@ from typing import Any
 import jax
 import numpy as np
 
-from sgjax.evaluation.calibration import FITTED_BY_MODEL, fit_social_force
-from sgjax.evaluation.force_forecast import social_force_forecast
+from sgjax.evaluation.calibration import FITTED_BY_MODEL, TRAJNET_CONSTANTS, fit_social_force
+from sgjax.evaluation.force_forecast import ModelParams, default_constants, social_force_forecast
 from sgjax.evaluation.forecasting import (
     OBSERVE,
     PREDICT,
@@ -38,7 +41,6 @@ from sgjax.evaluation.forecasting import (
 from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.statistics import paired_difference
 from sgjax.files import write_atomic
-from sgjax.humans.forces import SocialForceParams
 from sgjax.humans.tracks import TrackWindows, read_tracks
 
 SCHEMA = "sgjax.crowd_fit/1"
@@ -79,10 +81,20 @@ def _difference(a: np.ndarray, b: np.ndarray) -> dict[str, float]:
     return {"mean": d.mean, "ci_low": d.ci_low, "ci_high": d.ci_high, "windows": d.n}
 
 
+ROLLOUT_ROWS = 4  # rows (1.6 s) of the short rollouts after the one-row fit
+
+
+def _constants(model: str, p: ModelParams) -> dict[str, float]:
+    return {k: float(getattr(p, k)) for k in FITTED_BY_MODEL[model]}
+
+
 def fit_scene(model: str, data: Path, test: str | None, train: Sequence[str] | None = None,
-              steps: int = 100, max_seconds: float | None = None) -> dict[str, Any]:
-    """One fit of ``model`` on the ``train`` scenes (default: the standard five but ``test``)
-    and its scores on ``test`` (None: fit only). Returns the result row (module doc)."""
+              steps: int = 100, max_seconds: float | None = None, rollout_steps: int = 0,
+              rollout_rows: int = ROLLOUT_ROWS) -> dict[str, Any]:
+    """One fit of ``model`` on the ``train`` scenes (default: the standard five but ``test``):
+    ``steps`` on the one-row loss, then ``rollout_steps`` on rollouts of ``rollout_rows`` rows
+    (``max_seconds`` bounds each phase); its scores on ``test`` (None: fit only). Returns the
+    result row (module doc)."""
     test_path = None if test is None else scene_path(data, test)
     if train is None:
         train = [s for s in SCENES if test_path is None or SCENES[s] != test_path.stem]
@@ -93,29 +105,43 @@ def fit_scene(model: str, data: Path, test: str | None, train: Sequence[str] | N
                for s in train]
     fitted, history = fit_social_force(windows, ROW_SECONDS, steps=steps, model=model,
                                        max_seconds=max_seconds)
+    rollout: list[float] = []
+    if rollout_steps > 0:
+        fitted, rollout = fit_social_force(windows, ROW_SECONDS, steps=rollout_steps,
+                                           model=model, max_seconds=max_seconds, start=fitted,
+                                           rows=rollout_rows)
     row: dict[str, Any] = {
         "model": model, "train": [scene_path(data, s).stem for s in train],
         "test": None if test_path is None else test_path.stem,
         "steps": len(history), "loss": {"first": history[0], "last": history[-1]},
-        "constants": {k: float(getattr(fitted, k)) for k in FITTED_BY_MODEL[model]},
-        "published": {k: float(getattr(SocialForceParams(), k)) for k in FITTED_BY_MODEL[model]},
+        "constants": _constants(model, fitted),
+        "published": _constants(model, default_constants(model)),
         "fit_seconds": round(time.perf_counter() - began, 1),
     }
+    if rollout:
+        row["rollout"] = {"rows": rollout_rows, "steps": len(rollout),
+                          "loss": {"first": rollout[0], "last": rollout[-1]}}
+    if model in TRAJNET_CONSTANTS:
+        row["trajnet"] = _constants(model, TRAJNET_CONSTANTS[model])
     if test_path is not None:
         row.update(score_scene(model, fitted, test_path))
     return row
 
 
-def score_scene(model: str, fitted: SocialForceParams, path: Path) -> dict[str, Any]:
-    """Constant velocity, the published and the fitted constants on every window of the track
-    file ``path``, and the fitted law's paired differences over its non-overlapping windows."""
+def score_scene(model: str, fitted: ModelParams, path: Path) -> dict[str, Any]:
+    """Constant velocity, the published, TrajNet++'s (where the model has them) and the fitted
+    constants on every window of the track file ``path``, and the fitted model's paired
+    differences over its non-overlapping windows."""
     tracks = read_tracks(path)
     law = jax.jit(lambda p, w: social_force_forecast(p, w, ROW_SECONDS, model=model))
+    others = {"published": default_constants(model)}
+    if model in TRAJNET_CONSTANTS:
+        others["trajnet"] = TRAJNET_CONSTANTS[model]
     out: dict[str, Any] = {}
     for key, stride in (("scores", 1), ("blocks", BLOCK)):
         windows = forecast_windows(tracks, stride=stride)
         forecasts = {"constant_velocity": constant_velocity(windows),
-                     "published": law(SocialForceParams(), windows),
+                     **{name: law(p, windows) for name, p in others.items()},
                      "fitted": law(fitted, windows)}
         if key == "scores":
             out[key] = {name: _scores(score_forecast(*xy, windows))
@@ -123,7 +149,7 @@ def score_scene(model: str, fitted: SocialForceParams, path: Path) -> dict[str, 
         else:
             ade = {name: _window_ade(*xy, windows) for name, xy in forecasts.items()}
             out["fitted_minus"] = {name: _difference(ade["fitted"], ade[name])
-                                   for name in ("published", "constant_velocity")}
+                                   for name in forecasts if name != "fitted"}
     return out
 
 
@@ -144,9 +170,10 @@ def table(result: Mapping[str, Any]) -> str:
     collision share of constant velocity, the published and the fitted constants, the fitted
     law's ADE difference with each (paired interval over non-overlapping windows), and the
     fitted constants."""
-    lines = ["| model | held-out scene | constant velocity | published | fitted on the others | "
-             "fitted - published ADE (m) | fitted - constant velocity ADE (m) | fitted "
-             "constants |", "|---|---|---|---|---|---|---|---|"]
+    lines = ["| model | held-out scene | constant velocity | published | TrajNet++ | fitted on "
+             "the others | fitted - published ADE (m) | fitted - TrajNet++ ADE (m) | fitted - "
+             "constant velocity ADE (m) | fitted constants |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
 
     def cell(s: Mapping[str, float]) -> str:
         return f"{s['ade']:.3f} / {s['fde']:.3f}, {100 * s['collisions']:.1f}%"
@@ -159,19 +186,23 @@ def table(result: Mapping[str, Any]) -> str:
             continue
         s, d = row["scores"], row["fitted_minus"]
         constants = ", ".join(f"{k} {v:.3g}" for k, v in row["constants"].items())
+        trajnet = "trajnet" in s
         lines.append(f"| {row['model']} | {row['test']} | {cell(s['constant_velocity'])} | "
-                     f"{cell(s['published'])} | {cell(s['fitted'])} | "
-                     f"{diff(d['published'])} | {diff(d['constant_velocity'])} | "
-                     f"{constants} |")
+                     f"{cell(s['published'])} | "
+                     f"{cell(s['trajnet']) if trajnet else '-'} | {cell(s['fitted'])} | "
+                     f"{diff(d['published'])} | {diff(d['trajnet']) if trajnet else '-'} | "
+                     f"{diff(d['constant_velocity'])} | {constants} |")
     return "\n".join(lines)
 
 
 def loso(model: str, data: Path, steps: int = 100, max_seconds: float | None = None,
-         log: Any = print) -> list[dict[str, Any]]:
+         log: Any = print, rollout_steps: int = 0, rollout_rows: int = ROLLOUT_ROWS
+         ) -> list[dict[str, Any]]:
     """Leave one scene out over the standard five: a row per held-out scene."""
     rows = []
     for scene in SCENES:
-        row = fit_scene(model, data, scene, steps=steps, max_seconds=max_seconds)
+        row = fit_scene(model, data, scene, steps=steps, max_seconds=max_seconds,
+                        rollout_steps=rollout_steps, rollout_rows=rollout_rows)
         log(f"{model}, {scene} held out: fitted in {row['fit_seconds']} s ({row['steps']} "
             f"steps); ADE fitted {row['scores']['fitted']['ade']:.3f} m, published "
             f"{row['scores']['published']['ade']:.3f}, constant velocity "

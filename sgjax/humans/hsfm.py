@@ -63,7 +63,7 @@ class HsfmParams:
     alpha: Array | float = 3.0
 
 
-def _pair_force(dx: Array, dy: Array, reach: Array, dvx: Array, dvy: Array,
+def pair_force(dx: Array, dy: Array, reach: Array, dvx: Array, dvy: Array,
                 p: HsfmParams) -> tuple[Array, Array]:
     """Helbing 2000 force (N) from a body at offset ``-(dx, dy)`` (``d`` = from it to us),
     ``reach`` = the two radii (m), ``(dvx, dvy)`` = its velocity minus ours (m/s)."""
@@ -74,6 +74,34 @@ def _pair_force(dx: Array, dy: Array, reach: Array, dvx: Array, dvy: Array,
     push = p.strength * jnp.exp((reach - d) / p.falloff) + p.body * g
     slide = p.friction * g * (dvx * tx + dvy * ty)
     return push * nx + slide * tx, push * ny + slide * ty
+
+
+def headed_step(p: HsfmParams, vx: Array, vy: Array, heading: Array, omega: Array,
+                f0x: Array, f0y: Array, fex: Array, fey: Array, ex: Array, ey: Array,
+                inertia: Array, dt: Array) -> tuple[Array, Array, Array, Array]:
+    """The headed dynamics over one explicit Euler step of ``dt`` s (module doc): world
+    velocity ``(vx, vy)`` (m/s), ``heading`` (rad) and turn rate ``omega`` (rad/s) under the
+    driving force ``f0`` and the interaction ``fe`` (N), toward the unit direction ``e``, for
+    pedestrians of moment of inertia ``inertia`` (kg m^2). Returns the new ``(vx, vy, heading,
+    omega)``; every array ``[H]``."""
+    c, s = jnp.cos(heading), jnp.sin(heading)
+    v_f = c * vx + s * vy
+    v_o = -s * vx + c * vy
+    u_f = (f0x + fex) * c + (f0y + fey) * s
+    u_o = p.k_orthogonal * (-fex * s + fey * c) - p.k_damping * v_o
+    drive = safe_norm(f0x, f0y)
+    k_theta = inertia * p.k_lambda * drive
+    # floored under the root: a finite gradient where the driving force vanishes
+    k_omega = inertia * (1.0 + p.alpha) * jnp.sqrt(jnp.maximum(p.k_lambda * drive / p.alpha,
+                                                               1e-12))
+    theta0 = polynomial_atan2(ey, ex)
+    u_theta = -k_theta * wrap_angle(heading - theta0) - k_omega * omega
+    v_f = v_f + dt * u_f / p.mass
+    v_o = v_o + dt * u_o / p.mass
+    new_heading = wrap_angle(heading + dt * omega)
+    new_omega = omega + dt * u_theta / inertia
+    c, s = jnp.cos(new_heading), jnp.sin(new_heading)
+    return c * v_f - s * v_o, s * v_f + c * v_o, new_heading, new_omega
 
 
 def hsfm_update(
@@ -108,7 +136,7 @@ def hsfm_update(
 
     def interact(pairs: Pairs, x: Array, y: Array, vx: Array, vy: Array, r: Array
                  ) -> tuple[Array, Array]:
-        fx, fy = _pair_force(x[:, None] - pairs.gather(bx), y[:, None] - pairs.gather(by),
+        fx, fy = pair_force(x[:, None] - pairs.gather(bx), y[:, None] - pairs.gather(by),
                              r[:, None] + pairs.gather(bradius, 0.0),
                              pairs.gather(bvx, 0.0) - vx[:, None],
                              pairs.gather(bvy, 0.0) - vy[:, None], p)
@@ -118,30 +146,15 @@ def hsfm_update(
                                                      radius)
     # Walls: the nearest point of each (within ``wall_range``, through the map's cell lists)
     ox, oy, acting, _ = wall_offsets(h.x, h.y, m, wall_range)
-    wx, wy = _pair_force(ox, oy, radius[:, None], -h.vx[:, None], -h.vy[:, None], p)
+    wx, wy = pair_force(ox, oy, radius[:, None], -h.vx[:, None], -h.vy[:, None], p)
     valid = acting.astype(jnp.float32)
     fex, fey = fex + jnp.sum(valid * wx, axis=1), fey + jnp.sum(valid * wy, axis=1)
     if hp.groups is not None:  # Moussaid 2010 group forces, per unit mass
         gx, gy = group_forces(hp.groups, h.x, h.y, h.vx, h.vy, tx, ty, h.active)
         fex, fey = fex + p.mass * gx, fey + p.mass * gy
 
-    # Headed dynamics.
-    c, s = jnp.cos(h.heading), jnp.sin(h.heading)
-    v_f = c * h.vx + s * h.vy
-    v_o = -s * h.vx + c * h.vy
-    u_f = (f0x + fex) * c + (f0y + fey) * s
-    u_o = p.k_orthogonal * (-fex * s + fey * c) - p.k_damping * v_o
-    drive = safe_norm(f0x, f0y)
-    k_theta = inertia * p.k_lambda * drive
-    k_omega = inertia * (1.0 + p.alpha) * jnp.sqrt(p.k_lambda * drive / p.alpha)
-    theta0 = polynomial_atan2(ey, ex)
-    u_theta = -k_theta * wrap_angle(h.heading - theta0) - k_omega * h.omega
-    v_f = v_f + dt * u_f / p.mass
-    v_o = v_o + dt * u_o / p.mass
-    heading = wrap_angle(h.heading + dt * h.omega)
-    omega = h.omega + dt * u_theta / inertia
-    c, s = jnp.cos(heading), jnp.sin(heading)
-    vx, vy = c * v_f - s * v_o, s * v_f + c * v_o
+    vx, vy, heading, omega = headed_step(p, h.vx, h.vy, h.heading, h.omega, f0x, f0y, fex,
+                                         fey, ex, ey, inertia, dt)
     active = h.active
     return (jnp.where(active, (vx - h.vx) / dt, 0.0), jnp.where(active, (vy - h.vy) / dt, 0.0),
             jnp.where(active, heading, h.heading), jnp.where(active, omega, 0.0),

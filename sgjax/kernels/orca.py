@@ -196,7 +196,8 @@ def _program(lines: Lines, max_speed: Array, target_x: Array, target_y: Array,
     if direction:
         vx, vy = target_x * max_speed, target_y * max_speed
     else:
-        speed = jnp.sqrt(target_x * target_x + target_y * target_y)
+        # floored under the root: a finite gradient where the preferred velocity is zero
+        speed = jnp.sqrt(jnp.maximum(target_x * target_x + target_y * target_y, EPS * EPS))
         scale = jnp.where(speed > max_speed, max_speed / jnp.maximum(speed, EPS), 1.0)
         vx, vy = target_x * scale, target_y * scale
     index = jnp.arange(count)
