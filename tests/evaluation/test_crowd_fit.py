@@ -15,10 +15,9 @@ import pytest
 from sgjax.command import main
 from sgjax.evaluation.calibration import fit_social_force
 from sgjax.evaluation.crowd_fit import table
-from sgjax.evaluation.force_forecast import social_force_forecast
+from sgjax.evaluation.force_forecast import one_row_loss, rollout_loss, social_force_forecast
 from sgjax.evaluation.forecasting import forecast_windows
 from sgjax.evaluation.result_schema import schema_for
-from sgjax.evaluation.force_forecast import one_row_loss, rollout_loss
 from sgjax.humans.forces import SocialForceParams
 from sgjax.humans.hsfm import HsfmParams
 from sgjax.humans.orca_model import OrcaParams
