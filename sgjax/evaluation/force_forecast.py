@@ -21,6 +21,9 @@ Everything is a pure function of the model's constants (:class:`SocialForceParam
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import jax
 import jax.numpy as jnp
 from jax import Array
@@ -54,6 +57,8 @@ MODELS = ("moussaid", "helbing", "hsfm", "orca")
 ModelParams = SocialForceParams | HsfmParams | OrcaParams
 HSFM_SUBSTEPS = 20  # explicit steps per row for the headed model (0.02 s: its stable step)
 RADIUS = HumanOptions().human_radius  # m: the headed and ORCA pedestrians' radius
+WINDOW_BATCH = 64  # windows walked together (the rest in a loop): bounds the memory
+ORCA_WINDOW_BATCH = 2  # the same for ORCA (a few hundred MB under grad in UNIV)
 ORCA_NEIGHBORS = 10  # the nearest others an ORCA pedestrian avoids (CrowdNav's max_neighbors)
 # the state a forecast carries per pedestrian [P]: x, y, vx, vy, heading, turn rate
 Walkers = tuple[Array, Array, Array, Array, Array, Array]
@@ -163,14 +168,17 @@ def _rows(p: ModelParams, start: Walkers, intent: tuple[Array, Array, Array, Arr
           ) -> tuple[Array, Array]:
     """``(x, y) [rows, P]``: one window's pedestrians walked from ``start``."""
     h = dt / substeps
+    # ORCA's programs (nested loops over its lines) keep too much for the gradient: recompute
+    # each step's on the way back instead of storing it
+    walk = jax.checkpoint(_walk, static_argnums=(4, 5)) if model == "orca" else _walk
 
     def substep(_: int, state: Walkers) -> Walkers:
-        return _walk(p, state, intent, mask, h, model)
+        return walk(p, state, intent, mask, h, model)
 
     def row(state: Walkers, _: None) -> tuple[Walkers, tuple[Array, Array]]:
         if substeps <= SUBSTEPS:  # a few: unrolled, as XLA fuses them best
             for _ in range(substeps):
-                state = _walk(p, state, intent, mask, h, model)
+                state = walk(p, state, intent, mask, h, model)
         else:  # many (the headed model's): a loop, or the program grows with them
             state = jax.lax.fori_loop(0, substeps, substep, state)
         return state, (state[0], state[1])
@@ -193,7 +201,16 @@ def social_force_forecast(p: ModelParams, windows: TrackWindows, dt: float,
     def one(x: Array, y: Array, intent: tuple[Array, ...], m: Array) -> tuple[Array, Array]:
         return _rows(p, _start(x, y, observe - 1, dt), intent, m, rows, dt, substeps, model)
 
-    return jax.vmap(one)(windows.x, windows.y, intent, mask)
+    return _by_windows(model, one, windows.x, windows.y, intent, mask)
+
+
+def _by_windows(model: str, fn: Callable[..., Any], *per_window: Any) -> Any:
+    """``fn`` of every window (each argument's leading axis), a batch of windows at a time
+    (:data:`WINDOW_BATCH`; ORCA's :data:`ORCA_WINDOW_BATCH`): ``vmap`` within a batch, a loop
+    over batches, so the memory grows with a batch, not with a scene (UNIV's windows hold 57
+    people; ORCA's nested programs under ``grad`` keep a value per line pair and person)."""
+    batch = ORCA_WINDOW_BATCH if model == "orca" else WINDOW_BATCH
+    return jax.lax.map(lambda args: fn(*args), per_window, batch_size=batch)
 
 
 def rollout_loss(p: ModelParams, windows: TrackWindows, dt: float, rows: int = 1,
@@ -223,7 +240,7 @@ def rollout_loss(p: ModelParams, windows: TrackWindows, dt: float, rows: int = 1
 
         return jnp.sum(jax.vmap(at)(jnp.arange(observe - 1, last)))
 
-    total = jnp.sum(jax.vmap(one)(windows.x, windows.y, intent, mask))
+    total = jnp.sum(_by_windows(model, one, windows.x, windows.y, intent, mask))
     return total / jnp.maximum(jnp.sum(mask) * (last - observe + 1) * rows, 1)
 
 
