@@ -10,6 +10,8 @@ import jax
 import jax.numpy as jnp
 from jax import Array
 
+from sgjax.kernels.contacts import Walls
+from sgjax.kernels.walls_along import uses_lists_along, walls_along
 from sgjax.observations.base import OBSERVATIONS, ObservationTerm
 from sgjax.observations.columns import Columns
 from sgjax.terms.queries import gather_bodies
@@ -58,11 +60,31 @@ def ray_disc_hits(px: Array, py: Array, ux: Array, uy: Array, cx: Array, cy: Arr
     return jnp.where(inside, 0.0, jnp.where(hit, t, jnp.inf))
 
 
+def wall_distances(m: Walls, px: Array, py: Array, ux: Array, uy: Array, length: float
+                   ) -> Array:
+    """Distance (m) along each ray from ``(px, py)`` along the unit ``(ux, uy)`` (broadcast
+    shapes ``...``) to the nearest wall, ``inf`` if none; exact up to ``length`` m (beyond it a
+    farther wall may be missed: callers cap there). Building floors read the walls from the
+    map's cell lists along the ray (:mod:`sgjax.kernels.walls_along`), other maps test every
+    wall."""
+    if uses_lists_along(m, length):
+        index = walls_along(m, px, py, ux, uy, length)  # [..., K]
+        hits = ray_segment_hits(px[..., None], py[..., None], ux[..., None], uy[..., None],
+                                m.wall_x1[index], m.wall_y1[index], m.wall_x2[index],
+                                m.wall_y2[index])
+        valid = m.wall_valid[index]
+    else:
+        hits = ray_segment_hits(px[..., None], py[..., None], ux[..., None], uy[..., None],
+                                m.wall_x1, m.wall_y1, m.wall_x2, m.wall_y2)
+        valid = m.wall_valid
+    return jnp.min(jnp.where(valid, hits, jnp.inf), axis=-1)
+
+
 @OBSERVATIONS.register
 @dataclasses.dataclass(frozen=True)
 class Lidar(ObservationTerm):
     """``beams`` ranges (m) over ``fov`` (rad, default a full circle) from the robot's centre,
-    against walls, other robots and pedestrians, capped at ``range``. ``noise`` (m) adds
+    against walls (:func:`wall_distances`), other robots and pedestrians, capped at ``range``. ``noise`` (m) adds
     Gaussian noise before the cap (SocialGym: 0.01). Beam ``i`` points at
     ``heading + beam_angles(beams, fov)[i]``."""
 
@@ -96,10 +118,10 @@ class Lidar(ObservationTerm):
         angle = r.heading[:, None] + beam_angles(self.beams, self.fov)[None, :]  # [R, N]
         ux, uy = jnp.cos(angle), jnp.sin(angle)
         px, py = r.x[:, None, None], r.y[:, None, None]
-        walls = ray_segment_hits(px, py, ux[..., None], uy[..., None], m.wall_x1, m.wall_y1,
-                                 m.wall_x2, m.wall_y2)
-        walls = jnp.where(m.wall_valid, walls, jnp.inf)
-        nearest = jnp.min(walls, axis=-1)  # [R, N]
+        # walls beyond the cap are never read (6 sigma of noise past it: noise could bring one
+        # under the cap)
+        nearest = wall_distances(m, r.x[:, None], r.y[:, None], ux, uy,
+                                 self.range + 6.0 * self.noise)  # [R, N]
         bodies = gather_bodies(state, params, robots=self.robots, humans=self.humans)
         if bodies.x.shape[0]:
             hits = ray_disc_hits(px, py, ux[..., None], uy[..., None], bodies.x, bodies.y,

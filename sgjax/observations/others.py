@@ -109,7 +109,7 @@ class Others(ObservationTerm):
             visible = visible & (centre <= self.max_range)
         if self.line_of_sight:
             visible = visible & line_of_sight(r.x[:, None], r.y[:, None], bodies.x[None, :],
-                                              bodies.y[None, :], params)
+                                              bodies.y[None, :], params, self.max_range)
         if count < self.k:  # pad so that top_k has k candidates
             pad = self.k - count
             centre = jnp.pad(centre, ((0, 0), (0, pad)))

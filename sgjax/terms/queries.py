@@ -12,6 +12,7 @@ import jax.numpy as jnp
 from jax import Array
 
 from sgjax.kernels.geometry import safe_norm
+from sgjax.kernels.walls_along import uses_lists_along, walls_along
 from sgjax.types import EnvParams, EnvState, Layout
 
 FAR = 1.0e6  # m: the gap reported for bodies that are not there
@@ -66,10 +67,24 @@ def gather_bodies(state: EnvState, params: EnvParams, robots: bool = True,
     return Bodies(*columns)
 
 
-def line_of_sight(px: Array, py: Array, qx: Array, qy: Array, params: EnvParams) -> Array:
-    """Whether segments p-q (broadcast shapes ``S``) cross no wall; returns bool ``S``."""
+def line_of_sight(px: Array, py: Array, qx: Array, qy: Array, params: EnvParams,
+                  length: float | None = None) -> Array:
+    """Whether segments p-q (broadcast shapes ``S``) cross no wall; returns bool ``S``. With
+    ``length`` (m), segments longer than it may see through walls beyond it (callers hide
+    those bodies anyway): building floors then read the walls from the map's cell lists along
+    each segment (:mod:`sgjax.kernels.walls_along`) instead of testing every wall."""
     m = params.map
-    ax, ay, bx, by = (v[(None,) * px.ndim] for v in (m.wall_x1, m.wall_y1, m.wall_x2, m.wall_y2))
+    if uses_lists_along(m, length):
+        px, py, qx, qy = jnp.broadcast_arrays(px, py, qx, qy)
+        ux, uy = qx - px, qy - py
+        inv = 1.0 / jnp.maximum(safe_norm(ux, uy), 1e-9)
+        index = walls_along(m, px, py, ux * inv, uy * inv, length)  # [S..., K]
+        ax, ay, bx, by = (v[index] for v in (m.wall_x1, m.wall_y1, m.wall_x2, m.wall_y2))
+        valid = m.wall_valid[index]
+    else:
+        ax, ay, bx, by = (v[(None,) * px.ndim] for v in (m.wall_x1, m.wall_y1, m.wall_x2,
+                                                          m.wall_y2))
+        valid = m.wall_valid[(None,) * px.ndim]
     px, py, qx, qy = (v[..., None] for v in (px, py, qx, qy))
 
     def side(ox: Array, oy: Array, ux: Array, uy: Array, wx: Array, wy: Array) -> Array:
@@ -77,7 +92,7 @@ def line_of_sight(px: Array, py: Array, qx: Array, qy: Array, params: EnvParams)
 
     d1, d2 = side(ax, ay, bx, by, px, py), side(ax, ay, bx, by, qx, qy)
     d3, d4 = side(px, py, qx, qy, ax, ay), side(px, py, qx, qy, bx, by)
-    crosses = (d1 * d2 < 0.0) & (d3 * d4 < 0.0) & m.wall_valid[(None,) * (px.ndim - 1)]
+    crosses = (d1 * d2 < 0.0) & (d3 * d4 < 0.0) & valid
     return ~jnp.any(crosses, axis=-1)
 
 
