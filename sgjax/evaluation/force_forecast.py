@@ -59,6 +59,7 @@ HSFM_SUBSTEPS = 20  # explicit steps per row for the headed model (0.02 s: its s
 RADIUS = HumanOptions().human_radius  # m: the headed and ORCA pedestrians' radius
 WINDOW_BATCH = 64  # windows walked together (the rest in a loop): bounds the memory
 ORCA_WINDOW_BATCH = 2  # the same for ORCA (a few hundred MB under grad in UNIV)
+HSFM_WINDOW_BATCH = 8  # and for the headed model (20 sub-steps a row)
 ORCA_NEIGHBORS = 10  # the nearest others an ORCA pedestrian avoids (CrowdNav's max_neighbors)
 # the state a forecast carries per pedestrian [P]: x, y, vx, vy, heading, turn rate
 Walkers = tuple[Array, Array, Array, Array, Array, Array]
@@ -168,9 +169,10 @@ def _rows(p: ModelParams, start: Walkers, intent: tuple[Array, Array, Array, Arr
           ) -> tuple[Array, Array]:
     """``(x, y) [rows, P]``: one window's pedestrians walked from ``start``."""
     h = dt / substeps
-    # ORCA's programs (nested loops over its lines) keep too much for the gradient: recompute
-    # each step's on the way back instead of storing it
-    walk = jax.checkpoint(_walk, static_argnums=(4, 5)) if model == "orca" else _walk
+    # ORCA's programs (nested loops over its lines) and the headed model's many sub-steps keep
+    # too much for the gradient: recompute each step's on the way back instead of storing it
+    walk = (jax.checkpoint(_walk, static_argnums=(4, 5)) if model in ("orca", "hsfm")
+            else _walk)
 
     def substep(_: int, state: Walkers) -> Walkers:
         return walk(p, state, intent, mask, h, model)
@@ -206,10 +208,11 @@ def social_force_forecast(p: ModelParams, windows: TrackWindows, dt: float,
 
 def _by_windows(model: str, fn: Callable[..., Any], *per_window: Any) -> Any:
     """``fn`` of every window (each argument's leading axis), a batch of windows at a time
-    (:data:`WINDOW_BATCH`; ORCA's :data:`ORCA_WINDOW_BATCH`): ``vmap`` within a batch, a loop
-    over batches, so the memory grows with a batch, not with a scene (UNIV's windows hold 57
-    people; ORCA's nested programs under ``grad`` keep a value per line pair and person)."""
-    batch = ORCA_WINDOW_BATCH if model == "orca" else WINDOW_BATCH
+    (:data:`WINDOW_BATCH`; ORCA's :data:`ORCA_WINDOW_BATCH`, the headed model's
+    :data:`HSFM_WINDOW_BATCH`): ``vmap`` within a batch, a loop over batches, so the memory
+    grows with a batch, not with a scene (UNIV's windows hold 57 people; ORCA's nested
+    programs under ``grad`` keep a value per line pair and person)."""
+    batch = {"orca": ORCA_WINDOW_BATCH, "hsfm": HSFM_WINDOW_BATCH}.get(model, WINDOW_BATCH)
     return jax.lax.map(lambda args: fn(*args), per_window, batch_size=batch)
 
 

@@ -84,9 +84,9 @@ def wall_distances(m: Walls, px: Array, py: Array, ux: Array, uy: Array, length:
 @dataclasses.dataclass(frozen=True)
 class Lidar(ObservationTerm):
     """``beams`` ranges (m) over ``fov`` (rad, default a full circle) from the robot's centre,
-    against walls (:func:`wall_distances`), other robots and pedestrians, capped at ``range``. ``noise`` (m) adds
-    Gaussian noise before the cap (SocialGym: 0.01). Beam ``i`` points at
-    ``heading + beam_angles(beams, fov)[i]``."""
+    against walls (:func:`wall_distances`), other robots and pedestrians, capped at
+    ``range``. ``noise`` (m) adds Gaussian noise before the cap (SocialGym: 0.01). Beam
+    ``i`` points at ``heading + beam_angles(beams, fov)[i]``."""
 
     name = "lidar"
     beams: int = 16
