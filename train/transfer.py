@@ -24,7 +24,14 @@ Sets (``--sets``, all by default):
   split (seeds ``0 ..``), under the families' default ranges: their difference is the
   generalisation gap;
 * ``extrapolation``: parameters beyond the training ranges (narrower doors, longer and
-  narrower hallways, smaller roundabouts, more robots than training met).
+  narrower hallways, smaller roundabouts, more robots than training met);
+* ``recorded`` (asked for by name; issue 68's sim-to-real gap): the five standard ETH/UCY
+  scenes (``--recordings``, default ``../shared/pedestrians/eth_ucy``) as ``recorded:FILE``
+  scenarios, the robots among the recorded people themselves, once as ghosts and once handed
+  over within 1.5 m to the Moussaid law with the constants fitted to those people
+  (``human_constants="eth_ucy"``: the same for every arm, whatever crowd it trained among);
+  beside team success it keeps collisions with people, personal-space intrusions, the log
+  deviation and the people reached.
 
 Whether a family or map was seen in training is read from each arm's config and marked. A
 shipped map's **own specialist** (``--own-specialist``: an arm's name, or a run trained on that
@@ -90,7 +97,16 @@ ROOT = Path(__file__).resolve().parents[1]
 SG2MAPS = ROOT.parent / "shared" / "sg2maps"
 MINIGAMES = ("doorway", "hallway", "intersection", "roundabout", "open")
 FAMILIES = ("doorway", "hallway", "intersection", "roundabout", "open", "floorplan")
-SETS = ("minigames", "office", "sg2maps", "generated_test", "generated_train", "extrapolation")
+SETS = ("minigames", "office", "sg2maps", "generated_test", "generated_train", "extrapolation",
+        "recorded")
+DEFAULT_SETS = SETS[:-1]  # the recorded people are asked for by name
+RECORDINGS = ROOT.parent / "shared" / "pedestrians" / "eth_ucy"
+RECORDED_SCENES = {"ETH": "biwi_eth", "HOTEL": "biwi_hotel", "UNIV": "students001",
+                   "ZARA1": "crowds_zara01", "ZARA2": "crowds_zara02"}
+RECORDED_BEHAVIOURS = ("ghost", "handover")
+# among recorded people, beside METRICS: what the robots did to the people
+RECORDED_METRICS = ("collisions_human", "personal_space_human", "log_deviation",
+                    "people_reached")
 SPLIT_WORLDS = 1000  # worlds in a generated split (its episodes draw among them)
 EXTRA_ROBOTS = 7  # "more robots than in training" (the transfer configs train with 3 to 5)
 # Parameter extrapolation: (name, family, ranges beyond the training defaults).
@@ -119,14 +135,35 @@ class HeldOutMap:
     robots: int
     worlds: tuple[tuple[str, Any], ...] = ()
     socialgym_folder: bool = False
+    keywords: tuple[tuple[str, Any], ...] = ()  # other make keywords the map sets for every arm
+    metrics: tuple[str, ...] = METRICS  # what is kept per episode
 
     @property
     def key(self) -> str:
         return f"{self.set}/{self.name}"
 
 
-def held_out_maps(sets: Sequence[str], robots: int, sg2maps: Path = SG2MAPS
-                  ) -> list[HeldOutMap]:
+def recorded_maps(robots: int, recordings: Path = RECORDINGS) -> list[HeldOutMap]:
+    """The ``recorded`` set: each standard ETH/UCY scene of ``recordings`` with its people as
+    ghosts and handed over (the module doc); a missing file is named."""
+    maps = []
+    for scene, stem in RECORDED_SCENES.items():
+        path = recordings / f"{stem}.txt"
+        if not path.is_file():
+            raise ValueError(f"--recordings: no {path.name} in {recordings} (the ETH/UCY "
+                             "track files, ../shared/pedestrians/eth_ucy); leave the recorded "
+                             "set out or give the folder")
+        for behaviour in RECORDED_BEHAVIOURS:
+            maps.append(HeldOutMap(
+                "recorded", f"{scene}, {behaviour}", f"recorded:{path}", robots,
+                keywords=(("human_replay", behaviour), ("num_humans", 0),
+                          ("max_humans", None), ("human_constants", "eth_ucy")),
+                metrics=METRICS + RECORDED_METRICS))
+    return maps
+
+
+def held_out_maps(sets: Sequence[str], robots: int, sg2maps: Path = SG2MAPS,
+                  recordings: Path = RECORDINGS) -> list[HeldOutMap]:
     """Every map of ``sets`` (names of :data:`SETS`), in order."""
     unknown = [s for s in sets if s not in SETS]
     if unknown:
@@ -144,6 +181,8 @@ def held_out_maps(sets: Sequence[str], robots: int, sg2maps: Path = SG2MAPS
                                  "give its path")
             maps += [HeldOutMap(name, folder.name, str(folder), robots, socialgym_folder=True)
                      for folder in sorted(sg2maps.iterdir()) if folder.is_dir()]
+        elif name == "recorded":
+            maps += recorded_maps(robots, recordings)
         elif name in ("generated_test", "generated_train"):
             first = TEST_SEEDS[0] if name == "generated_test" else 0
             maps += [HeldOutMap(name, family, PREFIX + family, robots,
@@ -201,8 +240,8 @@ def map_options(arm: Arm, held: HeldOutMap) -> MakeOptions:
     (training's ranges, holdout and levels do not carry over), exactly ``held.robots``
     robots."""
     options = dataclasses.replace(arm.options, worlds=type(arm.options.worlds)())
-    return options.replace(**dict(held.worlds), num_agents=held.robots, min_agents=None,
-                           max_agents=None)
+    return options.replace(**dict(held.worlds), **dict(held.keywords), num_agents=held.robots,
+                           min_agents=None, max_agents=None)
 
 
 def _shared_part(options: MakeOptions) -> dict[str, Any]:
@@ -215,18 +254,31 @@ def _shared_part(options: MakeOptions) -> dict[str, Any]:
     return data
 
 
-def check_same_episodes(arms: Sequence[Arm]) -> None:
-    """Arms whose training options differ in anything but their terms would play different
-    episodes on the same key: refused, naming the arms and the keywords."""
-    first = _shared_part(arms[0].options)
-    for arm in arms[1:]:
-        other = _shared_part(arm.options)
+def check_same_episodes(arms: Sequence[Arm], maps: Sequence[HeldOutMap] = ()) -> None:
+    """Arms whose options differ in anything but their terms would play different episodes on
+    the same key: refused, naming the arms and the keywords. With ``maps``, the options each
+    map plays them with (:func:`map_options`: a map's keywords may set what the arms' training
+    differed in, as the recorded set sets the pedestrians' constants)."""
+    if maps:
+        for held in maps:
+            check_options_alike(arms, [map_options(arm, held) for arm in arms], held.key)
+        return
+    check_options_alike(arms, [arm.options for arm in arms])
+
+
+def check_options_alike(arms: Sequence[Arm], options: Sequence[MakeOptions], where: str = ""
+                        ) -> None:
+    """:func:`check_same_episodes` of the ``options`` each arm plays with."""
+    first = _shared_part(options[0])
+    for arm, theirs in zip(arms[1:], options[1:], strict=True):
+        other = _shared_part(theirs)
         differ = sorted(f"{section}.{key}" for section in first for key in first[section]
                         if first[section][key] != other[section][key])
         if differ:
             raise ValueError(f"arms {arms[0].name!r} and {arm.name!r} were trained with "
                              f"different make options ({', '.join(differ)}): they would not "
-                             "play the same episodes; judge them separately")
+                             "play the same episodes"
+                             + (f" on {where}" if where else "") + "; judge them separately")
 
 
 def map_key(seed: int, held: HeldOutMap) -> jax.Array:
@@ -298,12 +350,12 @@ def judge_map(arms: Sequence[Arm], held: HeldOutMap, episodes: int, seed: int,
         draws = draws or (arm.name, uses)
         if arm.name not in kept:
             values, _ = jax.device_get(evaluation.lanes(arm.weights, key, robots))
-            out["arms"][arm.name] = {m: _stored(values[m]) for m in METRICS}
+            out["arms"][arm.name] = {m: _stored(values[m]) for m in held.metrics}
         if "only_local" not in out:
             runner = EpisodeRunner(evaluation.env, load_policy("only_local", evaluation.env),
                                    episodes, evaluation.num_steps)
             alone, _ = jax.device_get(runner.run(key, evaluation.params[robots])[:2])
-            out["only_local"] = {m: _stored(alone[m]) for m in METRICS}
+            out["only_local"] = {m: _stored(alone[m]) for m in held.metrics}
     out["arms"] = {arm.name: out["arms"][arm.name] for arm in arms}
     if own is not None:
         out["own_specialist"] = own.name
@@ -369,7 +421,7 @@ def judge(arms: Sequence[Arm], maps: Sequence[HeldOutMap], episodes: int, seed: 
     by key."""
     own = dict(own or {})
     names = {a.name for a in arms}
-    check_same_episodes([*arms, *(a for a in own.values() if a.name not in names)])
+    check_same_episodes([*arms, *(a for a in own.values() if a.name not in names)], maps)
     results = dict(done or {})
     for number, held in enumerate(maps, 1):
         earlier = results.get(held.key)
@@ -377,6 +429,7 @@ def judge(arms: Sequence[Arm], maps: Sequence[HeldOutMap], episodes: int, seed: 
             continue
         result = {"set": held.set, "name": held.name, "scenario": held.scenario,
                   "worlds": {k: v for k, v in held.worlds},
+                  **({"keywords": dict(held.keywords)} if held.keywords else {}),
                   **judge_map(arms, held, episodes, seed, earlier, own.get(held.key))}
         results[held.key] = result
         if on_map is not None:
@@ -464,6 +517,17 @@ def comparisons(result: Mapping[str, Any], reference: str | None) -> dict[str, d
                                  "seeds in each")
             out[f"{name} - {reference}"] = paired_over_seeds_and_episodes(
                 a, b, resamples=RESAMPLES).as_dict()
+    extra = [m for m in result["only_local"] if m not in METRICS]  # the recorded set's
+    for name, values in arms.items():
+        for metric in extra:
+            a = np.asarray(values[metric], float)
+            out[f"{name} - only_local: {metric}"] = paired_over_seeds_and_episodes(
+                a, np.asarray(result["only_local"][metric], float),
+                resamples=RESAMPLES).as_dict()
+            if reference is not None and name != reference:
+                out[f"{name} - {reference}: {metric}"] = paired_over_seeds_and_episodes(
+                    a, np.asarray(arms[reference][metric], float),
+                    resamples=RESAMPLES).as_dict()
     own = result.get("own_specialist")
     for name in arms if own is not None else ():
         if name != own:
@@ -540,7 +604,41 @@ def set_section(name: str, results: Sequence[Mapping[str, Any]], document: Mappi
                             rows), "",
             "Collisions per episode and makespan (s), mean over seeds:", "",
             *markdown_table(["map", *(f"{n} collisions" for n in names),
-                             *(f"{n} makespan" for n in names)], costs), ""]
+                             *(f"{n} makespan" for n in names)], costs), "",
+            *people_section(results, names, others, reference)]
+
+
+PEOPLE_LABELS = {"collisions_human": "collisions with people per episode",
+                 "personal_space_human": "personal-space intrusions (s per episode)",
+                 "log_deviation": "log deviation (m)", "people_reached": "people reached"}
+
+
+def people_section(results: Sequence[Mapping[str, Any]], names: Sequence[str],
+                   others: Sequence[str], reference: str | None) -> list[str]:
+    """Among recorded people: per metric of :data:`RECORDED_METRICS` the maps' values of Only
+    Local and of every arm (mean over seeds [95% percentile-bootstrap interval over seeds]),
+    with each other arm's paired difference from the reference; nothing for maps without
+    them."""
+    lines: list[str] = []
+    for metric in RECORDED_METRICS:
+        held = [r for r in results if metric in r["only_local"]]
+        if not held:
+            continue
+        rows = [[r["name"], f"{_mean(r['only_local'][metric]):.2f}",
+                 *(_seed_cell(r["arms"][n][metric]) for n in names),
+                 *(_value_diff(r["paired"][f"{n} - {reference}: {metric}"]) for n in others)]
+                for r in held]
+        lines += [f"{PEOPLE_LABELS[metric].capitalize()}:", "",
+                  *markdown_table(["map", "Only Local", *names,
+                                   *(f"{n} - {reference}" for n in others)], rows), ""]
+    return lines
+
+
+def _value_diff(summary: Mapping[str, Any]) -> str:
+    """A paired difference in the metric's own units: ``+0.12 [+0.04, +0.20]``."""
+    if summary["mean"] is None:
+        return "n/a"
+    return f"{summary['mean']:+.2f} [{summary['ci_low']:+.2f}, {summary['ci_high']:+.2f}]"
 
 
 def _own_cells(result: Mapping[str, Any], names: Sequence[str]) -> list[str]:
@@ -694,8 +792,8 @@ def parser() -> argparse.ArgumentParser:
                              "one per map)")
     parser.add_argument("--reference", default=None,
                         help="the arm the others are compared with (default: the first)")
-    parser.add_argument("--sets", nargs="+", default=list(SETS), choices=SETS,
-                        help="held-out sets to judge (default: all)")
+    parser.add_argument("--sets", nargs="+", default=list(DEFAULT_SETS), choices=SETS,
+                        help="held-out sets to judge (default: all but recorded)")
     parser.add_argument("--robots", type=int, default=4, help="robots per episode")
     parser.add_argument("--episodes", type=int, default=100, help="episodes per map")
     parser.add_argument("--seed", type=int, default=0, help="evaluation seed")
@@ -709,6 +807,8 @@ def parser() -> argparse.ArgumentParser:
                         help="the worst-case fractions (with --worst-worlds)")
     parser.add_argument("--sg2maps", default=str(SG2MAPS),
                         help="SocialGym 2.0's map folders (the sg2maps set)")
+    parser.add_argument("--recordings", default=str(RECORDINGS),
+                        help="the ETH/UCY track files (the recorded set)")
     parser.add_argument("--out", default=None, help="folder for transfer.json and .md")
     parser.add_argument("--resume", action="store_true",
                         help="keep the maps of <out>/transfer.json (made with the same "
@@ -794,7 +894,7 @@ def main(argv: list[str] | None = None) -> None:
         if args.resume and args.out is None:
             raise ValueError("--resume needs --out")
         arms = [load_arm(name, path) for name, path in specs.items()]
-        maps = held_out_maps(args.sets, args.robots, Path(args.sg2maps))
+        maps = held_out_maps(args.sets, args.robots, Path(args.sg2maps), Path(args.recordings))
         extra, own = _own_specialist_runs(args.own_specialist, arms, maps)
         out = None if args.out is None else Path(args.out)
         reference_seeds = next(a.seeds for a in arms if a.name == reference)

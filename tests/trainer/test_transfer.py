@@ -254,7 +254,8 @@ def test_bad_arguments_name_what_is_wrong(argv, message):
 def test_the_command_writes_its_files_after_every_map_and_adds_an_arm_on_resume(
         tmp_path, arms, monkeypatch, capsys):
     other = transfer.HeldOutMap("office", "open", "open", 2)  # another key, the same program
-    monkeypatch.setattr(transfer, "held_out_maps", lambda sets, robots, sg2maps: [OPEN, other])
+    monkeypatch.setattr(transfer, "held_out_maps",
+                        lambda sets, robots, sg2maps, recordings: [OPEN, other])
     written = []
     real = transfer.tables
     monkeypatch.setattr(transfer, "tables", lambda d: written.append(list(d["pending"]))
@@ -320,3 +321,54 @@ def test_the_worst_case_per_seed_is_kept_on_resume_and_tabled(arms, monkeypatch)
     text = transfer.tables(made)
     assert "## Worst case over 4 held-out worlds per family" in text
     assert "| family | a worst 50% | a worst 100% |" in text
+
+
+RECORDINGS = SG2MAPS.parent / "pedestrians" / "eth_ucy"
+
+
+def test_the_recorded_set_holds_each_scene_as_ghosts_and_handed_over(tmp_path):
+    """Ten maps: the five standard scenes, each with ghosts and with hand-overs to the
+    fitted constants (the same for every arm), keeping the people metrics; a missing track
+    file is named; the default sets leave the recorded people out."""
+    maps = transfer.held_out_maps(["recorded"], 3, recordings=require(
+        RECORDINGS, "the ETH/UCY recordings"))
+    assert [m.name for m in maps[:2]] == ["ETH, ghost", "ETH, handover"] and len(maps) == 10
+    for held in maps:
+        assert held.scenario.startswith("recorded:") and held.robots == 3
+        assert dict(held.keywords)["human_constants"] == "eth_ucy"
+        assert set(transfer.RECORDED_METRICS) <= set(held.metrics)
+    with pytest.raises(ValueError, match="no biwi_eth.txt"):
+        transfer.held_out_maps(["recorded"], 3, recordings=tmp_path)
+    assert "recorded" not in transfer.parser().parse_args(["--arm", "a=x"]).sets
+
+
+@pytest.mark.slow
+def test_arms_trained_among_other_crowds_are_judged_among_the_same_recorded_people(tmp_path):
+    """Two arms whose training crowds differ (published and fitted constants) play the same
+    episodes among recorded people, whose hand-overs the map sets: allowed there, refused on
+    a map that keeps the arms' own crowds; every seed keeps the people metrics beside team
+    success, paired with the reference, and the tables show them."""
+    recordings = require(RECORDINGS, "the ETH/UCY recordings")
+    arms = [transfer.load_arm(name, tiny_run(tmp_path / name, seed=seed,
+                                             human_constants=constants))
+            for name, seed, constants in (("published", 0, "published"),
+                                          ("calibrated", 7, "eth_ucy"))]
+    with pytest.raises(ValueError, match=r"'published' and 'calibrated'.*human_constants"):
+        transfer.check_same_episodes(arms, [OPEN])
+    held = next(m for m in transfer.held_out_maps(["recorded"], 2, recordings=recordings)
+                if m.name == "ZARA1, handover")
+    transfer.check_same_episodes(arms, [held])
+    result = {"set": held.set, "name": held.name, "scenario": held.scenario, "worlds": {},
+              **transfer.judge_map(arms, held, episodes=3, seed=0)}
+    for name in ("published", "calibrated"):
+        values = result["arms"][name]
+        assert set(transfer.RECORDED_METRICS) <= set(values)
+        assert np.asarray(values["people_reached"]).shape == (2, 3)
+    assert np.all(np.isfinite(result["only_local"]["log_deviation"]))
+    made = transfer.document(arms, {held.key: result}, ["recorded"], 2, 3, 0, "published",
+                             0.05, seconds=1.0)
+    check_document(made)
+    paired = made["maps"][held.key]["paired"]
+    assert "calibrated - published: log_deviation" in paired
+    text = transfer.tables(made)
+    assert "Log deviation (m):" in text and "| ZARA1, handover |" in text
