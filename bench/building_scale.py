@@ -12,6 +12,10 @@ so the table shows what the broad phase buys and where the dense test is kept.
     python bench/building_scale.py --maps doorway GDC3 --envs 64 256 --rounds 3
     python bench/building_scale.py --maps GDC3 --humans 500 --human-range 3 --envs 4
 
+With ``--observations transfer`` every robot also casts a 16-beam, 5 m lidar and sees the
+others (the transfer preset): on a building floor its beams read the walls from the cell lists
+along them (``sgjax.kernels.walls_along``), and the "every wall" row casts them at every wall.
+
 With ``--humans N`` each environment also has N pedestrians (Moussaid, random goals) and
 agent-steps count them; ``--human-range R`` gives them a neighbour range, so on a building
 floor their wall terms read the map's wall grid too (``sgjax.humans.near_walls``), and the
@@ -85,15 +89,19 @@ def main() -> None:
     parser.add_argument("--humans", type=int, default=0, help="pedestrians per environment")
     parser.add_argument("--human-range", type=float, default=None,
                         help="the pedestrians' neighbour range (m)")
+    parser.add_argument("--observations", default="default",
+                        help="observation preset (transfer: a 16-beam lidar and the others)")
     args = parser.parse_args()
     print(f"jax {jax.__version__} on {jax.devices()[0].platform}, {os.cpu_count()} CPU(s); "
-          f"{args.robots} robots, {args.humans} pedestrians (range {args.human_range}); "
+          f"{args.robots} robots, {args.humans} pedestrians (range {args.human_range}), "
+          f"observations {args.observations}; "
           f"{_load()}", flush=True)
     rows = []
     for name in args.maps:
         crowd = (dict(num_humans=args.humans, human_range=args.human_range) if args.humans
                  else {})
-        env, params = sgjax.make(scenario(name, args.sg2maps), num_agents=args.robots, **crowd)
+        env, params = sgjax.make(scenario(name, args.sg2maps), num_agents=args.robots,
+                                 observation_preset=args.observations, **crowd)
         m = params.map
         walls, listed = int(m.wall_valid.sum()), int(m.cell_walls.shape[1])
         paths = [("as chosen", params)]
