@@ -42,6 +42,10 @@ from sgjax.version import __version__
 def _add_environment_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--num-humans", type=int, default=None,
                         help="pedestrians per episode (default: the scenario's)")
+    parser.add_argument("--human-range", type=float, default=None,
+                        help="m: bodies farther than this do not act on a pedestrian (on a "
+                        "building floor its walls and neighbours then come from cell lists; "
+                        "default: every body acts)")
     parser.add_argument("--human-model", default=None, choices=FORCE_MODELS,
                         help="the pedestrians' force model (default: the policy's, else "
                         "moussaid); with --human-replay handover, the handed-over people's")
@@ -91,8 +95,9 @@ def _add_action_choice(parser: argparse.ArgumentParser) -> None:
 
 
 RENDER_FORMATS = ("gif", "mp4", "mcap", "rosbag2")
-ENVIRONMENT_FLAGS = ("num_humans", "human_model", "human_replay", "time_limit", "action_mode",
-                     "arrived", "observation_preset", "world_ranges", "world_seeds")
+ENVIRONMENT_FLAGS = ("num_humans", "human_range", "human_model", "human_replay", "time_limit",
+                     "action_mode", "arrived", "observation_preset", "world_ranges",
+                     "world_seeds")
 
 
 def _options(args: argparse.Namespace, policy: Any) -> MakeOptions:
@@ -110,7 +115,9 @@ def _policy_help() -> str:
 
 
 PROTOCOL_FIXED = {"scenario": "scenarios", "num_agents": "num_agents", "episodes": "episodes",
-                  "seed": "seed", "counterfactual": "counterfactual", "time_limit": "time_limit"}
+                  "seed": "seed", "counterfactual": "counterfactual", "time_limit": "time_limit",
+                  "num_humans": "num_humans", "human_range": "human_range"}
+PROTOCOL_OPTIONAL = ("num_humans", "human_range")  # fixed only where a protocol names them
 # Without --protocol: the paper's scenarios, robot counts, episodes and seed, without the
 # counterfactual lanes.
 EVALUATE_DEFAULTS = {"scenario": list(PAPER.scenarios), "num_agents": list(PAPER.num_agents),
@@ -126,13 +133,17 @@ def _apply_protocol(args: argparse.Namespace) -> None:
                 setattr(args, name, value)
         return
     protocol = load_protocol(args.protocol)
-    clash = [f"--{name.replace('_', '-')}" for name in PROTOCOL_FIXED
+    # the crowd is fixed only by a protocol that names one; the rest always
+    fixed = [name for name in PROTOCOL_FIXED
+             if name not in PROTOCOL_OPTIONAL or getattr(protocol, PROTOCOL_FIXED[name])
+             is not None]
+    clash = [f"--{name.replace('_', '-')}" for name in fixed
              if getattr(args, name) not in (None, False)]
     if clash:
         raise ValueError(f"--protocol {protocol.name} fixes {', '.join(clash)}; leave "
                          f"{'it' if len(clash) == 1 else 'them'} out (or write a protocol file)")
-    for name, field in PROTOCOL_FIXED.items():
-        value = getattr(protocol, field)
+    for name in fixed:
+        value = getattr(protocol, PROTOCOL_FIXED[name])
         setattr(args, name, list(value) if isinstance(value, tuple) else value)
 
 

@@ -12,8 +12,12 @@ the built-in :data:`PAPER`; ``--protocol my_protocol.yaml`` reads a file with th
     seed: 0
     counterfactual: true
     time_limit: 75.0   # s; null: the scenario's default
+    num_humans: 300    # pedestrians per episode; null: the scenario's
+    human_range: 3.0   # m: bodies farther away do not act on a pedestrian; null: every body
 
-Every key is required except ``time_limit``; unknown keys are an error naming the file.
+Every key is required except ``time_limit``, ``num_humans`` and ``human_range``; unknown keys
+are an error naming the file. ``protocols/`` at the repository's root holds shipped protocol
+files (``building.yaml``: SocialGym 2.0's GDC floors among hundreds of pedestrians).
 """
 
 from __future__ import annotations
@@ -40,6 +44,8 @@ class Protocol:
     seed: int
     counterfactual: bool
     time_limit: float | None = None
+    num_humans: int | None = None
+    human_range: float | None = None
 
     def __post_init__(self) -> None:
         where = f"protocol {self.name!r}"
@@ -53,6 +59,10 @@ class Protocol:
             check_int("episodes", self.episodes)
             if self.time_limit is not None:
                 check_positive("time_limit", self.time_limit)
+            if self.num_humans is not None:
+                check_int("num_humans", self.num_humans, low=0)
+            if self.human_range is not None:
+                check_positive("human_range", self.human_range)
         except ValueError as err:
             raise ValueError(f"{where}: {err}") from None
 
@@ -60,8 +70,10 @@ class Protocol:
         """``options`` (default: ``MakeOptions()``) with the ``sgjax.make`` settings the
         protocol fixes (its time limit, when it names one)."""
         options = options or MakeOptions()
-        return options if self.time_limit is None else options.replace(
-            where=f"protocol {self.name!r}", time_limit=self.time_limit)
+        fixed = {k: v for k, v in (("time_limit", self.time_limit),
+                                   ("num_humans", self.num_humans),
+                                   ("human_range", self.human_range)) if v is not None}
+        return options.replace(where=f"protocol {self.name!r}", **fixed) if fixed else options
 
     def as_dict(self) -> dict[str, Any]:
         return {k: list(v) if isinstance(v, tuple) else v
@@ -77,7 +89,7 @@ PAPER = Protocol(name="paper", scenarios=MINI_GAMES, num_agents=(3, 4, 5, 7, 10)
                  seed=0, counterfactual=True)
 PROTOCOLS = {PAPER.name: PAPER}
 _KEYS = [f.name for f in dataclasses.fields(Protocol)]
-_REQUIRED = set(_KEYS) - {"time_limit"}
+_REQUIRED = set(_KEYS) - {"time_limit", "num_humans", "human_range"}
 
 
 def load_protocol(name_or_path: str | Path) -> Protocol:
@@ -101,8 +113,9 @@ def load_protocol(name_or_path: str | Path) -> Protocol:
             part for part in (f"unknown keys {sorted(unknown, key=str)}{near}" if unknown else "",
                               f"missing keys {sorted(missing)}" if missing else "") if part))
     values = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
-    if isinstance(values.get("time_limit"), int) and not isinstance(values["time_limit"], bool):
-        values["time_limit"] = float(values["time_limit"])
+    for key in ("time_limit", "human_range"):
+        if isinstance(values.get(key), int) and not isinstance(values[key], bool):
+            values[key] = float(values[key])
     try:
         return Protocol(**values)
     except ValueError as err:

@@ -28,12 +28,19 @@ def save(spec: MapSpec, path: str | Path) -> Path:
 
 def load(name_or_path: str | Path, clearance: float = DEFAULT_CLEARANCE) -> MapSpec:
     """Load and validate a map: a shipped name (``"doorway"``), a generated crowd scenario
-    (``"circle_crossing"``, :mod:`sgjax.maps.crowd_scenarios`) or a path to a JSON file.
+    (``"circle_crossing"``, :mod:`sgjax.maps.crowd_scenarios`), a path to a JSON file, or a
+    SocialGym 2.0 map folder (imported by :func:`sgjax.maps.socialgym.import_socialgym`).
 
     ``clearance`` (m) is the largest robot radius the map must accommodate.
     Raises :class:`MapError` naming the file, the JSON path and the problem.
     """
     text_path = str(name_or_path)
+    if Path(text_path).is_dir():  # a SocialGym 2.0 map folder, imported
+        from sgjax.maps.socialgym import import_socialgym
+
+        spec = import_socialgym(text_path)
+        return spec if clearance == DEFAULT_CLEARANCE else parse_map(
+            spec.to_json(), source=spec.source, clearance=clearance)
     if text_path.endswith(".json") or Path(text_path).exists():
         path = Path(text_path)
         if not path.exists():
