@@ -64,11 +64,14 @@ def prepare(env, params, robots: int, envs: int, steps: int):
 
     def rollout(state, key):
         def body(carry, k):
+            state, seen = carry
             k_act, k_step = jax.random.split(k)
             stop = (jax.random.uniform(k_act, (envs, robots)) < 0.2).astype(jnp.int32)
-            return env.step_batch(jax.random.split(k_step, envs), carry, stop, params)[1], None
+            obs, state, *_ = env.step_batch(jax.random.split(k_step, envs), state, stop, params)
+            # the observations are consumed, or XLA drops their terms (the lidar) unmeasured
+            return (state, seen + jnp.sum(obs)), None
 
-        return jax.lax.scan(body, state, jax.random.split(key, steps))[0]
+        return jax.lax.scan(body, (state, jnp.zeros(())), jax.random.split(key, steps))[0]
 
     return prepare_jax(jax.jit(rollout), state, steps)
 
