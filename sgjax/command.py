@@ -452,7 +452,8 @@ def _add_crowd_commands(commands: Any) -> None:
     loso = crowd.add_parser(
         "loso", help="leave each of ETH, HOTEL, UNIV, ZARA1, ZARA2 out once",
         description="crowd fit five times, each standard ETH/UCY scene held out once; one "
-                    "result file")
+                    "result file. Each finished scene is kept in the folder "
+                    "(crowd_fit.partial.json): the same command continues after them")
     for command in (fit, loso):
         command.add_argument("--model", default="moussaid", choices=list(FITTED_BY_MODEL))
         command.add_argument("--data", required=True, type=Path,
@@ -494,13 +495,14 @@ def run_crowd_fit(args: argparse.Namespace) -> None:
 
 
 def run_crowd_loso(args: argparse.Namespace) -> None:
-    from sgjax.evaluation.crowd_fit import loso, write_result
+    from sgjax.evaluation.crowd_fit import PARTIAL, loso, write_result
 
     began = time.perf_counter()
     rows = loso(args.model, args.data, args.steps, args.max_seconds,
                 log=lambda line: print(line, flush=True), rollout_steps=args.rollout_steps,
-                rollout_rows=args.rollout_rows)
+                rollout_rows=args.rollout_rows, out=args.out)
     path = write_result(args.out, rows, {"loso": time.perf_counter() - began})
+    (args.out / PARTIAL).unlink(missing_ok=True)
     print(f"wrote {path}\n" + (args.out / "crowd_fit.md").read_text())
 
 

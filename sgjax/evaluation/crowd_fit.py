@@ -195,14 +195,38 @@ def table(result: Mapping[str, Any]) -> str:
     return "\n".join(lines)
 
 
+PARTIAL = "crowd_fit.partial.json"  # a leave-one-scene-out run's finished scenes
+
+
 def loso(model: str, data: Path, steps: int = 100, max_seconds: float | None = None,
-         log: Any = print, rollout_steps: int = 0, rollout_rows: int = ROLLOUT_ROWS
-         ) -> list[dict[str, Any]]:
-    """Leave one scene out over the standard five: a row per held-out scene."""
+         log: Any = print, rollout_steps: int = 0, rollout_rows: int = ROLLOUT_ROWS,
+         out: Path | None = None) -> list[dict[str, Any]]:
+    """Leave one scene out over the standard five: a row per held-out scene. With ``out``,
+    each finished scene's row is kept in ``out/`` :data:`PARTIAL` (with the run's settings)
+    and a later call with the same settings continues after them (a fit of the headed model
+    or ORCA takes up to 20 minutes; a stopped machine loses the scene it was fitting)."""
+    settings = {"model": model, "steps": steps, "max_seconds": max_seconds,
+                "rollout_steps": rollout_steps, "rollout_rows": rollout_rows}
+    kept: dict[str, Any] = {}
+    partial = None if out is None else out / PARTIAL
+    if partial is not None and partial.is_file():
+        earlier = json.loads(partial.read_text())
+        if earlier.get("settings") != settings:
+            raise ValueError(f"{partial}: made with other settings ({earlier.get('settings')}); "
+                             "delete it to start again")
+        kept = earlier["rows"]
+        log(f"{model}: {len(kept)} scene(s) kept from {partial}")
     rows = []
     for scene in SCENES:
+        if scene in kept:
+            rows.append(kept[scene])
+            continue
         row = fit_scene(model, data, scene, steps=steps, max_seconds=max_seconds,
                         rollout_steps=rollout_steps, rollout_rows=rollout_rows)
+        if partial is not None:
+            kept[scene] = row
+            partial.parent.mkdir(parents=True, exist_ok=True)
+            write_atomic(partial, json.dumps({"settings": settings, "rows": kept}) + "\n")
         log(f"{model}, {scene} held out: fitted in {row['fit_seconds']} s ({row['steps']} "
             f"steps); ADE fitted {row['scores']['fitted']['ade']:.3f} m, published "
             f"{row['scores']['published']['ade']:.3f}, constant velocity "

@@ -150,3 +150,35 @@ def test_a_fit_goes_on_to_rollouts_and_helbing_rows_carry_trajnet_constants(tmp_
     assert {"trajnet", "published", "constant_velocity"} <= set(row["fitted_minus"])
     assert row["scores"]["trajnet"]["pedestrians"] > 0
     assert "| helbing | walk_b |" in (tmp_path / "out" / "crowd_fit.md").read_text()
+
+
+def test_leave_one_scene_out_keeps_each_finished_scene_and_continues_after_them(
+        tmp_path, monkeypatch):
+    """A run stopped after two scenes keeps them in ``crowd_fit.partial.json``; the same
+    command fits the other three alone; other settings are refused by name."""
+    from sgjax.evaluation import crowd_fit
+
+    data = tmp_path / "data"
+    data.mkdir()
+    for k, stem in enumerate(crowd_fit.SCENES.values()):
+        crowd(data / f"{stem}.txt", k, rows=30)
+    fitted, stopped = [], []
+    real = crowd_fit.fit_scene
+
+    def stopping(model, data, scene, **kw):  # the first run stops after two scenes
+        if len(fitted) == 2 and not stopped:
+            stopped.append(scene)
+            raise KeyboardInterrupt
+        fitted.append(scene)
+        return real(model, data, scene, **kw)
+
+    monkeypatch.setattr(crowd_fit, "fit_scene", stopping)
+    with pytest.raises(KeyboardInterrupt):
+        crowd_fit.loso("moussaid", data, steps=2, log=lambda _: None, out=tmp_path / "out")
+    kept = json.loads((tmp_path / "out" / crowd_fit.PARTIAL).read_text())["rows"]
+    assert list(kept) == ["ETH", "HOTEL"]
+    rows = crowd_fit.loso("moussaid", data, steps=2, log=lambda _: None, out=tmp_path / "out")
+    assert fitted == list(crowd_fit.SCENES) and [r["test"] for r in rows] == list(
+        crowd_fit.SCENES.values())
+    with pytest.raises(ValueError, match="made with other settings"):
+        crowd_fit.loso("moussaid", data, steps=3, log=lambda _: None, out=tmp_path / "out")
