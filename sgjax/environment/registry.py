@@ -99,9 +99,10 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
     largest = max(p.radius for p in presets)
     planner_config = PlannerConfig(num_arcs=physics.num_arcs)
     planner_params = PlannerParams()
-    reach = _grid_reach(planner_config, planner_params, largest, human_config)
+    planner_reach = _planner_reach(planner_config, planner_params, largest)
+    reach = _grid_reach(planner_reach, human_config)
     world, spec, map_arrays, template = _scenario_map(scenario, generated, is_spec, opts,
-                                                      largest, reach)
+                                                      largest, reach, planner_reach)
     action_dim = 3 if any(p.model == "omnidirectional" for p in presets) else 2
     config = EnvConfig(
         scenario=spec.name, max_agents=max_agents, action_mode=robot_opts.action_mode,
@@ -156,24 +157,42 @@ def _recorded(name: Any, opts: MakeOptions, label: Any) -> tuple[Any, Any, MakeO
     return spec, recording, opts
 
 
-def _grid_reach(planner_config: PlannerConfig, planner_params: PlannerParams, largest: float,
-                human_config: HumanConfig) -> float:
-    """How far (m) the map's wall grid lists walls around each cell: the planner's longest arc
-    for the largest robot, or the pedestrians' range where it is longer (their wall terms read
-    the grid too: :mod:`sgjax.humans.near_walls`)."""
-    reach = (max(planner_config.arc_lengths) + largest + planner_params.obstacle_margin
-             + PLANNER_SLACK)
+def _planner_reach(planner_config: PlannerConfig, planner_params: PlannerParams,
+                   largest: float) -> float:
+    """How far (m) the local planner looks for walls: its longest arc for the largest robot
+    (``largest`` m radius) with the obstacle margin and slack."""
+    return (max(planner_config.arc_lengths) + largest + planner_params.obstacle_margin
+            + PLANNER_SLACK)
+
+
+def _grid_reach(planner_reach: float, human_config: HumanConfig) -> float:
+    """How far (m) the map's wall grid lists walls around each cell: the planner's reach, or
+    the pedestrians' range where it is longer (their wall terms read the grid too:
+    :mod:`sgjax.humans.near_walls`)."""
     if human_config.max_humans and human_config.neighbor_range is not None:
-        reach = max(reach, human_config.neighbor_range)
-    return reach
+        return max(planner_reach, human_config.neighbor_range)
+    return planner_reach
+
+
+def floor_diagonal(spec: MapSpec) -> float:
+    """The diagonal (m) of the box holding ``spec``'s walls, nodes and bounds: no two points of
+    the floor are farther apart."""
+    points = np.concatenate([spec.walls[:, :2], spec.walls[:, 2:], spec.node_positions,
+                             np.reshape(spec.bounds, (2, 2))], axis=0)
+    return float(np.hypot(*(points.max(axis=0) - points.min(axis=0))))
 
 
 def _scenario_map(scenario: Any, generated: bool, is_spec: bool, opts: MakeOptions,
-                  largest: float, reach: float
+                  largest: float, reach: float, planner_reach: float
                   ) -> tuple[WorldSource | None, MapSpec, MapArrays, WorldDraw | None]:
-    """The scenario's map for robots up to ``largest`` m and a planner reaching ``reach`` m:
-    ``(world source or None, spec, arrays, template draw or None)``; a map spec or file is
-    validated again for the robots that will drive it."""
+    """The scenario's map for robots up to ``largest`` m with wall lists reaching ``reach``
+    m (:func:`_grid_reach`): ``(world source or None, spec, arrays, template draw or None)``;
+    a map spec or file is validated again for the robots that will drive it. A pedestrian
+    range at least the floor's diagonal puts every wall in range everywhere: the lists would
+    hold every wall in every cell of a grid grown by the range on each side (a 100 m range
+    over a 50 m floor: a minute to build), so they keep the planner's reach and pedestrians
+    read every wall with the range applied (:func:`sgjax.humans.near_walls.uses_wall_lists`:
+    the same forces)."""
     if generated:
         source, spec, template = _generated(scenario, opts, largest, reach)
         return source, spec, template.map, template
@@ -181,6 +200,8 @@ def _scenario_map(scenario: Any, generated: bool, is_spec: bool, opts: MakeOptio
         spec = parse_map(scenario.to_json(), source=scenario.source, clearance=largest)
     else:
         spec = load(scenario, clearance=largest)
+    if reach > planner_reach and reach >= floor_diagonal(spec):
+        reach = planner_reach
     return None, spec, compile_map(spec, reach=reach), None
 
 

@@ -197,6 +197,23 @@ def test_a_crowd_on_a_building_floor_follows_the_all_walls_rollout():
 
 
 @pytest.mark.slow
+def test_a_range_wider_than_the_floor_keeps_the_planners_lists():
+    """A 100 m pedestrian range over the 50 m floor puts every wall in range everywhere: the
+    map keeps the planner's wall lists (not a grid grown by 100 m on each side, a minute to
+    build), pedestrians read every wall, and their forces are those without a range."""
+    from sgjax.humans.near_walls import uses_wall_lists
+
+    env, params, state = walled_crowd("helbing", 100.0)
+    env_every, without, state_every = walled_crowd("helbing", None)
+    assert params.map.reach == without.map.reach < 100.0
+    assert params.map.cell_walls.shape == without.map.cell_walls.shape
+    assert not uses_wall_lists(params.map, 100.0)
+    ranged = np.asarray(pedestrian_forces(env, state, params)[0])
+    every = np.asarray(pedestrian_forces(env_every, state_every, without)[0])
+    np.testing.assert_allclose(ranged, every, atol=1e-5)
+    assert np.max(np.abs(every)) > 0.1
+
+
 def test_pysocialforce_wall_points_beyond_the_range_do_not_act():
     """The Moussaid wall term over sampled wall points (``human_walls="points"``): a range
     wider than the floor changes nothing, a 1 m range leaves the farther points out."""
