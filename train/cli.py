@@ -1,5 +1,6 @@
 """``python -m train --config train/configs/doorway.yaml`` (also ``sgjax-train``): train, show
 progress, evaluate periodically, keep the best checkpoint, and finish with the metrics table
+of the final weights (``evaluation.checkpoint: best`` judges the best checkpoint instead)
 beside the baseline and a GIF of an evaluation episode.
 
 Writes into ``logging.out`` (or ``--out``): ``config.yaml``, ``progress.csv`` and its
@@ -261,9 +262,10 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
     print(f"trained {meta['steps']:,} env steps in {work.wall:.0f} s "
           f"({meta['steps'] * trainer.slots / max(work.wall, 1e-9):,.0f} agent-steps/s, "
           f"periodic evaluation apart); best evaluation team success "
-          f"{meta['best_success']:.3f} -> {work.best}")
+          f"{meta['best_success']:.3f} -> {work.best}; the final evaluation judges the "
+          f"{config.evaluation.checkpoint} weights (evaluation.checkpoint)")
     phases.add("start-up, logs and checkpoints", phases.elapsed() - sum(phases.seconds.values()))
-    summary = final_evaluation(config, out, work.best if work.best.is_file() else work.latest)
+    summary = final_evaluation(config, out, checkpoint.judged_checkpoint(out, config))
     for name, value in summary["seconds"].items():
         phases.add(name, value)
     print(phases.line(" (each phase includes its compiles)"))

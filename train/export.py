@@ -18,7 +18,8 @@ FORMATS = ("onnx", "acting")
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m train.export", description=__doc__.split(
         "\n\n")[0])
-    p.add_argument("run", help="a run folder (its best, else latest checkpoint) or a .msgpack")
+    p.add_argument("run", help="a run folder (the weights its final evaluation judged: the "
+                   "final ones unless its config says evaluation.checkpoint: best) or a .msgpack")
     p.add_argument("--format", default="onnx", choices=FORMATS)
     p.add_argument("--out", required=True, help="the file to write (its sidecar beside it, "
                    ".json)")

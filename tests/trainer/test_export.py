@@ -118,7 +118,7 @@ def test_the_sidecar_names_layout_action_and_provenance(tmp_path):
 
 
 def test_a_missing_run_is_refused_by_name(tmp_path):
-    with pytest.raises(SystemExit, match="no checkpoints/best.msgpack or latest.msgpack"):
+    with pytest.raises(SystemExit, match="no checkpoints/latest.msgpack in this folder"):
         main([str(tmp_path), "--out", str(tmp_path / "a.onnx")])
 
 

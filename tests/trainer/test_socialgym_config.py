@@ -42,6 +42,15 @@ def test_listing_1_converts_key_by_key():
     assert config["logging"]["out"] == "runs/door/ao"
     became = {key: text for key, _, text in rows}
     assert "nothing" in became["device"] and "unused" in became["intermediate_eval_trials"]
+    # SocialGym judged its best model (ending_eval_with_best, true by default); false: the
+    # final weights, as every sgjax command does
+    assert config["evaluation"]["checkpoint"] == "best"
+    assert "best" in became["ending_eval_with_best"]
+    final, rows = convert({**read_socialgym_config(LISTING), "ending_eval_with_best": False},
+                          str(LISTING))
+    assert final["evaluation"]["checkpoint"] == "final"
+    assert "ended with" in {key: text for key, _, text in rows}["ending_eval_with_best"]
+    assert config_from_dict(final).evaluation.checkpoint == "final"
 
 
 @pytest.mark.parametrize("edit, message", [
@@ -49,7 +58,6 @@ def test_listing_1_converts_key_by_key():
     ({"entropy_constant_penalty": None}, "multiplicative stuck penalty"),
     ({"policy_algo_name": "DQN"}, "policy_algo_name: \"DQN\" cannot be honoured"),
     ({"experiment_names": ["envs_multi"]}, "import its map with sgjax.maps.import_socialgym"),
-    ({"ending_eval_with_best": False}, "always uses the best checkpoint"),
     ({"policy_algo_kwargs": {"n_steps": 64, "target_kl": 0.1}},
      r"no sgjax equivalent for \['target_kl'\]"),
 ])

@@ -16,7 +16,7 @@ from PIL import Image
 from provenance_checks import check_block, check_document
 from test_train import TINY
 
-from train.algorithm.config import EVALUATION_SEED_OFFSET
+from train.algorithm.config import EVALUATION_SEED_OFFSET, config_from_dict
 from train.cli import main as train_main
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -76,6 +76,11 @@ def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
     with Image.open(run / "learning_curve.png") as curve:
         assert curve.format == "PNG" and curve.size[0] > 600
     assert (run / "checkpoints" / "best.msgpack").is_file()
+    # the final weights are judged (evaluation.checkpoint: final), and the folder stands for them
+    assert f"final evaluation of {run / 'checkpoints' / 'latest.msgpack'}" in out
+    from train.run.checkpoint import resolve
+
+    assert resolve(run) == run / "checkpoints" / "latest.msgpack"
     made = json.loads((run / "provenance.json").read_text())
     check_block(made)
     assert made["seeds"] == {"training": [0], "validation": [1234], "evaluation": [1000]}
@@ -520,6 +525,31 @@ def test_two_processes_train_two_halves_of_one_sweep_and_gather(tmp_path):
     results = json.loads((tmp_path / "reproduce" / "results.json").read_text())["results"]
     per_seed = results["open"]["cadrl"]["3"]["team_success"]
     assert len(per_seed) == 4 and all(0.0 <= x <= 1.0 for x in per_seed), per_seed
+
+
+def test_a_run_folder_stands_for_the_weights_its_final_evaluation_judged(tmp_path):
+    """``resolve(run)``: ``checkpoints/latest.msgpack`` (the final weights) unless the run's
+    config.yaml says ``evaluation.checkpoint: best``; also from the checkpoints folder; a
+    missing file or an unknown rule is an error naming it."""
+    from train.run.checkpoint import resolve
+
+    run = tmp_path / "run"
+    (run / "checkpoints").mkdir(parents=True)
+    for name in ("latest", "best"):
+        (run / "checkpoints" / f"{name}.msgpack").write_bytes(b"")
+    assert resolve(run) == run / "checkpoints" / "latest.msgpack"  # no config: final
+    (run / "config.yaml").write_text(yaml.safe_dump({"evaluation": {"episodes": 3}}))
+    assert resolve(run) == run / "checkpoints" / "latest.msgpack"
+    (run / "config.yaml").write_text(yaml.safe_dump({"evaluation": {"checkpoint": "best"}}))
+    assert resolve(run) == resolve(run / "checkpoints") == run / "checkpoints" / "best.msgpack"
+    (run / "checkpoints" / "best.msgpack").unlink()
+    with pytest.raises(ValueError, match="no checkpoints/best.msgpack"):
+        resolve(run)
+    (run / "config.yaml").write_text(yaml.safe_dump({"evaluation": {"checkpoint": "last"}}))
+    with pytest.raises(ValueError, match="config.yaml: evaluation.checkpoint must be one of"):
+        resolve(run)
+    with pytest.raises(ValueError, match="checkpoint must be one of"):
+        config_from_dict({"evaluation": {"checkpoint": "last"}})
 
 
 def test_lane_shares_cover_every_lane_once():

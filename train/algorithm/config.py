@@ -294,11 +294,17 @@ class NetworkConfig:
             check_int(f"hidden[{i}]", size)
 
 
+CHECKPOINTS = ("final", "best")
+
+
 @dataclasses.dataclass(frozen=True)
 class EvaluationConfig:
     """Periodic evaluation (``every`` environment steps, on the curriculum's current robot
-    count; the best checkpoint is kept by team success) and the final one (every count in
-    ``num_agents``, beside ``baseline``)."""
+    count, on the validation episodes; the best checkpoint by mean team success is kept) and
+    the final one (every count in ``num_agents``, beside ``baseline``) of the weights
+    ``checkpoint`` names: ``final`` (the default, the rule of every sgjax command: the weights
+    training ended with) or ``best`` (the best periodic evaluation's, as SocialGym 2.0's
+    ``ending_eval_with_best`` did)."""
 
     every: int = 1_000_000
     episodes: int = 32
@@ -306,8 +312,10 @@ class EvaluationConfig:
     baseline: str | None = "only_local"
     deterministic: bool = False  # greedy actions instead of sampling from the policy
     gif: bool = True
+    checkpoint: str = "final"  # which weights the final evaluation judges: final or best
 
     def __post_init__(self) -> None:
+        check_choice("checkpoint", self.checkpoint, CHECKPOINTS)
         check_int("every", self.every)
         check_int("episodes", self.episodes)
         if not self.num_agents:

@@ -12,8 +12,11 @@ action head, where the ``others`` block sits), so :func:`load_checkpoint_policy`
 policy from
 the file alone, without a ``Trainer`` or the training environments.
 
-A run folder ``out/`` holds ``checkpoints/latest.msgpack`` and ``checkpoints/best.msgpack``;
-``sgjax evaluate --policy out/`` (or a ``.msgpack`` path) evaluates the best one: :data:`LOADER`
+A run folder ``out/`` holds ``checkpoints/latest.msgpack`` (the final weights) and
+``checkpoints/best.msgpack`` (the best periodic evaluation's); ``sgjax evaluate --policy out/``
+evaluates the ones the run's own final evaluation judged (:func:`judged_checkpoint`: the final
+weights unless its config says ``evaluation.checkpoint: best``), a ``.msgpack`` path that file:
+:data:`LOADER`
 is registered with ``sgjax.evaluation.policies`` when this module is imported, and through the
 ``sgjax.policy_loaders`` entry point group (pyproject.toml) when only ``sgjax`` is.
 """
@@ -158,16 +161,42 @@ def state_from_raw(template: Any, raw: Any) -> Any:
         template, with_added_fields(raw, serialization.to_state_dict(template)))
 
 
+def judged_checkpoint(out: Path, config: TrainConfig) -> Path:
+    """The checkpoint the final evaluation of the run in ``out`` judges:
+    ``checkpoints/latest.msgpack`` (the weights training ended with: every sgjax command's
+    rule), or ``checkpoints/best.msgpack`` with ``evaluation.checkpoint: best``."""
+    return out / "checkpoints" / f"{_JUDGED[config.evaluation.checkpoint]}.msgpack"
+
+
+_JUDGED = {"final": "latest", "best": "best"}  # evaluation.checkpoint -> the file's stem
+
+
+def _judged_stem(folder: Path) -> str:
+    """The stem of the checkpoint a run folder stands for: its ``config.yaml``'s
+    ``evaluation.checkpoint`` (``final`` where it names none), also for the run's
+    ``checkpoints/`` folder itself."""
+    for config in (folder / "config.yaml", folder.parent / "config.yaml"):
+        if config.is_file():
+            data = yaml.safe_load(config.read_text()) or {}
+            rule = (data.get("evaluation") or {}).get("checkpoint", "final")
+            if rule not in _JUDGED:
+                raise ValueError(f"{config}: evaluation.checkpoint must be one of "
+                                 f"{tuple(_JUDGED)}, got {rule!r}")
+            return _JUDGED[rule]
+    return _JUDGED["final"]
+
+
 def resolve(path: str | Path) -> Path:
-    """A checkpoint file from a file path or a run folder (its best, else its latest)."""
+    """A checkpoint file from a file path, or from a run folder (or its ``checkpoints/``
+    folder) the weights its final evaluation judged (:func:`judged_checkpoint`)."""
     path = Path(path)
     if path.is_dir():
-        for candidate in (path / "checkpoints" / "best.msgpack",
-                          path / "checkpoints" / "latest.msgpack", path / "best.msgpack",
-                          path / "latest.msgpack"):
+        name = f"{_judged_stem(path)}.msgpack"
+        for candidate in (path / "checkpoints" / name, path / name):
             if candidate.is_file():
                 return candidate
-        raise ValueError(f"{path}: no checkpoints/best.msgpack or latest.msgpack in this folder")
+        raise ValueError(f"{path}: no checkpoints/{name} in this folder (the weights the run's "
+                         "final evaluation judges; evaluation.checkpoint in its config.yaml)")
     if not path.is_file():
         raise ValueError(f"{path}: no such checkpoint file")
     return path

@@ -8,11 +8,12 @@ Every key of ``src/config_run.py`` (``../shared/reference/socialgym2.md`` sectio
 SocialGym's defaults for the keys a file leaves out. The result is the experiment as SocialGym ran
 it: its time step (dt 0.025 s), its observation switches, reward weights and episode enders, SB3
 PPO's hyperparameters and network (two 64-unit tanh layers over an LSTM of the others, as
-``config_run`` always installed), VecNormalize, evaluation with the best checkpoint and greedy
-actions. :func:`convert` returns the train config as a dict and a table of every key: its value and
-what it became. A key that cannot be honoured (an algorithm other than PPO, the multiplicative
-stuck penalty, a penalty for robots that finished, resuming an SB3 checkpoint, ...) or an unknown
-key is a ``ConfigError`` naming the file and the key.
+``config_run`` always installed), VecNormalize, evaluation of the best checkpoint (its
+``ending_eval_with_best``, true by default; false judges the final weights, sgjax's own rule)
+with greedy actions. :func:`convert` returns the train config as a dict and a table of every
+key: its value and what it became. A key that cannot be honoured (an algorithm other than PPO,
+the multiplicative stuck penalty, a penalty for robots that finished, resuming an SB3
+checkpoint, ...) or an unknown key is a ``ConfigError`` naming the file and the key.
 """
 
 from __future__ import annotations
@@ -362,8 +363,6 @@ class _Conversion:
             refuse("train", "python -m train trains; evaluate a saved policy with sgjax evaluate")
         if not c["eval"]:
             refuse("eval", "the train command always ends with an evaluation")
-        if not c["ending_eval_with_best"]:
-            refuse("ending_eval_with_best", "the final evaluation always uses the best checkpoint")
         if c["debug"]:
             refuse("debug", "the always-GO debug run is the only_local baseline: sgjax evaluate "
                    "--policy only_local")
@@ -372,16 +371,20 @@ class _Conversion:
                    "--resume continues an sgjax run")
         every = int(c["eval_frequency"]) or total
         episodes = int(c["ending_eval_trials"])
+        judged = "best" if c["ending_eval_with_best"] else "final"
         evaluation = {"every": every, "episodes": episodes, "num_agents": list(evaluation_counts),
-                      "baseline": "only_local", "deterministic": True}
+                      "baseline": "only_local", "deterministic": True, "checkpoint": judged}
         row("eval_frequency", f"evaluation.every {every} environment steps"
             + (" (0: only at the end)" if not c["eval_frequency"] else ""))
         row("intermediate_eval_trials", f"periodic evaluations use evaluation.episodes {episodes} "
             "too" if c["eval_frequency"] else "unused (no periodic evaluation)")
         row("ending_eval_trials", f"evaluation.episodes {episodes} (greedy actions, as SB3's "
             "evaluate_policy; beside the only_local baseline)")
-        for key in ("ending_eval_with_best", "train", "eval", "debug", "continue_from"):
-            row(key, "as SocialGym: train, then evaluate the best checkpoint")
+        row("ending_eval_with_best", f"evaluation.checkpoint {judged} (the final evaluation "
+            + ("judges the best periodic evaluation's weights)" if judged == "best"
+               else "judges the weights training ended with)"))
+        for key in ("train", "eval", "debug", "continue_from"):
+            row(key, "as SocialGym: train, then evaluate")
         run = c["run_name"] or "socialgym"
         row("run_name", f"logging.out runs/{run}")
         row("device", "nothing: JAX uses its default device (GPU when installed)")
