@@ -49,7 +49,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
-from sgjax.evaluation.provenance import cpu_model, git_state, provenance
+from sgjax.evaluation.provenance import cpu_model, provenance, run_git_state
 from sgjax.evaluation.report import format_points, format_summary, markdown_table
 from sgjax.evaluation.statistics import paired_difference, probability_of_improvement, summarize
 from sgjax.evaluation.trained import TrainedEvaluation
@@ -414,7 +414,7 @@ def train_group(trainer: Trainer, group: Mapping[str, Variant], seeds: int,
         f"network {config.network.kind}) in {seconds['compile and train']:.0f} s + "
         f"{seconds['evaluate']:.0f} s{where}")
     # a resumed run's groups may come from other commits or machines
-    return {"scores": scores, "seconds": seconds, "git": git_state(), "cpu": cpu_model()}
+    return {"scores": scores, "seconds": seconds, "git": run_git_state(), "cpu": cpu_model()}
 
 
 PARTIAL = "ablation.partial.json"

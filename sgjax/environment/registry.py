@@ -99,8 +99,7 @@ def make(scenario: str | Path | MapSpec, options: MakeOptions | None = None,
     largest = max(p.radius for p in presets)
     planner_config = PlannerConfig(num_arcs=physics.num_arcs)
     planner_params = PlannerParams()
-    planner_reach = _planner_reach(planner_config, planner_params, largest)
-    reach = _grid_reach(planner_reach, human_config)
+    planner_reach, reach = _grid_reaches(planner_config, planner_params, largest, human_config)
     world, spec, map_arrays, template = _scenario_map(scenario, generated, is_spec, opts,
                                                       largest, reach, planner_reach)
     action_dim = 3 if any(p.model == "omnidirectional" for p in presets) else 2
@@ -157,21 +156,18 @@ def _recorded(name: Any, opts: MakeOptions, label: Any) -> tuple[Any, Any, MakeO
     return spec, recording, opts
 
 
-def _planner_reach(planner_config: PlannerConfig, planner_params: PlannerParams,
-                   largest: float) -> float:
-    """How far (m) the local planner looks for walls: its longest arc for the largest robot
-    (``largest`` m radius) with the obstacle margin and slack."""
-    return (max(planner_config.arc_lengths) + largest + planner_params.obstacle_margin
-            + PLANNER_SLACK)
-
-
-def _grid_reach(planner_reach: float, human_config: HumanConfig) -> float:
-    """How far (m) the map's wall grid lists walls around each cell: the planner's reach, or
-    the pedestrians' range where it is longer (their wall terms read the grid too:
+def _grid_reaches(planner_config: PlannerConfig, planner_params: PlannerParams, largest: float,
+                  human_config: HumanConfig) -> tuple[float, float]:
+    """``(planner, grid)`` m: how far the local planner looks for walls (its longest arc for
+    the largest robot, ``largest`` m radius, with the obstacle margin and slack), and how far
+    the map's wall grid lists walls around each cell: the planner's reach, or the pedestrians'
+    range where it is longer (their wall terms read the grid too:
     :mod:`sgjax.humans.near_walls`)."""
+    planner = (max(planner_config.arc_lengths) + largest + planner_params.obstacle_margin
+               + PLANNER_SLACK)
     if human_config.max_humans and human_config.neighbor_range is not None:
-        return max(planner_reach, human_config.neighbor_range)
-    return planner_reach
+        return planner, max(planner, human_config.neighbor_range)
+    return planner, planner
 
 
 def floor_diagonal(spec: MapSpec) -> float:
@@ -186,7 +182,7 @@ def _scenario_map(scenario: Any, generated: bool, is_spec: bool, opts: MakeOptio
                   largest: float, reach: float, planner_reach: float
                   ) -> tuple[WorldSource | None, MapSpec, MapArrays, WorldDraw | None]:
     """The scenario's map for robots up to ``largest`` m with wall lists reaching ``reach``
-    m (:func:`_grid_reach`): ``(world source or None, spec, arrays, template draw or None)``;
+    m (:func:`_grid_reaches`): ``(world source or None, spec, arrays, template draw or None)``;
     a map spec or file is validated again for the robots that will drive it. A pedestrian
     range at least the floor's diagonal puts every wall in range everywhere: the lists would
     hold every wall in every cell of a grid grown by the range on each side (a 100 m range

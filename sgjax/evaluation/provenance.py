@@ -14,7 +14,11 @@ run's final evaluation, a training run's ``provenance.json``, ``train.reproduce`
      "episodes_per_cell": 192, "seconds": {"training": 123.4, ...}}
 
 ``git.commit`` is None (with ``git.error`` saying why) outside a git checkout; ``dirty`` says
-whether tracked files differed from that commit when the result was written. sgjax installed
+whether tracked files differed from that commit. Both describe the code the process runs: the
+checkout as it was when this module was imported (a command imports it as it starts), not when
+a long run writes its result hours later; where the checkout moved in between (a commit, an
+edit), the block keeps the starting commit, sets ``dirty`` and names the commit it moved to
+under ``git.now`` (the process may have loaded code of both: :func:`run_git_state`). sgjax installed
 from a package (a machine without git or without the checkout, such as an offline GPU) takes
 the commit from the environment variable ``SGJAX_GIT_COMMIT`` (40 hex digits) when it is set;
 the block then says so (``"source": "SGJAX_GIT_COMMIT"``) and ``dirty`` is None (unknown).
@@ -52,6 +56,7 @@ PROVENANCE_SCHEMA: dict[str, Any] = {
                 "properties": {"commit": {"type": ["string", "null"],
                                           "pattern": "^[0-9a-f]{40}$"},
                                "dirty": {"type": ["boolean", "null"]},
+                               "now": {"type": ["string", "null"]},
                                "error": {"type": "string"}}},
         "versions": {"type": "object", "required": ["sgjax", "python", "jax", "jaxlib", "numpy"],
                      "additionalProperties": {"type": ["string", "null"]}},
@@ -95,6 +100,19 @@ def git_state() -> dict[str, Any]:
     except (OSError, subprocess.SubprocessError) as err:
         return {"commit": None, "dirty": None, "error": f"git failed: {err}"}
     return {"commit": commit, "dirty": dirty}
+
+
+_AT_IMPORT = git_state()  # the code this process runs: the checkout as the process started
+
+
+def run_git_state() -> dict[str, Any]:
+    """The git state of the code this process runs: :func:`git_state` as it was when this
+    module was imported, or, where the checkout has moved since, that state with ``dirty`` true
+    and ``now`` the commit it moved to (the process may have loaded code of both)."""
+    now = git_state()
+    if now == _AT_IMPORT:
+        return now
+    return {**_AT_IMPORT, "dirty": True, "now": now.get("commit")}
 
 
 def versions() -> dict[str, str | None]:
@@ -153,7 +171,7 @@ def provenance(config: Any = None, seeds: Mapping[str, Sequence[int]] | None = N
     block: dict[str, Any] = {
         "schema": SCHEMA,
         "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "git": git_state(), "versions": versions(), "machine": machine(),
+        "git": run_git_state(), "versions": versions(), "machine": machine(),
         "command": command_line(),
     }
     if config is not None:

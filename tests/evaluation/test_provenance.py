@@ -54,6 +54,21 @@ def test_an_installed_sgjax_takes_the_commit_from_the_environment(tmp_path, monk
     assert state["commit"] == prov._git("rev-parse", "HEAD") and "source" not in state
 
 
+def test_a_checkout_that_moves_during_a_run_keeps_its_starting_commit_and_says_so(monkeypatch):
+    """A long run's result names the commit its process started from (the module's import),
+    not the one the checkout holds when the result is written; where they differ the block is
+    dirty and names the later commit."""
+    now = prov.git_state()
+    monkeypatch.setattr(prov, "_AT_IMPORT", dict(now))  # nothing moved: the state as it is
+    assert prov.run_git_state() == now and "now" not in prov.provenance()["git"]
+    started = {"commit": "0123456789abcdef0123456789abcdef01234567", "dirty": False}
+    monkeypatch.setattr(prov, "_AT_IMPORT", started)
+    block = prov.provenance()
+    assert block["git"] == {"commit": started["commit"], "dirty": True,
+                            "now": now["commit"]}
+    jsonschema.validate(block, prov.PROVENANCE_SCHEMA)
+
+
 def test_a_block_that_breaks_the_schema_is_caught():
     block = prov.provenance()
     for broken in ({**block, "git": {"commit": "abc", "dirty": False}},  # not 40 hex digits
