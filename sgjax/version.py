@@ -1,3 +1,3 @@
 """The package version, importable without importing the whole package."""
 
-__version__ = "0.4.0"
+__version__ = "0.5.0"
