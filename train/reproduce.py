@@ -49,7 +49,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -83,7 +83,13 @@ from train.reports.marl_eval import to_marl_eval
 from train.reports.result_schemas import REPRODUCE
 from train.run.loop import equal_calls, train_in_calls
 from train.run.multiprocess import Processes, add_arguments, gather_lanes, initialize, lane_share
-from train.run.partial import SAVES_PER_RUN, PartialFile, shaped_like
+from train.run.partial import (
+    SAVES_PER_RUN,
+    PartialFile,
+    PartialValues,
+    shaped_like,
+    weights_hash,
+)
 from train.run.phases import Phases
 
 BASELINES = {
@@ -187,6 +193,12 @@ def partial_path(out: Path, scenario: str, name: str) -> Path:
     return out / "partial" / f"{scenario}-{name}.msgpack"
 
 
+def evaluation_path(out: Path, scenario: str, name: str) -> Path:
+    """Where a cell keeps each robot count's evaluation as it is played (deleted once its
+    results are written)."""
+    return out / "partial" / f"{scenario}-{name}.evaluation.json"
+
+
 def train_baseline(config: Any, partial: Path | None = None, resume: bool = False
                    ) -> tuple[Trainer, Any, float, float]:
     """Train every seed of ``config`` at once, as lanes
@@ -221,34 +233,69 @@ def train_baseline(config: Any, partial: Path | None = None, resume: bool = Fals
 
 def evaluate_seeds(scenario: str, counts: Sequence[int], episodes: int, seed: int,
                    trainer: Trainer | None, runner: Any, options: MakeOptions,
-                   policy: str = "only_local") -> dict[int, dict[str, list[float]]]:
+                   policy: str = "only_local", kept: Path | None = None, resume: bool = False
+                   ) -> dict[int, dict[str, list[float]]]:
     """``{robots: {metric: [per-seed mean over episodes]}}`` (one seed for an untrained
     ``policy``, used when ``trainer`` is None) in the ``sgjax.make`` ``options`` (for an
     untrained policy, with what it needs on top: continuous actions for the velocity
     controllers). One compilation serves every count: the environment has ``max(counts)``
     slots and each count is a params value; the seeds are lanes of it
     (:class:`sgjax.evaluation.trained.TrainedEvaluation`), playing greedily and sampling in one
-    program (the profile's mode first: its values fill the tables)."""
+    program (the profile's mode first: its values fill the tables).
+
+    With ``kept`` (a JSON file, :class:`train.run.partial.PartialValues`) each count's values
+    are kept as soon as they are played, for the weights evaluated (their hash), and a
+    ``resume`` run plays only the counts not kept: a cell's evaluation at SocialGym's 40 Hz
+    takes hours, and a run killed in it loses at most one count."""
     key = jax.random.PRNGKey(seed + EVALUATION_SEED_OFFSET)
-    if trainer is None:
-        options = options.replace(**policy_options(policy).keywords(changed_only=True))
-        env, by_count = params_by_count(scenario, counts, options=options)
-        first = by_count[counts[0]]
-        run = EpisodeRunner(env, load_policy(policy, env), episodes, int(first.max_steps)).run
-        return {n: seed_values({name: v[None] for name, v in
-                                jax.device_get(run(key, by_count[n])[0]).items()})
-                for n in counts}
+    weights = None if trainer is None else ActorWeights.of(runner)
+    identity = {"policy": policy if trainer is None else weights_hash(weights),
+                "episodes": episodes, "seed": seed}
+    done = PartialValues(kept, identity, resume)
+    out: dict[int, dict[str, list[float]]] = {}
+    play = _untrained_play(scenario, counts, episodes, options, policy, key) \
+        if trainer is None else _trained_play(scenario, counts, episodes, options, trainer,
+                                              weights, key)
+    for n in counts:
+        values = done.get(str(n))
+        if values is None:
+            values = play(n)
+            done.put(str(n), values)
+        out[n] = values
+    return out
+
+
+def _untrained_play(scenario: str, counts: Sequence[int], episodes: int,
+                    options: MakeOptions, policy: str, key: Any
+                    ) -> Callable[[int], dict[str, list[float]]]:
+    """``play(n)``: the untrained ``policy``'s :func:`seed_values` (one seed) at ``n`` robots;
+    compiled at the first call."""
+    options = options.replace(**policy_options(policy).keywords(changed_only=True))
+    env, by_count = params_by_count(scenario, counts, options=options)
+    first = by_count[counts[0]]
+    run = EpisodeRunner(env, load_policy(policy, env), episodes, int(first.max_steps)).run
+    return lambda n: seed_values({name: v[None] for name, v in
+                                  jax.device_get(run(key, by_count[n])[0]).items()})
+
+
+def _trained_play(scenario: str, counts: Sequence[int], episodes: int, options: MakeOptions,
+                  trainer: Trainer, weights: Any, key: Any
+                  ) -> Callable[[int], dict[str, list[float]]]:
+    """``play(n)``: every seed's :func:`seed_values` at ``n`` robots in the profile's play
+    mode, with both modes' team success per seed (:data:`PLAY_MODE_KEYS`)."""
     greedy = trainer.config.evaluation.deterministic
     evaluation = TrainedEvaluation(trainer.trained_actor, scenario, counts, episodes, options,
                                    modes=(greedy, not greedy))
-    out: dict[int, dict[str, list[float]]] = {}
-    for n in counts:
-        both, _ = jax.device_get(evaluation.lanes(ActorWeights.of(runner), key, n))
-        out[n] = seed_values({name: v[0] for name, v in both.items()})
+
+    def play(n: int) -> dict[str, list[float]]:
+        both, _ = jax.device_get(evaluation.lanes(weights, key, n))
+        values = seed_values({name: v[0] for name, v in both.items()})
         modes = dict(zip((greedy, not greedy), both["team_success"], strict=True))
         for mode, key_name in ((True, PLAY_MODE_KEYS[0]), (False, PLAY_MODE_KEYS[1])):
-            out[n][key_name] = np.nanmean(np.asarray(modes[mode], float), axis=1).tolist()
-    return out
+            values[key_name] = np.nanmean(np.asarray(modes[mode], float), axis=1).tolist()
+        return values
+
+    return play
 
 
 def seed_values(values: dict[str, np.ndarray]) -> dict[str, list[float]]:
@@ -704,10 +751,12 @@ def run_cell(scenario: str, name: str, settings: dict[str, Any], out: Path,
     profile, seed, counts = settings["profile"], settings["seed"], settings["counts"]
     time_limit, total_steps = settings["time_limit"], settings["total_steps"]
     phases = Phases("compile", "train", "evaluate")
+    kept = evaluation_path(out, scenario, name) if processes.count == 1 else None
     if BASELINES[name] is None:
         with phases.timing("evaluate"):
             by_count = evaluate_seeds(scenario, counts, settings["baseline_episodes"], seed,
-                                      None, None, only_local_options(profile, time_limit), name)
+                                      None, None, only_local_options(profile, time_limit), name,
+                                      kept, resume)
         print(f"{scenario:>12} {name:>15}: not trained", flush=True)
         return by_count, phases.seconds
     share = lane_share(settings["seeds"], processes)
@@ -725,7 +774,7 @@ def run_cell(scenario: str, name: str, settings: dict[str, Any], out: Path,
     phases.add("train", train_s)
     with phases.timing("evaluate"):
         by_count = evaluate_seeds(scenario, counts, settings["episodes"], seed, trainer,
-                                  runner, config.env.options)
+                                  runner, config.env.options, kept=kept, resume=resume)
         by_count = gather_seeds(by_count, settings["seeds"], processes)
     print(f"{scenario:>12} {name:>15}: trained {len(share)} seeds x {total_steps:,} steps in "
           f"{train_s:.0f} s (compiled in {compile_s:.0f} s)", flush=True)
@@ -776,6 +825,7 @@ def reproduce(scenarios: Sequence[str], baselines: Sequence[str], seeds: int,
                 out.mkdir(parents=True, exist_ok=True)
                 write_atomic(path, json.dumps(run.document(scenarios), indent=1))
                 partial_path(out, scenario, name).unlink(missing_ok=True)
+                evaluation_path(out, scenario, name).unlink(missing_ok=True)
     if not processes.is_main:
         print(f"process {processes.index}: done; process 0 writes the tables")
         return run.results

@@ -236,6 +236,48 @@ def test_a_reproduce_cell_killed_midway_resumes_from_its_last_call(tmp_path, mon
     reproduce.train_baseline(other, partial)  # no resume: the stale file is not read
 
 
+def test_a_reproduce_cell_killed_in_its_evaluation_plays_only_the_counts_not_kept(
+        tmp_path, monkeypatch):
+    """Each robot count's evaluation is kept as it is played: killed after the first count
+    and resumed, the cell plays the second alone and ends with the values of an evaluation
+    never killed; weights trained again, or a run without resume, do not use the file."""
+    import jax
+    from test_train import tiny
+
+    import train.reproduce as reproduce
+    from sgjax.evaluation.trained import TrainedEvaluation
+
+    config = tiny(num_seeds=2, algorithm={"total_steps": 2 * 8 * 8})
+    trainer, runner, _, _ = reproduce.train_baseline(config)
+    options, kept = config.env.options, tmp_path / "partial" / "open-cadrl.evaluation.json"
+    whole = reproduce.evaluate_seeds("open", [2, 3], 3, 0, trainer, runner, options)
+    played, killed = [], []
+    lanes = TrainedEvaluation.lanes
+
+    def counted(self, weights, key, n):
+        played.append(n)
+        if played == [2, 3] and not killed:  # the first run dies in its second count
+            killed.append(n)
+            raise KeyboardInterrupt("killed")
+        return lanes(self, weights, key, n)
+
+    monkeypatch.setattr(TrainedEvaluation, "lanes", counted)
+    with pytest.raises(KeyboardInterrupt):
+        reproduce.evaluate_seeds("open", [2, 3], 3, 0, trainer, runner, options, kept=kept)
+    played.clear()
+    resumed = reproduce.evaluate_seeds("open", [2, 3], 3, 0, trainer, runner, options,
+                                       kept=kept, resume=True)
+    assert played == [3] and json.dumps(resumed) == json.dumps(whole)
+    played.clear()
+    other = jax.tree.map(lambda x: x + 1 if x.dtype.kind == "f" else x, runner)
+    reproduce.evaluate_seeds("open", [2, 3], 3, 0, trainer, other, options, kept=kept,
+                             resume=True)  # other weights: the kept counts are not theirs
+    assert played == [2, 3]
+    played.clear()
+    reproduce.evaluate_seeds("open", [2, 3], 3, 0, trainer, runner, options, kept=kept)
+    assert played == [2, 3]  # no resume: played afresh
+
+
 @pytest.mark.slow
 def test_reproduce_writes_the_papers_two_tables(tmp_path, capsys):
     from train.reproduce import reproduce
