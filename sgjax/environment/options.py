@@ -33,7 +33,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from sgjax.dynamics.limits import RobotPreset
-from sgjax.humans.calibrated import CONSTANT_SETS, force_constants
+from sgjax.humans.calibrated import CONSTANT_SETS, fitted_constants
 from sgjax.humans.groups import leaders
 from sgjax.humans.neighbors import SEARCHES
 from sgjax.humans.pedestrians import FORCE_MODELS, GOAL_MODES, WALL_MODELS, HumanConfig
@@ -144,7 +144,7 @@ class HumanOptions:
         check_choice("human_model", self.human_model, FORCE_MODELS)
         check_choice("human_constants", self.human_constants, CONSTANT_SETS)
         if self.human_constants != "published":
-            force_constants(self.human_constants, self.human_model)  # the law has a fit
+            fitted_constants(self.human_constants, self.human_model)  # the law has a fit
         if self.human_replay is not None:
             check_choice("human_replay", self.human_replay, (*REPLAY_MODES, "off"))
         check_choice("human_walls", self.human_walls, WALL_MODELS)

@@ -5,14 +5,17 @@ published constants).
 ``eth_ucy``: each law's interaction and relaxation constants fitted by gradient on all five
 standard ETH/UCY scenes (ETH, HOTEL, UNIV, ZARA1, ZARA2; ``sgjax crowd fit --model M --data
 ../shared/pedestrians/eth_ucy --train ETH HOTEL UNIV ZARA1 ZARA2``, 100 Adam steps of the
-teacher-forced one-row loss). The fits, their provenance and the leave-one-scene-out scores
-that say how well such a fit forecasts a scene it never saw are in
-``docs/results/calibration/`` (docs/results.md). Only the social-force laws are calibrated;
-the other constants (desired speeds, walls, ORCA, HSFM) stay as published."""
+teacher-forced one-row loss): Moussaid's and Helbing's social forces (``params.humans.forces``),
+the headed social force model's driving, interaction and turning constants
+(``params.humans.hsfm``; its contact stiffness and friction stay as published: recorded people
+avoid contact) and ORCA's time horizon (``params.humans.orca``). The fits, their provenance and
+the leave-one-scene-out scores that say how well such a fit forecasts a scene it never saw are
+in ``docs/results/calibration/`` (docs/results.md). The other constants (desired speeds,
+walls) stay as published."""
 
 from __future__ import annotations
 
-from sgjax.humans.forces import SocialForceParams
+from typing import Any
 
 # law -> fitted constants, per preset (docs/results/calibration/all_<law>/crowd_fit.json)
 CALIBRATED: dict[str, dict[str, dict[str, float]]] = {
@@ -23,17 +26,29 @@ CALIBRATED: dict[str, dict[str, dict[str, float]]] = {
     },
 }
 CONSTANT_SETS = ("published", *CALIBRATED)
+# law -> the HumanParams field holding its constants
+PARAMS_FIELD = {"moussaid": "forces", "helbing": "forces", "hsfm": "hsfm", "orca": "orca"}
 
 
-def force_constants(name: str, model: str) -> SocialForceParams:
-    """The social-force constants of preset ``name`` for the ``model`` law (the published
-    ones for ``"published"``); an error names a preset without that law."""
+def fitted_constants(name: str, model: str) -> dict[str, float]:
+    """The constants preset ``name`` fitted for the ``model`` law (``{}`` for
+    ``"published"``); an error names an unknown preset or a preset without that law."""
     if name == "published":
-        return SocialForceParams()
+        return {}
     if name not in CALIBRATED:
         raise ValueError(f"human_constants must be one of {CONSTANT_SETS}, got {name!r}")
     fitted = CALIBRATED[name]
     if model not in fitted:
         raise ValueError(f"human_constants={name!r} holds constants fitted for "
                          f"{', '.join(fitted)}, not for human_model={model!r}")
-    return SocialForceParams(**fitted[model])
+    return dict(fitted[model])
+
+
+def with_constants(hp: Any, name: str, model: str) -> Any:
+    """``hp`` (``HumanParams``) with preset ``name``'s constants for the ``model`` law in that
+    law's params (:data:`PARAMS_FIELD`); unchanged for ``"published"``."""
+    fitted = fitted_constants(name, model)
+    if not fitted:
+        return hp
+    field = PARAMS_FIELD[model]
+    return hp.replace(**{field: getattr(hp, field).replace(**fitted)})

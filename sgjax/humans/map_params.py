@@ -9,7 +9,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sgjax.humans.calibrated import force_constants
+from sgjax.humans.calibrated import with_constants
 from sgjax.humans.groups import GroupParams, leaders
 from sgjax.humans.pedestrians import HumanConfig, HumanParams
 from sgjax.humans.slots import spawn_slots, wall_sample_points
@@ -53,8 +53,7 @@ def human_params(
         route_start=jnp.asarray(routes[:, 0], jnp.int32),
         route_goal=jnp.asarray(routes[:, 1], jnp.int32),
     )
-    if constants != "published":  # a preset fitted to recorded people
-        hp = hp.replace(forces=force_constants(constants, config.force_model))
+    hp = with_constants(hp, constants, config.force_model)  # a preset fitted to people
     if not see_robots:
         hp = hp.replace(robot_weight=0.0, orca=hp.orca.replace(robot_share=0.0))
     as_f32 = functools.partial(jax.tree.map, lambda v: jnp.asarray(v, f32))

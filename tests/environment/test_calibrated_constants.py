@@ -1,6 +1,7 @@
-"""Force constants fitted to recorded people as presets (``human_constants``,
+"""Constants fitted to recorded people as presets (``human_constants``,
 ``sgjax.humans.calibrated``): the preset is the fit's file, ``make`` puts it in the params of
-the law it was fitted for, and a law without a fit or an unknown preset is refused by name."""
+the law it was fitted for (and nowhere else), and a law without a fit or an unknown preset is
+refused by name."""
 
 from __future__ import annotations
 
@@ -10,37 +11,42 @@ from pathlib import Path
 import pytest
 
 import sgjax
-from sgjax.humans.calibrated import CALIBRATED, force_constants
-from sgjax.humans.forces import SocialForceParams
+from sgjax.humans import calibrated
+from sgjax.humans.calibrated import CALIBRATED, PARAMS_FIELD, fitted_constants
 
 RESULTS = Path(__file__).resolve().parents[2] / "docs" / "results" / "calibration"
+LAWS = sorted(CALIBRATED["eth_ucy"])
 
 
-@pytest.mark.parametrize("model", ["moussaid", "helbing"])
+@pytest.mark.parametrize("model", LAWS)
 def test_the_eth_ucy_preset_is_the_published_fit(model):
     fit = json.loads((RESULTS / f"all_{model}" / "crowd_fit.json").read_text())["rows"][0]
-    assert len(fit["train"]) == 5 and fit["test"] is None
+    assert fit["model"] == model and len(fit["train"]) == 5 and fit["test"] is None
     preset = CALIBRATED["eth_ucy"][model]
     assert set(preset) == set(fit["constants"])
     for name, value in fit["constants"].items():
         assert preset[name] == pytest.approx(value, rel=1e-3)
 
 
-@pytest.mark.parametrize("model", ["moussaid", "helbing"])
-def test_make_puts_the_preset_in_the_params(model):
+@pytest.mark.parametrize("model", LAWS)
+def test_make_puts_the_preset_in_the_params_of_its_law_alone(model):
     _, params = sgjax.make("open", num_agents=2, num_humans=4, human_model=model,
                            human_constants="eth_ucy")
-    forces = params.humans.forces
-    for name, value in CALIBRATED["eth_ucy"][model].items():
-        assert float(getattr(forces, name)) == pytest.approx(value)
     _, published = sgjax.make("open", num_agents=2, num_humans=4, human_model=model)
-    assert published.humans.forces == SocialForceParams()
+    field = PARAMS_FIELD[model]
+    for name, value in CALIBRATED["eth_ucy"][model].items():
+        assert float(getattr(getattr(params.humans, field), name)) == pytest.approx(value)
+        assert float(getattr(getattr(published.humans, field), name)) != pytest.approx(value)
+    for other in {"forces", "hsfm", "orca"} - {field}:  # other laws' constants untouched
+        assert getattr(params.humans, other) == getattr(published.humans, other)
 
 
-def test_a_law_without_a_fit_or_an_unknown_preset_is_refused():
+def test_a_law_without_a_fit_or_an_unknown_preset_is_refused(monkeypatch):
+    monkeypatch.setitem(CALIBRATED, "eth_ucy", {"moussaid": CALIBRATED["eth_ucy"]["moussaid"]})
     with pytest.raises(ValueError, match="not for human_model='orca'"):
         sgjax.make("open", num_agents=2, num_humans=4, human_model="orca",
                    human_constants="eth_ucy")
     with pytest.raises(ValueError, match="human_constants"):
         sgjax.make("open", num_agents=2, num_humans=4, human_constants="eth-ucy")
-    assert force_constants("published", "hsfm") == SocialForceParams()
+    assert fitted_constants("published", "hsfm") == {}
+    assert calibrated.with_constants("anything", "published", "hsfm") == "anything"
