@@ -6,9 +6,10 @@ published constants).
 standard ETH/UCY scenes (ETH, HOTEL, UNIV, ZARA1, ZARA2; ``sgjax crowd fit --model M --data
 ../shared/pedestrians/eth_ucy --train ETH HOTEL UNIV ZARA1 ZARA2``, 100 Adam steps of the
 teacher-forced one-row loss): Moussaid's and Helbing's social forces (``params.humans.forces``),
-the headed social force model's driving, interaction and turning constants
+and the headed social force model's driving, interaction and turning constants
 (``params.humans.hsfm``; its contact stiffness and friction stay as published: recorded people
-avoid contact) and ORCA's time horizon (``params.humans.orca``). The fits, their provenance and
+avoid contact). ORCA has none yet (its fit did not finish in the time allowed); a preset for it
+would set ``params.humans.orca``. The fits, their provenance and
 the leave-one-scene-out scores that say how well such a fit forecasts a scene it never saw are
 in ``docs/results/calibration/`` (docs/results.md). The other constants (desired speeds,
 walls) stay as published."""
@@ -23,6 +24,8 @@ CALIBRATED: dict[str, dict[str, dict[str, float]]] = {
         "moussaid": {"tau": 3.7228, "social_strength": 1.6773, "lambda_importance": 4.9889,
                      "gamma": 0.1041, "n": 7.1866, "n_prime": 6.464},
         "helbing": {"tau": 3.7088, "v0": 0.4724, "sigma": 0.0617, "ellipse_dt": 0.5773},
+        "hsfm": {"tau": 2.618, "strength": 117.2, "falloff": 0.039451, "k_orthogonal": 1.4768,
+                 "k_damping": 2117.9, "k_lambda": 0.042117},
     },
 }
 CONSTANT_SETS = ("published", *CALIBRATED)
