@@ -232,8 +232,12 @@ def _generated(name: str, opts: MakeOptions, largest: float, reach: float
     return source, spec, draw
 
 
+@functools.lru_cache(maxsize=64)
 def _template(source: WorldSource) -> tuple[Any, WorldDraw]:
-    """The world of key 0 (the first valid proposal, as a reset draws it) and its draw."""
+    """The world of key 0 (the first valid proposal, as a reset draws it) and its draw; kept
+    per source (a frozen dataclass: every setting a draw depends on), so that making the same
+    family again in a process (a judge's arms, a notebook) does not trace and compile its
+    generator again."""
     return jax.jit(source.chosen)(jax.random.key(0))
 
 

@@ -47,10 +47,19 @@ def seed_values(family: Family, ranges: Mapping[str, tuple[float, float]], seed:
 def split_hashes(family: Family, ranges: Mapping[str, tuple[float, float]], first: int,
                  count: int) -> np.ndarray:
     """The sorted, distinct hashes (uint32) of the worlds with seeds ``first ... first + count
-    - 1`` under ``ranges``."""
-    seeds = jnp.arange(count, dtype=jnp.uint32) + jnp.uint32(first)
-    hashes = jax.jit(jax.vmap(lambda s: values_hash(seed_values(family, ranges, s))))(seeds)
-    return np.unique(np.asarray(hashes))
+    - 1`` under ``ranges`` (kept per family, ranges and split: a second ``make`` of the same
+    family in a process does not compute them again)."""
+    key = (family.name, tuple(sorted((name, float(lo), float(hi))
+                                     for name, (lo, hi) in ranges.items())), first, count)
+    if key not in _SPLIT_HASHES:
+        seeds = jnp.arange(count, dtype=jnp.uint32) + jnp.uint32(first)
+        hashes = jax.jit(jax.vmap(lambda s: values_hash(seed_values(family, ranges, s))))(seeds)
+        _SPLIT_HASHES[key] = np.unique(np.asarray(hashes))
+    return _SPLIT_HASHES[key].copy()
+
+
+# (family name, ranges, first, count) -> the split's hashes: computed once per process
+_SPLIT_HASHES: dict[tuple, np.ndarray] = {}
 
 
 def is_excluded(hashed: Array, excluded: Array) -> Array:
