@@ -114,7 +114,7 @@ def test_forces_through_the_lists_equal_forces_over_every_body(model):
         assert float(jnp.max(jnp.abs(free[0] - dense[0]))) > 1e-3
 
 
-@pytest.mark.parametrize("model", ["moussaid", "orca"])
+@pytest.mark.parametrize("model", ["moussaid", pytest.param("orca", marks=pytest.mark.slow)])
 def test_trajectories_through_the_lists_follow_those_over_every_body(model):
     """200 steps of 160 pedestrians and 4 robots (GO), batched over 2 environments: the
     pedestrians' positions through the cell lists stay within 1 cm of those over every body

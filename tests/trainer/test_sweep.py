@@ -154,6 +154,7 @@ def tiny_sweep(tmp_path: Path, **changes) -> tuple:
     return space, Sweep(space, TINY, "tiny", study, out, progress=False, log=lambda _: None)
 
 
+@pytest.mark.slow
 def test_trials_run_as_lanes_and_groups_and_write_the_results(tmp_path):
     space, sweep = tiny_sweep(tmp_path)
     sweep.run()
