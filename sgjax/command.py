@@ -31,6 +31,7 @@ from sgjax.evaluation.calibration import FITTED_BY_MODEL
 from sgjax.evaluation.evaluate import evaluate, policy_environment, run_episodes
 from sgjax.evaluation.policies import BASELINES, load_policy, policy_options
 from sgjax.evaluation.protocols import PAPER, PROTOCOLS, load_protocol
+from sgjax.humans.calibrated import CONSTANT_SETS
 from sgjax.humans.pedestrians import FORCE_MODELS
 from sgjax.humans.replay import REPLAY_MODES
 from sgjax.maps.generated.families import FAMILIES
@@ -49,6 +50,9 @@ def _add_environment_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--human-model", default=None, choices=FORCE_MODELS,
                         help="the pedestrians' force model (default: the policy's, else "
                         "moussaid); with --human-replay handover, the handed-over people's")
+    parser.add_argument("--human-constants", default=None, choices=CONSTANT_SETS,
+                        help="the pedestrian law's constants: published (the default) or a "
+                        "preset fitted to recorded people (eth_ucy; docs/humans.md)")
     parser.add_argument("--human-replay", default=None, choices=(*REPLAY_MODES, "off"),
                         help="recorded:FILE scenarios: replayed people as ghosts, pausing "
                         "when a robot touches them, or handed over to the force model when "
@@ -95,7 +99,8 @@ def _add_action_choice(parser: argparse.ArgumentParser) -> None:
 
 
 RENDER_FORMATS = ("gif", "mp4", "mcap", "rosbag2")
-ENVIRONMENT_FLAGS = ("num_humans", "human_range", "human_model", "human_replay", "time_limit",
+ENVIRONMENT_FLAGS = ("num_humans", "human_range", "human_model", "human_constants",
+                     "human_replay", "time_limit",
                      "action_mode", "arrived", "observation_preset", "world_ranges",
                      "world_seeds")
 

@@ -50,3 +50,19 @@ def test_a_law_without_a_fit_or_an_unknown_preset_is_refused(monkeypatch):
         sgjax.make("open", num_agents=2, num_humans=4, human_constants="eth-ucy")
     assert fitted_constants("published", "hsfm") == {}
     assert calibrated.with_constants("anything", "published", "hsfm") == "anything"
+
+
+def test_sgjax_evaluate_takes_the_preset_and_refuses_a_law_without_one(tmp_path, capsys,
+                                                                      monkeypatch):
+    from sgjax.command import main
+
+    main(["evaluate", "--scenario", "hallway", "--policy", "only_local", "--num-agents", "2",
+          "--num-humans", "4", "--human-model", "hsfm", "--human-constants", "eth_ucy",
+          "--episodes", "2", "--time-limit", "3", "--out", str(tmp_path)])
+    assert "hallway" in capsys.readouterr().out
+    assert (tmp_path / "metrics.json").is_file()
+    monkeypatch.setitem(CALIBRATED, "eth_ucy", {"moussaid": CALIBRATED["eth_ucy"]["moussaid"]})
+    with pytest.raises(SystemExit, match="not for human_model='hsfm'"):
+        main(["evaluate", "--scenario", "hallway", "--policy", "only_local", "--num-agents",
+              "2", "--num-humans", "4", "--human-model", "hsfm", "--human-constants",
+              "eth_ucy", "--episodes", "2"])
