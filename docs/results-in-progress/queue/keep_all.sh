@@ -1,0 +1,31 @@
+#!/bin/bash
+# Copy every background run's small, resumable files into docs/results-in-progress/ (end of session).
+D=/work/main/docs/results-in-progress
+R=/work/runs/release-0.5.0
+mkdir -p $D/release-0.5.0
+# shipped configs: finished runs' small files (checkpoints are not kept: a run restarts)
+for name in doorway hallway intersection; do
+  run=$R/shipped/$name
+  [ -f $run/DONE ] || continue
+  mkdir -p $D/release-0.5.0/shipped/$name
+  cp $run/{config.yaml,progress.csv,provenance.json} $D/release-0.5.0/shipped/$name/
+  cp $run/eval/{metrics.json,table.md,seed_spread.json,seed_spread.md} $D/release-0.5.0/shipped/$name/ 2>/dev/null
+done
+[ -f $R/table5/ablation.partial.json ] && mkdir -p $D/release-0.5.0/table5 && cp $R/table5/ablation.partial.json $D/release-0.5.0/table5/
+[ -f $R/table5/ablation.json ] && mkdir -p $D/release-0.5.0/table5 && cp $R/table5/ablation.{json,md} $D/release-0.5.0/table5/ 2>/dev/null
+for t in tables34-sgjax tables34-socialgym; do
+  [ -f $R/$t/results.json ] && mkdir -p $D/release-0.5.0/$t && cp $R/$t/results.json $D/release-0.5.0/$t/
+  ls $R/$t/partial/*.evaluation.json > /dev/null 2>&1 && mkdir -p $D/release-0.5.0/$t/partial && cp $R/$t/partial/*.evaluation.json $D/release-0.5.0/$t/partial/
+done
+[ -d $R/table6 ] && mkdir -p $D/release-0.5.0/table6 && cp $R/table6/*.json $D/release-0.5.0/table6/ 2>/dev/null
+# the transfer judge
+J=/work/runs/transfer-judge
+[ -f $J/transfer.json ] && cp $J/transfer.{json,md} $D/transfer/
+# ORCA leave-one-scene-out
+[ -f /work/runs/calibration/loso_orca/crowd_fit.partial.json ] && mkdir -p $D/calibration/loso_orca && cp /work/runs/calibration/loso_orca/crowd_fit.partial.json $D/calibration/loso_orca/
+# finished arms
+for a in /work/runs/acting/*.msgpack; do
+  name=$(basename $a .msgpack)
+  [ -f $D/transfer/arms/$name.msgpack ] || bash /work/runs-logs/keep_arm.sh $name
+done
+cd /work/main && git status --short docs/results-in-progress | head -30
