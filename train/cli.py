@@ -506,7 +506,7 @@ def _evaluate_scenario(config: TrainConfig, actor: tuple, scenario: str,
         batch = Episodes(values={k: np.asarray(v) for k, v in values.items()}, robot={},
                          compile_seconds=compile_s,
                          run_seconds=time.perf_counter() - t0 - compile_s)
-        results = lane_results(scenario, names, [n], seed, params, batch)
+        results = lane_results(scenario, names, [n], seed, params, batch, options.to_dict())
         mine, theirs = mine + results[:1], theirs + results[1:]
         if together:  # [policy, episode]: the same episodes, common random numbers
             paired[n] = paired_difference(*batch.values["team_success"][:2])
@@ -546,7 +546,7 @@ def _seed_cell(evaluation: TrainedEvaluation, seeds: list[tuple[int, ActorWeight
             batch = Episodes(values=values, robot={}, compile_seconds=compile_s,
                              run_seconds=time.perf_counter() - t0 - compile_s)
         results += lane_results(scenario, [f"{names[0]} seed {index}"], [count], key_seed,
-                                params, batch)
+                                params, batch, evaluation.options.to_dict())
         success = values["team_success"][0]
         per_seed.append(float(np.mean(success)))
         if together is not None:

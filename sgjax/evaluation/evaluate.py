@@ -189,7 +189,8 @@ def evaluate(
             name = (policy_names[p] if policy_names is not None
                     else policy if isinstance(policy, str) else f"policy{p}")
             t0 = time.perf_counter()
-            env, by_count = policy_environment(scenario, num_agents, policy, by_policy[p])
+            played_in = by_policy[p] if by_policy[p] is not None else policy_options(policy)
+            env, by_count = policy_environment(scenario, num_agents, policy, played_in)
             params = by_count[num_agents[0]]
             runner = EpisodeRunner(env, load_policy(policy, env, deterministic), episodes,
                                    int(params.max_steps), constants, counterfactual=counterfactual,
@@ -200,7 +201,8 @@ def evaluate(
                 params = by_count[n]
                 batch = runner.play_compiled(compiled, key, params, compile_seconds)
                 result = _config_result(str(scenario), name, n, episodes, seed, params, batch,
-                                        time.perf_counter() - t0, counterfactual)
+                                        time.perf_counter() - t0, counterfactual,
+                                        played_in.to_dict())
                 if record is not None:
                     record_first_episode(Path(record), scenario, name, env, params, batch)
                 results.append(result)
@@ -216,13 +218,16 @@ def evaluate(
 
 
 def _config_result(scenario: str, name: str, n: int, episodes: int, seed: int, params: EnvParams,
-                   batch: Episodes, seconds: float, counterfactual: bool) -> ConfigResult:
-    """The :class:`ConfigResult` of one configuration's played ``batch``."""
+                   batch: Episodes, seconds: float, counterfactual: bool,
+                   options: dict[str, Any] | None = None) -> ConfigResult:
+    """The :class:`ConfigResult` of one configuration's played ``batch`` (``options``: the
+    make options it was played in, :meth:`MakeOptions.to_dict`)."""
     return ConfigResult(
         scenario=scenario, policy=name, num_agents=n, episodes=episodes, seed=seed,
         dt=float(params.dt), max_steps=int(params.max_steps), metrics=summarize_episodes(batch),
         seconds=seconds, compile_seconds=batch.compile_seconds, run_seconds=batch.run_seconds,
-        counterfactual=counterfactual, steps_played=steps_played(batch, params))
+        counterfactual=counterfactual, steps_played=steps_played(batch, params),
+        options=options)
 
 
 def record_first_episode(folder: Path, scenario: str, policy: str, env: SocialNavEnv,
@@ -273,7 +278,8 @@ def evaluate_lanes(
         raise ValueError(f"evaluate_lanes: record at {record[1]} robots, not one of "
                          f"{list(num_agents)}")
     t0 = time.perf_counter()
-    env, by_count = policy_environment(scenario, num_agents, policies[0], options)
+    played_in = options if options is not None else policy_options(policies[0])
+    env, by_count = policy_environment(scenario, num_agents, policies[0], played_in)
     params = by_count[num_agents[0]]
     calls = [list(num_agents)] if counts_at_once else [[n] for n in num_agents]
     lane = None if record is None else [(
@@ -292,7 +298,7 @@ def evaluate_lanes(
         batch = runner.play_compiled(compiled, key, params, seconds,
                                      (jnp.asarray(counts, jnp.int32),))
         per_call.append((batch.values, lane_results(scenario, names, counts, seed, params,
-                                                    batch)))
+                                                    batch, played_in.to_dict())))
         if record is not None and record[1] in counts:
             recorded = jax.tree.map(lambda leaf: leaf[:, 0], batch.states)
         seconds = 0.0
@@ -305,13 +311,15 @@ def evaluate_lanes(
 
 
 def lane_results(scenario: str, names: Sequence[str], num_agents: Sequence[int], seed: int,
-                 params: EnvParams, batch: Episodes) -> list[ConfigResult]:
+                 params: EnvParams, batch: Episodes,
+                 options: dict[str, Any] | None = None) -> list[ConfigResult]:
     """The :class:`~sgjax.evaluation.statistics.ConfigResult` of every configuration of a
     :class:`~sgjax.evaluation.runner.LaneRunner`'s batch (values ``{name: [C, E]}``,
     configuration ``p * K + k`` being ``names[p]`` at ``num_agents[k]``), in
     :func:`evaluate`'s order. Timings: the program's run time is shared evenly (every lane
     costs the same), its compile time goes to the first configuration (the others reused it),
-    and every configuration played the steps the program ran (:func:`steps_played`)."""
+    and every configuration played the steps the program ran (:func:`steps_played`);
+    ``options``: the make options every lane was played in (:meth:`MakeOptions.to_dict`)."""
     count = len(names) * len(num_agents)
     lengths = batch.values["episode_length"]
     if np.shape(lengths)[0] != count:
@@ -328,7 +336,7 @@ def lane_results(scenario: str, names: Sequence[str], num_agents: Sequence[int],
             seed=seed, dt=float(params.dt), max_steps=int(params.max_steps),
             metrics=summarize_metrics({k: v[c] for k, v in batch.values.items()}),
             seconds=compile_seconds + run, compile_seconds=compile_seconds, run_seconds=run,
-            steps_played=steps))
+            steps_played=steps, options=options))
     return results
 
 

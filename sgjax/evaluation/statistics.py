@@ -306,6 +306,9 @@ class ConfigResult:
     run_seconds: float | None = None  # running it, once compiled
     counterfactual: bool = False  # the counterfactual lanes ran (their metrics are filled in)
     steps_played: int | None = None  # steps the batch ran before every episode had ended
+    # the sgjax.make options the configuration was played in (MakeOptions.to_dict: every
+    # option by group), so that a result file says which constants, observations and robots
+    options: dict[str, Any] | None = None
 
     def as_dict(self) -> dict[str, Any]:
         out = {k: v for k, v in dataclasses.asdict(self).items() if k != "metrics"}

@@ -130,6 +130,7 @@ class TrainedEvaluation:
                  modes: bool | Sequence[bool] = False, baselines: Sequence[str] = (),
                  record: bool = False):
         self.counts = [int(n) for n in counts]
+        self.options = options  # the make options every lane plays in
         if not self.counts:
             raise ValueError("TrainedEvaluation: no robot counts to evaluate at")
         self.env, self.params = params_by_count(

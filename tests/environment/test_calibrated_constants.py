@@ -60,7 +60,12 @@ def test_sgjax_evaluate_takes_the_preset_and_refuses_a_law_without_one(tmp_path,
           "--num-humans", "4", "--human-model", "hsfm", "--human-constants", "eth_ucy",
           "--episodes", "2", "--time-limit", "3", "--out", str(tmp_path)])
     assert "hallway" in capsys.readouterr().out
-    assert (tmp_path / "metrics.json").is_file()
+    # the result file says which constants (and every other make option) it was played in
+    played_in = json.loads((tmp_path / "metrics.json").read_text())["results"][0]["options"]
+    assert played_in["humans"]["human_constants"] == "eth_ucy"
+    assert played_in["humans"]["human_model"] == "hsfm"
+    assert played_in["humans"]["num_humans"] == 4
+    assert played_in["physics"]["time_limit"] == 3.0
     monkeypatch.setitem(CALIBRATED, "eth_ucy", {"moussaid": CALIBRATED["eth_ucy"]["moussaid"]})
     with pytest.raises(SystemExit, match="not for human_model='hsfm'"):
         main(["evaluate", "--scenario", "hallway", "--policy", "only_local", "--num-agents",

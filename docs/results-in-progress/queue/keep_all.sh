@@ -29,3 +29,6 @@ for a in /work/runs/acting/*.msgpack; do
   [ -f $D/transfer/arms/$name.msgpack ] || bash /work/runs-logs/keep_arm.sh $name
 done
 cd /work/main && git status --short docs/results-in-progress | head -30
+# issue 68's gap judge
+G=/work/runs/crowd-gap-judge
+[ -f $G/transfer.json ] && mkdir -p $D/crowd_gap && cp $G/transfer.{json,md} $D/crowd_gap/
