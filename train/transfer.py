@@ -31,7 +31,11 @@ Sets (``--sets``, all by default):
   over within 1.5 m to the Moussaid law with the constants fitted to those people
   (``human_constants="eth_ucy"``: the same for every arm, whatever crowd it trained among);
   beside team success it keeps collisions with people, personal-space intrusions, the log
-  deviation and the people reached.
+  deviation and the people reached;
+* ``simulated_crowds`` (asked for by name, beside ``recorded``): the same five scenes with
+  simulated people instead (12, the Moussaid law, the published constants and the fitted
+  ones: the crowds the gap's arms trained among), so that what a simulated crowd predicts
+  about the recorded people is measured on the same scenes, robots and episodes.
 
 Whether a family or map was seen in training is read from each arm's config and marked. A
 shipped map's **own specialist** (``--own-specialist``: an arm's name, or a run trained on that
@@ -98,8 +102,8 @@ SG2MAPS = ROOT.parent / "shared" / "sg2maps"
 MINIGAMES = ("doorway", "hallway", "intersection", "roundabout", "open")
 FAMILIES = ("doorway", "hallway", "intersection", "roundabout", "open", "floorplan")
 SETS = ("minigames", "office", "sg2maps", "generated_test", "generated_train", "extrapolation",
-        "recorded")
-DEFAULT_SETS = SETS[:-1]  # the recorded people are asked for by name
+        "recorded", "simulated_crowds")
+DEFAULT_SETS = SETS[:-2]  # the recorded scenes are asked for by name
 RECORDINGS = ROOT.parent / "shared" / "pedestrians" / "eth_ucy"
 RECORDED_SCENES = {"ETH": "biwi_eth", "HOTEL": "biwi_hotel", "UNIV": "students001",
                    "ZARA1": "crowds_zara01", "ZARA2": "crowds_zara02"}
@@ -107,6 +111,12 @@ RECORDED_BEHAVIOURS = ("ghost", "handover")
 # among recorded people, beside METRICS: what the robots did to the people
 RECORDED_METRICS = ("collisions_human", "personal_space_human", "log_deviation",
                     "people_reached")
+# The same scenes with simulated people (the crowd the gap's arms trained among,
+# train/configs/crowd_gap_*.yaml): the Moussaid law with each set of constants, so that what
+# the simulated crowds predict is measured beside the recorded people.
+SIMULATED_PEOPLE = 12
+SIMULATED_CONSTANTS = (("published constants", "published"), ("fitted constants", "eth_ucy"))
+SIMULATED_METRICS = ("collisions_human", "personal_space_human")  # no recording to deviate from
 SPLIT_WORLDS = 1000  # worlds in a generated split (its episodes draw among them)
 EXTRA_ROBOTS = 7  # "more robots than in training" (the transfer configs train with 3 to 5)
 # Parameter extrapolation: (name, family, ranges beyond the training defaults).
@@ -143,16 +153,37 @@ class HeldOutMap:
         return f"{self.set}/{self.name}"
 
 
+def recorded_scenes(recordings: Path = RECORDINGS) -> dict[str, Path]:
+    """Each standard ETH/UCY scene's track file in ``recordings``; a missing file is named."""
+    paths = {}
+    for scene, stem in RECORDED_SCENES.items():
+        paths[scene] = recordings / f"{stem}.txt"
+        if not paths[scene].is_file():
+            raise ValueError(f"--recordings: no {stem}.txt in {recordings} (the ETH/UCY "
+                             "track files, ../shared/pedestrians/eth_ucy); leave the recorded "
+                             "sets out or give the folder")
+    return paths
+
+
+def simulated_crowd_maps(robots: int, recordings: Path = RECORDINGS) -> list[HeldOutMap]:
+    """The ``simulated_crowds`` set: each standard ETH/UCY scene as the gap's arms trained in
+    it, its open space with :data:`SIMULATED_PEOPLE` simulated people (the Moussaid law, no
+    replay), once with the published constants and once with those fitted to ETH/UCY (the
+    same for every arm), keeping collisions with people and personal-space intrusions."""
+    return [HeldOutMap("simulated_crowds", f"{scene}, {label}", f"recorded:{path}", robots,
+                       keywords=(("human_replay", "off"), ("num_humans", SIMULATED_PEOPLE),
+                                 ("max_humans", None), ("human_model", "moussaid"),
+                                 ("human_constants", constants)),
+                       metrics=METRICS + SIMULATED_METRICS)
+            for scene, path in recorded_scenes(recordings).items()
+            for label, constants in SIMULATED_CONSTANTS]
+
+
 def recorded_maps(robots: int, recordings: Path = RECORDINGS) -> list[HeldOutMap]:
     """The ``recorded`` set: each standard ETH/UCY scene of ``recordings`` with its people as
     ghosts and handed over (the module doc); a missing file is named."""
     maps = []
-    for scene, stem in RECORDED_SCENES.items():
-        path = recordings / f"{stem}.txt"
-        if not path.is_file():
-            raise ValueError(f"--recordings: no {path.name} in {recordings} (the ETH/UCY "
-                             "track files, ../shared/pedestrians/eth_ucy); leave the recorded "
-                             "set out or give the folder")
+    for scene, path in recorded_scenes(recordings).items():
         for behaviour in RECORDED_BEHAVIOURS:
             maps.append(HeldOutMap(
                 "recorded", f"{scene}, {behaviour}", f"recorded:{path}", robots,
@@ -183,6 +214,8 @@ def held_out_maps(sets: Sequence[str], robots: int, sg2maps: Path = SG2MAPS,
                      for folder in sorted(sg2maps.iterdir()) if folder.is_dir()]
         elif name == "recorded":
             maps += recorded_maps(robots, recordings)
+        elif name == "simulated_crowds":
+            maps += simulated_crowd_maps(robots, recordings)
         elif name in ("generated_test", "generated_train"):
             first = TEST_SEEDS[0] if name == "generated_test" else 0
             maps += [HeldOutMap(name, family, PREFIX + family, robots,
@@ -793,7 +826,8 @@ def parser() -> argparse.ArgumentParser:
     parser.add_argument("--reference", default=None,
                         help="the arm the others are compared with (default: the first)")
     parser.add_argument("--sets", nargs="+", default=list(DEFAULT_SETS), choices=SETS,
-                        help="held-out sets to judge (default: all but recorded)")
+                        help="held-out sets to judge (default: all but recorded and "
+                             "simulated_crowds)")
     parser.add_argument("--robots", type=int, default=4, help="robots per episode")
     parser.add_argument("--episodes", type=int, default=100, help="episodes per map")
     parser.add_argument("--seed", type=int, default=0, help="evaluation seed")

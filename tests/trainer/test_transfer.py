@@ -339,7 +339,28 @@ def test_the_recorded_set_holds_each_scene_as_ghosts_and_handed_over(tmp_path):
         assert set(transfer.RECORDED_METRICS) <= set(held.metrics)
     with pytest.raises(ValueError, match="no biwi_eth.txt"):
         transfer.held_out_maps(["recorded"], 3, recordings=tmp_path)
-    assert "recorded" not in transfer.parser().parse_args(["--arm", "a=x"]).sets
+    default_sets = transfer.parser().parse_args(["--arm", "a=x"]).sets
+    assert "recorded" not in default_sets and "simulated_crowds" not in default_sets
+
+
+def test_the_simulated_crowds_set_holds_each_scene_with_both_constants(tmp_path):
+    """The same five scenes with simulated people (no replay), once with the published and
+    once with the fitted constants, the same for every arm; the people metrics a simulated
+    crowd has (no log deviation: nothing recorded to deviate from)."""
+    maps = transfer.held_out_maps(["simulated_crowds"], 3, recordings=require(
+        RECORDINGS, "the ETH/UCY recordings"))
+    assert [m.name for m in maps[:2]] == ["ETH, published constants", "ETH, fitted constants"]
+    assert len(maps) == 10 and {m.set for m in maps} == {"simulated_crowds"}
+    recorded = transfer.held_out_maps(["recorded"], 3, recordings=RECORDINGS)
+    assert {m.scenario for m in maps} == {m.scenario for m in recorded}
+    for held, constants in zip(maps, ["published", "eth_ucy"] * 5, strict=True):
+        keywords = dict(held.keywords)
+        assert keywords["human_replay"] == "off" and keywords["human_constants"] == constants
+        assert keywords["num_humans"] == transfer.SIMULATED_PEOPLE
+        assert "log_deviation" not in held.metrics
+        assert set(transfer.SIMULATED_METRICS) <= set(held.metrics)
+    with pytest.raises(ValueError, match="no biwi_eth.txt"):
+        transfer.held_out_maps(["simulated_crowds"], 3, recordings=tmp_path)
 
 
 @pytest.mark.slow
@@ -372,3 +393,18 @@ def test_arms_trained_among_other_crowds_are_judged_among_the_same_recorded_peop
     assert "calibrated - published: log_deviation" in paired
     text = transfer.tables(made)
     assert "Log deviation (m):" in text and "| ZARA1, handover |" in text
+    # the same scene with simulated people, constants set by the map: both arms play it too
+    simulated = next(m for m in transfer.held_out_maps(["simulated_crowds"], 2,
+                                                       recordings=recordings)
+                     if m.name == "ZARA1, fitted constants")
+    transfer.check_same_episodes(arms, [simulated])
+    played = {"set": simulated.set, "name": simulated.name, "scenario": simulated.scenario,
+              "worlds": {}, **transfer.judge_map(arms, simulated, episodes=3, seed=0)}
+    assert "log_deviation" not in played["arms"]["published"]
+    assert np.asarray(played["arms"]["calibrated"]["collisions_human"]).shape == (2, 3)
+    both = transfer.document(arms, {held.key: result, simulated.key: played},
+                             ["recorded", "simulated_crowds"], 2, 3, 0, "published", 0.05,
+                             seconds=1.0)
+    check_document(both)
+    text = transfer.tables(both)
+    assert "## simulated_crowds" in text and "| ZARA1, fitted constants |" in text
