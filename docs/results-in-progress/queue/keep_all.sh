@@ -32,3 +32,6 @@ cd /work/main && git status --short docs/results-in-progress | head -30
 # issue 68's gap judge
 G=/work/runs/crowd-gap-judge
 [ -f $G/transfer.json ] && mkdir -p $D/crowd_gap && cp $G/transfer.{json,md} $D/crowd_gap/
+# issue 66's larger-budget DR probe, judged
+P=/work/runs/probe/dr_long_judge
+[ -f $P/transfer.json ] && mkdir -p $D/transfer_dr_long && cp $P/transfer.{json,md} $D/transfer_dr_long/
