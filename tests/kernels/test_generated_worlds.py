@@ -313,3 +313,45 @@ def test_pointer_doubling_finds_the_routes_that_walking_finds():
         used = np.asarray(used_edges(world, hop, fam.capacity.route_nodes))
         np.testing.assert_array_equal(used, walked)
         assert walked.sum() > 0
+
+
+@pytest.mark.parametrize("name", ["doorway", "hallway"])
+def test_one_way_worlds_send_every_robot_left_to_right_and_promise_no_dilemma(name):
+    """``ways`` below 1.5: both spawn groups start in the left room and end in the right (a
+    queue at a bottleneck, SocialGym 2.0's doorway), the world promises no dilemma (so the
+    dilemma check passes it), the exported file passes the map checker; the same key at the
+    default (both ways) gives the same geometry with opposed groups; ``[1, 2]`` mixes both."""
+    fam = FAMILIES[name]
+    keys = jax.random.split(jax.random.key(3), 64)
+
+    def worlds(ranges):
+        arrays_of = range_arrays(fam.ranges(ranges))
+
+        def one(key):
+            world, values = generate(fam, key, arrays_of)
+            arrays, dist, overflow, hops = world_arrays(world, fam.capacity, fam.routes)
+            return world, values, verdict(world, dist, arrays.next_hop, overflow, RADIUS,
+                                          route_nodes=fam.capacity.route_nodes, hops=hops)
+        return jax.jit(jax.vmap(one))(keys)
+
+    one_way, values, checked = worlds({"ways": 1.0})
+    both, _, both_checked = worlds({})
+    starts, goals = np.asarray(one_way.group_starts), np.asarray(one_way.group_goals)
+    np.testing.assert_array_equal(starts[:, 0], starts[:, 1])
+    np.testing.assert_array_equal(goals[:, 0], goals[:, 1])
+    nodes = np.asarray(one_way.nodes)
+    assert np.all(np.where(starts[:, 0], nodes[..., 0], -np.inf) < 0.0)  # the left room
+    assert np.all(np.where(goals[:, 0], nodes[..., 0], np.inf) > 0.0)  # to the right one
+    assert not np.asarray(one_way.dilemma).any() and np.asarray(checked.valid).all()
+    assert np.asarray(both.dilemma).all() and np.asarray(both_checked.valid).all()
+    np.testing.assert_array_equal(np.asarray(one_way.walls), np.asarray(both.walls))
+    np.testing.assert_array_equal(np.asarray(both.group_starts)[:, 1],
+                                  np.asarray(both.group_goals)[:, 0])
+    world = one_world(one_way, 0)
+    data = world_map(world, f"{name}-one-way", fam.description,
+                     {k: v[0] for k, v in values.items()})
+    assert [p for p in check_map(data, f"{name}-one-way", clearance=RADIUS)
+            if p.severity == "error"] == []
+    mixed, _, _ = worlds({"ways": (1.0, 2.0)})
+    promised = np.asarray(mixed.dilemma)
+    assert 0 < promised.sum() < len(promised)

@@ -20,6 +20,9 @@ PARAMETERS = {
     "door_width": Parameter((0.9, 2.0), (0.6, 3.0), "m", "the door's free width"),
     "door_offset": Parameter((-0.5, 0.5), (-1.0, 1.0), "", "the door's centre off the middle, "
                              "a fraction of the most it can move (1 m from the corners)"),
+    "ways": Parameter((2.0, 2.0), (1.0, 2.0), "", "the directions robots cross in: below "
+                       "1.5 one way, left to right (a bottleneck queue, no dilemma), else both "
+                       "ways (head-on: the social dilemma); default always both"),
 }
 CAPACITY = Capacity(walls=WALLS, nodes=NODES, edges=EDGES, hubs=2, groups=2, zones=1,
                     route_nodes=4,
@@ -30,8 +33,9 @@ def build(values: Mapping[str, Array], key: Array) -> World:
     """A doorway world of the parameter ``values``; ``key`` jitters the spawn lattices."""
     return two_rooms(key, CAPACITY, values["room_height"], values["left_depth"],
                      values["right_depth"], values["wall_thickness"], values["door_width"],
-                     values["door_offset"])
+                     values["door_offset"], flows=values["ways"])
 
 
-DOORWAY = Family("doorway", "two rooms joined by a door; robots cross both ways",
+DOORWAY = Family("doorway", "two rooms joined by a door; robots cross both ways (or one way: "
+                 "ways)",
                  PARAMETERS, CAPACITY, build)

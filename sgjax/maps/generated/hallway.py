@@ -24,6 +24,9 @@ PARAMETERS = {
     "layby_at": Parameter((0.3, 0.7), (0.2, 0.8), "", "the lay-by's centre along the corridor "
                           "(a fraction of its length)"),
     "layby_length": Parameter((1.0, 2.0), (0.8, 3.0), "m", "the lay-by's length"),
+    "ways": Parameter((2.0, 2.0), (1.0, 2.0), "", "the directions robots cross in: below "
+                       "1.5 one way, left to right (a bottleneck queue, no dilemma), else both "
+                       "ways (head-on: the social dilemma); default always both"),
 }
 CAPACITY = Capacity(walls=WALLS, nodes=NODES, edges=EDGES, hubs=2, groups=2, zones=1,
                     route_nodes=4,
@@ -35,8 +38,9 @@ def build(values: Mapping[str, Array], key: Array) -> World:
     return two_rooms(key, CAPACITY, values["room_height"], values["left_depth"],
                      values["right_depth"], values["corridor_length"],
                      values["corridor_width"], values["corridor_offset"],
-                     values["layby_depth"], values["layby_at"], values["layby_length"])
+                     values["layby_depth"], values["layby_at"], values["layby_length"],
+                     flows=values["ways"])
 
 
 HALLWAY = Family("hallway", "two rooms joined by a corridor with an optional lay-by; robots "
-                 "cross both ways", PARAMETERS, CAPACITY, build)
+                 "cross both ways (or one way: ways)", PARAMETERS, CAPACITY, build)
