@@ -264,9 +264,30 @@ class WorldOptions:
                                  f"count >= 1, below 2**32), got {value!r}")
             object.__setattr__(self, name, (int(value[0]), int(value[1])))
 
-    def ranges(self) -> dict[str, tuple[float, float]]:
-        """``{name: (low, high)}``."""
-        return {name: (low, high) for name, low, high in self.world_ranges}
+    def ranges(self, family: str | None = None) -> dict[str, tuple[float, float]]:
+        """``{name: (low, high)}``; with ``family``, the ranges that family takes: every
+        unprefixed row, and the rows named ``"<family>.<parameter>"`` (prefix dropped), so
+        that one batch of several families can set a parameter of one of them
+        (``{"doorway.ways": [1, 2]}``); rows of other families' prefixes left out."""
+        if family is None:
+            return {name: (low, high) for name, low, high in self.world_ranges}
+        out = {}
+        for name, low, high in self.world_ranges:
+            owner, dot, parameter = name.rpartition(".")
+            if not dot:
+                out[name] = (low, high)
+            elif owner == family:
+                out[parameter] = (low, high)
+        return out
+
+    def family_prefixes(self) -> dict[str, dict[str, tuple[float, float]]]:
+        """``{family: {parameter: (low, high)}}`` of the rows named ``"<family>.<parameter>"``."""
+        out: dict[str, dict[str, tuple[float, float]]] = {}
+        for name, low, high in self.world_ranges:
+            owner, dot, parameter = name.rpartition(".")
+            if dot:
+                out.setdefault(owner, {})[parameter] = (low, high)
+        return out
 
 
 def _range_rows(value: Any) -> tuple[tuple[str, float, float], ...]:

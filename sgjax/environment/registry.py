@@ -218,7 +218,10 @@ def _generated(name: str, opts: MakeOptions, largest: float, reach: float
     if w.world_levels and w.world_seeds is not None:
         raise ValueError(f"make({name!r}): world_levels (a trainer picks each world) and "
                          "world_seeds (play a split's worlds) exclude each other")
-    source = source_for(fam.name, w.ranges(), float(largest), w.world_proposals, float(reach),
+    for owner, rows in w.family_prefixes().items():  # "<family>.<parameter>" rows: real names
+        family(owner).ranges(rows)
+    source = source_for(fam.name, w.ranges(fam.name), float(largest), w.world_proposals,
+                        float(reach),
                         check_dilemma=False, seeds=w.world_seeds, holdout=w.world_holdout,
                         levels=w.world_levels,
                         human_radius=humans.human_radius if humans.slots else 0.0)

@@ -103,3 +103,26 @@ def test_bad_families_ranges_and_pedestrian_options_are_refused_by_name():
         sgjax.make("generated:doorway", num_humans=2, human_goals="routes")
     env, _ = sgjax.make("generated:hallway", world_ranges={"corridor_width": 1.5})
     assert ("corridor_width", 1.5, 1.5) in env.config.world.ranges
+
+
+def test_a_range_named_with_its_family_applies_to_that_family_alone():
+    """``"<family>.<parameter>"`` sets one family's range in a batch of several (the others
+    leave it out); an unknown family or parameter behind the prefix is refused by name."""
+    ranges = {"doorway.ways": [1.0, 1.0], "hallway.ways": [1.0, 2.0]}
+    doorway, _ = sgjax.make("generated:doorway", world_ranges=ranges)
+    hallway, _ = sgjax.make("generated:hallway", world_ranges=ranges)
+    crossing, _ = sgjax.make("generated:intersection", world_ranges=ranges)
+    assert ("ways", 1.0, 1.0) in doorway.config.world.ranges
+    assert ("ways", 1.0, 2.0) in hallway.config.world.ranges
+    assert not [r for r in crossing.config.world.ranges if r[0] == "ways"]
+    # a one-way doorway: every robot's route runs left to right
+    keys = jax.random.split(jax.random.key(0), 16)
+    one_way, params = sgjax.make("generated:doorway", world_ranges=ranges, num_agents=3)
+    _, states = jax.vmap(one_way.reset, in_axes=(0, None))(keys, params)
+    x = np.asarray(states.route.x)
+    present = np.asarray(states.robots.present)
+    assert np.all(np.where(present, x[..., -1] > x[..., 0], True))
+    with pytest.raises(ValueError, match="no world family 'dorway'"):
+        sgjax.make("generated:intersection", world_ranges={"dorway.ways": 1.0})
+    with pytest.raises(ValueError, match="no parameter 'wayz'"):
+        sgjax.make("generated:intersection", world_ranges={"doorway.wayz": 1.0})
