@@ -32,9 +32,6 @@ cd /work/main && git status --short docs/results-in-progress | head -30
 # issue 68's gap judge
 G=/work/runs/crowd-gap-judge
 [ -f $G/transfer.json ] && mkdir -p $D/crowd_gap && cp $G/transfer.{json,md} $D/crowd_gap/
-# issue 66's larger-budget DR probe, judged
-P=/work/runs/probe/dr_long_judge
-[ -f $P/transfer.json ] && mkdir -p $D/transfer_dr_long && cp $P/transfer.{json,md} $D/transfer_dr_long/
 # ORCA fitted on all five scenes (an hour a phase)
 O=/work/runs/crowd-clean/all_orca_3600
 [ -f $O/crowd_fit.json ] && mkdir -p $D/calibration/all_orca && cp $O/crowd_fit.* $D/calibration/all_orca/
