@@ -1,11 +1,11 @@
 #!/bin/bash
-# Issue 66's third arm: domain randomisation with half the doorways and hallways one-way
-# (train/configs/transfer_dr_ways.yaml, 5 seeds), from a clean worktree of f2b7b85, after arms3
+# Issue 66's third arm: domain randomisation with one-way doorways and hallways
+# (train/configs/transfer_dr_oneway.yaml, 5 seeds), from a clean worktree of b597ffd, after arms3
 # (the crowd-gap arms). judge2.sh then judges it beside the other arms.
 cd /work/clean6 || exit 1
 while pgrep -f "arms3.sh" > /dev/null; do sleep 60; done
 R=/work/runs/exp66
-name=transfer_dr_ways
+name=transfer_dr_oneway
 [ -f $R/$name/DONE ] && exit 0
 resume=""; [ -f $R/$name/checkpoints/latest.msgpack ] && resume="--resume"
 echo "=== $name $(date) (clean6 $(git log --oneline -1 | cut -c1-7))"
