@@ -25,11 +25,4 @@ while true; do
   done
 done
 echo "=== judged $(date)"
-# SFL's worst case: 1,000 held-out worlds per family (10,000 is hours per arm on 2 cores)
-echo "=== worst worlds $(date)"
-nice -n 19 python -m train.transfer --arm specialist=$A/transfer_doorway.msgpack \
-  --arm dr=$A/transfer_dr.msgpack --arm plr=$A/transfer_plr.msgpack \
-  --arm families=$A/transfer_dr_families.msgpack --reference specialist \
-  --own-specialist specialist $own --episodes 100 --sg2maps ../shared/sg2maps \
-  --worst-worlds 1000 --alpha 0.1 0.01 --out $OUT --resume
-echo "=== worst worlds done $(date)"
+# SFL's worst case (1,000 held-out worlds per family) runs in judge2.sh, once every arm is in
