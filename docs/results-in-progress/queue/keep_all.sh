@@ -29,9 +29,6 @@ for a in /work/runs/acting/*.msgpack; do
   [ -f $D/transfer/arms/$name.msgpack ] || bash /work/runs-logs/keep_arm.sh $name
 done
 cd /work/main && git status --short docs/results-in-progress | head -30
-# issue 68's gap judge
-G=/work/runs/crowd-gap-judge
-[ -f $G/transfer.json ] && mkdir -p $D/crowd_gap && cp $G/transfer.{json,md} $D/crowd_gap/
 # ORCA fitted on all five scenes (an hour a phase)
 O=/work/runs/crowd-clean/all_orca_3600
 [ -f $O/crowd_fit.json ] && mkdir -p $D/calibration/all_orca && cp $O/crowd_fit.* $D/calibration/all_orca/
