@@ -271,23 +271,20 @@ class WorldOptions:
         (``{"doorway.ways": [1, 2]}``); rows of other families' prefixes left out."""
         if family is None:
             return {name: (low, high) for name, low, high in self.world_ranges}
-        out = {}
-        for name, low, high in self.world_ranges:
-            owner, dot, parameter = name.rpartition(".")
-            if not dot:
-                out[name] = (low, high)
-            elif owner == family:
-                out[parameter] = (low, high)
-        return out
+        return {parameter: pair for owner, parameter, pair in self._owned_rows()
+                if owner in ("", family)}
 
     def family_prefixes(self) -> dict[str, dict[str, tuple[float, float]]]:
         """``{family: {parameter: (low, high)}}`` of the rows named ``"<family>.<parameter>"``."""
         out: dict[str, dict[str, tuple[float, float]]] = {}
-        for name, low, high in self.world_ranges:
-            owner, dot, parameter = name.rpartition(".")
-            if dot:
-                out.setdefault(owner, {})[parameter] = (low, high)
+        for owner, parameter, pair in self._owned_rows():
+            if owner:
+                out.setdefault(owner, {})[parameter] = pair
         return out
+
+    def _owned_rows(self) -> list[tuple[str, str, tuple[float, float]]]:
+        """``(family or "", parameter, (low, high))`` of every row."""
+        return [(*name.rpartition(".")[::2], (low, high)) for name, low, high in self.world_ranges]
 
 
 def _range_rows(value: Any) -> tuple[tuple[str, float, float], ...]:

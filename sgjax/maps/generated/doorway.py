@@ -33,7 +33,7 @@ def build(values: Mapping[str, Array], key: Array) -> World:
     """A doorway world of the parameter ``values``; ``key`` jitters the spawn lattices."""
     return two_rooms(key, CAPACITY, values["room_height"], values["left_depth"],
                      values["right_depth"], values["wall_thickness"], values["door_width"],
-                     values["door_offset"], flows=values["ways"])
+                     values["door_offset"], ways=values["ways"])
 
 
 DOORWAY = Family("doorway", "two rooms joined by a door; robots cross both ways (or one way: "

@@ -39,7 +39,7 @@ def build(values: Mapping[str, Array], key: Array) -> World:
                      values["right_depth"], values["corridor_length"],
                      values["corridor_width"], values["corridor_offset"],
                      values["layby_depth"], values["layby_at"], values["layby_length"],
-                     flows=values["ways"])
+                     ways=values["ways"])
 
 
 HALLWAY = Family("hallway", "two rooms joined by a corridor with an optional lay-by; robots "

@@ -1,9 +1,9 @@
 """Two rooms joined by a passage through the wall between them: the doorway (a short passage,
 the wall's thickness) and the hallway (a long corridor, optionally with a lay-by niche on one
 side). Robots start in either room and cross to the other (two flows meeting in the passage:
-the social dilemma), or, in a one-way world (``flows`` below 1.5: the families' ``ways``
-parameter), all start in the left room and cross to the right (one flow queueing at a
-bottleneck, as SocialGym 2.0's doorway has it: no dilemma is promised then)."""
+the social dilemma), or, in a one-way world (the families' ``ways`` parameter below 1.5),
+all start in the left room and cross to the right (one flow queueing at a bottleneck, as
+SocialGym 2.0's doorway has it: no dilemma is promised then)."""
 
 from __future__ import annotations
 
@@ -23,20 +23,20 @@ ZONE_MARGIN = 0.5  # m: the conflict zone reaches this far past the passage's si
 LAYBY_MIN = 0.4  # m: a lay-by shallower than this is not built
 NODES = 2 + 2 * SPAWNS
 EDGES = 1 + 2 * SPAWNS  # the passage, and each spawn to its room's approach node
-ONE_WAY_BELOW = 1.5  # a ``flows`` value below this is a one-way world
+ONE_WAY_BELOW = 1.5  # a ``ways`` value below this is a one-way world
 WALLS = 17  # 16 wall slots (4 of them the lay-by's and the corridor wall past it) + padding
 
 
 def two_rooms(key: Array, capacity: Capacity, room_height: Array, left_depth: Array,
               right_depth: Array, length: Array, width: Array, offset: Array,
               layby_depth: Array | None = None, layby_at: Array | None = None,
-              layby_length: Array | None = None, flows: Array | None = None) -> World:
+              layby_length: Array | None = None, ways: Array | None = None) -> World:
     """The world: rooms ``left_depth`` and ``right_depth`` deep (m, along x) and ``room_height``
     tall, the passage ``length`` long and ``width`` wide, its centre line ``offset`` (a
     fraction in [-1, 1] of the room's room for it) off the rooms' middle; with a lay-by
     ``layby_depth`` deep (m, into the upper corridor wall; none below :data:`LAYBY_MIN`),
     ``layby_length`` long, its centre at ``layby_at`` (a fraction of the corridor) along it;
-    ``flows`` below 1.5: one way (both spawn groups left to right), else (or None) both ways."""
+    ``ways`` below 1.5: one way (both spawn groups left to right), else (or None) both ways."""
     h, half, g = room_height / 2, length / 2, width / 2
     o = offset * jnp.maximum(h - g - 1.0, 0.0)
     x0, x1 = -half - left_depth, half + right_depth
@@ -76,7 +76,7 @@ def two_rooms(key: Array, capacity: Capacity, room_height: Array, left_depth: Ar
     in_left = jnp.zeros(NODES, bool).at[left_rows].set(True)
     in_right = jnp.zeros(NODES, bool).at[right_rows].set(True)
     zone = jnp.stack([a[0], bottom - ZONE_MARGIN, b[0], jnp.where(niche, up, top) + ZONE_MARGIN])
-    two_way = jnp.asarray(True) if flows is None else flows >= ONE_WAY_BELOW
+    two_way = jnp.asarray(True) if ways is None else ways >= ONE_WAY_BELOW
     starts = jnp.stack([in_left, jnp.where(two_way, in_right, in_left)])
     goals = jnp.stack([in_right, jnp.where(two_way, in_left, in_right)])
     return World(
