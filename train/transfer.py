@@ -79,7 +79,7 @@ import numpy as np
 from sgjax.compilation_cache import add_cache_arguments, cache_from_arguments
 from sgjax.environment.options import MakeOptions
 from sgjax.evaluation.policies import load_policy
-from sgjax.evaluation.provenance import provenance
+from sgjax.evaluation.provenance import provenance, run_git_state
 from sgjax.evaluation.report import markdown_table
 from sgjax.evaluation.runner import EpisodeRunner
 from sgjax.evaluation.statistics import (
@@ -474,32 +474,64 @@ def judge(arms: Sequence[Arm], maps: Sequence[HeldOutMap], episodes: int, seed: 
     return results
 
 
+WORST_PROTOCOL = "sfl"  # rollout B plays only the worst max-alpha worlds (play_worst)
+
+
 def judge_worst(arms: Sequence[Arm], robots: int, worlds: int, alphas: Sequence[float],
                 seed: int, earlier: Mapping[str, Any] | None = None,
-                log: Callable[[str], None] = print) -> dict[str, Any]:
+                log: Callable[[str], None] = print,
+                on_family: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
     """Every arm's worst-alpha team success per generated family over ``worlds`` held-out
-    worlds (:func:`train.run.worst_worlds.worst_of_seeds`): ``{"worlds", "alphas", "arms":
-    {name: {"sha256", "families": {family: {alpha: [S]}}}}}``. An ``earlier`` result of the
-    same ``worlds`` and ``alphas`` lends the arms whose checkpoint is unchanged."""
+    worlds (:func:`train.run.worst_worlds.worst_of_seeds`): ``{"worlds", "alphas",
+    "protocol", "provenance", "arms": {name: {"sha256", "families": {family: {alpha: [S]}}}},
+    "pending": ["arm/family", ...]}``. ``on_family(block)`` after every family an arm played
+    (the block so far, its ``pending`` the pairs still to play), so that a stopped run keeps
+    what it finished. An ``earlier`` block of the same worlds, alphas and protocol, made by
+    the same code (its provenance's git state), lends every family an unchanged checkpoint
+    played there."""
     keys = [f"{a:g}" for a in alphas]
+    git = run_git_state()
     same = (earlier is not None and earlier.get("worlds") == worlds
-            and earlier.get("alphas") == keys)
-    out: dict[str, Any] = {"worlds": int(worlds), "alphas": keys, "arms": {}}
+            and earlier.get("alphas") == keys and earlier.get("protocol") == WORST_PROTOCOL
+            and earlier.get("provenance", {}).get("git") == git)
+    if earlier is not None and not same:
+        log("worst worlds: the earlier result differs in worlds, alphas, protocol or code; "
+            "playing every arm again")
+    start = time.perf_counter()
+    spent = float(earlier.get("provenance", {}).get("seconds", {}).get("worst", 0.0)
+                  if same else 0.0)
+    out: dict[str, Any] = {"worlds": int(worlds), "alphas": keys, "protocol": WORST_PROTOCOL,
+                           "arms": {}}
+    pairs = [(arm.name, family) for arm in arms for family in FAMILIES]
+
+    def block() -> dict[str, Any]:
+        out["provenance"] = provenance(
+            {"worlds": int(worlds), "alphas": keys, "robots": robots, "seed": seed,
+             "protocol": WORST_PROTOCOL, "arms": {a.name: a.sha256 for a in arms}},
+            seeds={"evaluation": [seed]},
+            seconds={"worst": spent + time.perf_counter() - start})
+        out["pending"] = [f"{n}/{f}" for n, f in pairs
+                          if f not in out["arms"].get(n, {}).get("families", {})]
+        return out
+
     for arm in arms:
         old = (earlier or {}).get("arms", {}).get(arm.name, {}) if same else {}
-        if old.get("sha256") == arm.sha256:
-            out["arms"][arm.name] = old
-            continue
-        families = {}
+        kept = dict(old.get("families", {})) if old.get("sha256") == arm.sha256 else {}
+        families = out["arms"].setdefault(arm.name, {"sha256": arm.sha256, "families": {}})
+        families = families["families"]
         for family in FAMILIES:
+            if family in kept:
+                families[family] = kept[family]
+                continue
             held = HeldOutMap("generated_test", family, PREFIX + family, robots)
             families[family] = worst_of_seeds(arm.path, arm.seeds, arm.deterministic,
                                               map_options(arm, held), family, robots, worlds,
                                               alphas, seed)
             log(f"worst of {worlds} {family} worlds, {arm.name}: " + ", ".join(
                 f"{k}: {_mean(v):.2f}" for k, v in families[family].items()))
-        out["arms"][arm.name] = {"sha256": arm.sha256, "families": families}
-    return out
+            if on_family is not None:
+                on_family(block())
+    return block()
 
 
 def worst_section(worst: Mapping[str, Any]) -> list[str]:
@@ -512,11 +544,21 @@ def worst_section(worst: Mapping[str, Any]) -> list[str]:
                        for name in arms for a in worst["alphas"])]
             for family in FAMILIES if all(family in arms[n]["families"] for n in arms)]
     return [f"## Worst case over {worst['worlds']:,} held-out worlds per family", "",
-            "Each seed plays every world of the family's test split twice (rollout keys A and "
-            "B); its score is rollout B's team success on the worlds rollout A scored lowest "
-            "(SFL's worst alpha%: ranking and scoring on one rollout would pick worlds for "
-            "their bad luck). Mean over seeds [95% percentile-bootstrap interval over seeds].",
+            *_worst_protocol(worst),
+            "Mean over seeds [95% percentile-bootstrap interval over seeds].",
             "", *markdown_table(header, rows), ""]
+
+
+def _worst_protocol(worst: Mapping[str, Any]) -> list[str]:
+    if worst.get("protocol") == WORST_PROTOCOL:
+        return ["Each seed plays every world of the family's test split once (rollout key A) "
+                "and the worst worlds again (rollout key B); its score is rollout B's team "
+                "success on the alpha share rollout A scored lowest (SFL's worst alpha%: "
+                "ranking and scoring on one rollout would pick worlds for their bad luck)."]
+    return ["Each seed plays every world of the family's test split twice (rollout keys A "
+            "and B); its score is rollout B's team success on the worlds rollout A scored "
+            "lowest (SFL's worst alpha%: ranking and scoring on one rollout would pick worlds "
+            "for their bad luck)."]
 
 
 def _mean(values: Any) -> float:
@@ -906,6 +948,25 @@ def read_earlier(out: Path, wanted: Mapping[str, Any]) -> dict[str, Any]:
     return {**data.get("unfinished", {}), **data["maps"]}
 
 
+def _checked_arguments(args: argparse.Namespace) -> tuple[dict[str, str], str]:
+    """``(arms {name: run}, reference arm)`` of the command line, or an error naming the
+    argument that is wrong."""
+    specs = _arm_specs(args.arm)
+    if not specs:
+        raise ValueError("give at least one --arm NAME=RUN")
+    reference = args.reference or next(iter(specs))
+    if reference not in specs:
+        raise ValueError(f"--reference {reference!r} is not one of the arms "
+                         f"{', '.join(specs)}")
+    if args.robots < 1 or args.episodes < 1 or not 0 < args.margin < 1:
+        raise ValueError("--robots and --episodes must be at least 1, --margin in (0, 1)")
+    if args.resume and args.out is None:
+        raise ValueError("--resume needs --out")
+    if args.worst_worlds < 0 or not all(0 < a <= 1 for a in args.alpha):
+        raise ValueError("--worst-worlds must be at least 0 and every --alpha in (0, 1]")
+    return specs, reference
+
+
 def main(argv: list[str] | None = None) -> None:
     args = parser().parse_args(argv)
     try:
@@ -916,17 +977,7 @@ def main(argv: list[str] | None = None) -> None:
             print(f"wrote {target}")
             return
         cache_from_arguments(args)
-        specs = _arm_specs(args.arm)
-        if not specs:
-            raise ValueError("give at least one --arm NAME=RUN")
-        reference = args.reference or next(iter(specs))
-        if reference not in specs:
-            raise ValueError(f"--reference {reference!r} is not one of the arms "
-                             f"{', '.join(specs)}")
-        if args.robots < 1 or args.episodes < 1 or not 0 < args.margin < 1:
-            raise ValueError("--robots and --episodes must be at least 1, --margin in (0, 1)")
-        if args.resume and args.out is None:
-            raise ValueError("--resume needs --out")
+        specs, reference = _checked_arguments(args)
         arms = [load_arm(name, path) for name, path in specs.items()]
         maps = held_out_maps(args.sets, args.robots, Path(args.sg2maps), Path(args.recordings))
         extra, own = _own_specialist_runs(args.own_specialist, arms, maps)
@@ -939,22 +990,27 @@ def main(argv: list[str] | None = None) -> None:
                                  "as many seeds in each")
         wanted_settings = settings(arms, args.episodes, args.seed, args.robots)
         done = read_earlier(out, wanted_settings) if args.resume and out is not None else {}
-        earlier_worst = (json.loads((out / "transfer.json").read_text()).get("worst")
-                         if done and out is not None else None)
-        if args.worst_worlds < 0 or not all(0 < a <= 1 for a in args.alpha):
-            raise ValueError("--worst-worlds must be at least 0 and every --alpha in (0, 1]")
+        before = (json.loads((out / "transfer.json").read_text())
+                  if done and out is not None else {})
+        earlier_worst = before.get("worst")
         worst = earlier_worst
         log = functools.partial(print, flush=True)
         if done:
             log(f"resuming {out}: {len(done)} map(s) judged before")
 
         start = time.perf_counter()
+        played = []  # maps this process played
 
         def write(results: Mapping[str, Any]) -> str:  # tables of the maps every arm played
             judged = {m.key: results[m.key] for m in maps
                       if is_complete(results.get(m.key), arms, own.get(m.key))}
             made = document(arms, judged, args.sets, args.robots, args.episodes, args.seed,
                             reference, args.margin, time.perf_counter() - start, extra)
+            if not played and before.get("provenance", {}).get("config_sha256") == \
+                    made["provenance"].get("config_sha256"):
+                # nothing played here: the maps' values are the earlier run's, and so is
+                # their provenance (the worst case carries its own)
+                made["provenance"] = before["provenance"]
             made["pending"] = [m.key for m in maps if m.key not in judged]
             if worst is not None:
                 made["worst"] = worst
@@ -969,12 +1025,19 @@ def main(argv: list[str] | None = None) -> None:
 
         def keep(key: str, result: dict) -> None:
             done[key] = result
+            played.append(key)
             write(done)
 
         results = judge(arms, maps, args.episodes, args.seed, done, keep, log, own)
+
+        def keep_worst(block: dict[str, Any]) -> None:
+            nonlocal worst
+            worst = block
+            write(results)
+
         if args.worst_worlds:
             worst = judge_worst(arms, args.robots, args.worst_worlds, args.alpha, args.seed,
-                                earlier_worst, log)
+                                earlier_worst, log, keep_worst)
         text = write(results)
         if out is not None:
             log(f"wrote {out / 'transfer.json'}, {out / 'transfer.md'}")

@@ -61,6 +61,36 @@ class WorldPlays:
     b: dict[str, np.ndarray]
 
 
+def play_rollout(runner: WorldRunner, draw: Any, params: EnvParams, seeds: np.ndarray,
+                 key: Array) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """One rollout of every world of ``seeds [N]`` (``runner.num_episodes`` worlds a call,
+    call ``i`` keyed ``fold_in(key, i)``, the last call padded with its last world):
+    ``(valid [N], {name: [N]})``, each :data:`REPORTED` metric NaN where the world failed the
+    family's checks."""
+    seeds = np.asarray(seeds, np.uint32)
+    size = runner.num_episodes
+    valid, values = [], {k: [] for k in REPORTED}
+    for i, start in enumerate(range(0, len(seeds), size)):
+        part = seeds[start:start + size]
+        padded = np.concatenate([part, np.repeat(part[-1:], size - len(part))])
+        worlds = draw(jnp.asarray(padded))
+        ok = np.asarray(worlds.valid)[:len(part)]
+        valid.append(ok)
+        played = runner(jax.random.fold_in(key, i), params, worlds)
+        for name in REPORTED:
+            value = np.asarray(played.values[name], np.float64)[:len(part)]
+            values[name].append(np.where(ok, value, np.nan))
+    if not valid:
+        return np.zeros(0, bool), {k: np.zeros(0) for k in REPORTED}
+    return np.concatenate(valid), {k: np.concatenate(v) for k, v in values.items()}
+
+
+def rollout_keys(seed: int) -> tuple[Array, Array]:
+    """The keys of rollouts A and B of every play seeded ``seed``."""
+    key_a, key_b = jax.random.split(jax.random.key(seed))
+    return key_a, key_b
+
+
 def play_worlds(env: SocialNavEnv, params: EnvParams, policy: Policy | RecurrentPolicy | str,
                 seeds: np.ndarray, seed: int = 0, chunk: int = 1000,
                 compiled: tuple[WorldRunner, Any] | None = None) -> WorldPlays:
@@ -70,23 +100,64 @@ def play_worlds(env: SocialNavEnv, params: EnvParams, policy: Policy | Recurrent
     without compiling again."""
     seeds = np.asarray(seeds, np.uint32)
     runner, draw = compiled or world_players(env, params, policy, min(chunk, len(seeds)))
-    size = runner.num_episodes
-    key_a, key_b = jax.random.split(jax.random.key(seed))
-    valid, a, b = [], {k: [] for k in REPORTED}, {k: [] for k in REPORTED}
-    for i, start in enumerate(range(0, len(seeds), size)):
-        part = seeds[start:start + size]
-        padded = np.concatenate([part, np.repeat(part[-1:], size - len(part))])
-        worlds = draw(jnp.asarray(padded))
-        ok = np.asarray(worlds.valid)[:len(part)]
-        valid.append(ok)
-        for out, key in ((a, key_a), (b, key_b)):
-            played = runner(jax.random.fold_in(key, i), params, worlds)
-            for name in REPORTED:
-                value = np.asarray(played.values[name], np.float64)[:len(part)]
-                out[name].append(np.where(ok, value, np.nan))
-    return WorldPlays(seeds=seeds, valid=np.concatenate(valid),
-                      a={k: np.concatenate(v) for k, v in a.items()},
-                      b={k: np.concatenate(v) for k, v in b.items()})
+    key_a, key_b = rollout_keys(seed)
+    valid, a = play_rollout(runner, draw, params, seeds, key_a)
+    _, b = play_rollout(runner, draw, params, seeds, key_b)
+    return WorldPlays(seeds=seeds, valid=valid, a=a, b=b)
+
+
+@dataclasses.dataclass(frozen=True)
+class WorstPlays:
+    """SFL's worst case, played as SFL plays it: ``ranked [N]`` is rollout A's
+    :data:`RANKED` score of every world of ``seeds [N]`` (NaN where invalid), ``worst [K]`` the
+    indices into ``seeds`` of the ``K = ceil(max alpha x valid)`` worlds rollout A scored
+    lowest (lowest first, ties in world order), and ``second [K]`` rollout B's score on
+    them: rollout B plays those worlds alone."""
+
+    seeds: np.ndarray
+    ranked: np.ndarray
+    worst: np.ndarray
+    second: np.ndarray
+
+    @property
+    def scored(self) -> int:
+        """How many worlds were valid and ranked."""
+        return int(np.isfinite(self.ranked).sum())
+
+    def fraction(self, alpha: float) -> tuple[float, int]:
+        """``(mean, count)``: rollout B's mean over the ``ceil(alpha x valid)`` worlds rollout
+        A scored lowest (NaN, 0 where no world was valid); ``alpha`` may not exceed the
+        largest alpha played."""
+        if not 0.0 < alpha <= 1.0:
+            raise ValueError(f"alpha must lie in (0, 1], got {alpha}")
+        if not self.scored:
+            return math.nan, 0
+        count = max(1, math.ceil(alpha * self.scored))
+        if count > len(self.worst):
+            raise ValueError(f"alpha {alpha:g} needs the worst {count} worlds; rollout B "
+                             f"played the worst {len(self.worst)} only")
+        return float(np.mean(self.second[:count])), count
+
+
+def play_worst(env: SocialNavEnv, params: EnvParams, policy: Policy | RecurrentPolicy | str,
+               seeds: np.ndarray, alphas: Sequence[float], seed: int = 0, chunk: int = 1000,
+               compiled: tuple[WorldRunner, Any] | None = None) -> WorstPlays:
+    """SFL's worst alpha% of every ``alphas`` at the cost SFL pays: rollout A (the key
+    :func:`play_worlds` gives it, so its scores equal that function's ``a``) plays every world
+    of ``seeds``, rollout B only the ``ceil(max(alphas) x valid)`` worlds A scored lowest
+    (about ``1 + max(alphas)`` rollouts a world instead of two)."""
+    if not alphas or not all(0.0 < a <= 1.0 for a in alphas):
+        raise ValueError(f"play_worst: every alpha must lie in (0, 1], got {list(alphas)}")
+    seeds = np.asarray(seeds, np.uint32)
+    runner, draw = compiled or world_players(env, params, policy, min(chunk, len(seeds)))
+    key_a, key_b = rollout_keys(seed)
+    _, first = play_rollout(runner, draw, params, seeds, key_a)
+    ranked = first[RANKED]
+    scored = np.flatnonzero(np.isfinite(ranked))
+    count = math.ceil(max(alphas) * len(scored)) if len(scored) else 0
+    worst = scored[np.argsort(ranked[scored], kind="stable")[:count]]
+    _, second = play_rollout(runner, draw, params, seeds[worst], key_b)
+    return WorstPlays(seeds=seeds, ranked=ranked, worst=worst, second=second[RANKED])
 
 
 def world_players(env: SocialNavEnv, params: EnvParams, policy: Any, chunk: int

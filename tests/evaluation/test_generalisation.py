@@ -15,9 +15,14 @@ import pytest
 import sgjax
 from sgjax.command import main
 from sgjax.evaluation.generalisation import (
+    RANKED,
     REPORTED,
+    play_rollout,
     play_worlds,
+    play_worst,
+    rollout_keys,
     table_markdown,
+    world_players,
     worst_fraction,
 )
 
@@ -80,6 +85,35 @@ def test_plays_are_deterministic_and_the_two_rollouts_differ(doorway):
         np.testing.assert_array_equal(one.b[name], two.b[name])
     # other spawns and robot draws in rollout B: not the same episodes
     assert not np.array_equal(one.a["makespan"], one.b["makespan"], equal_nan=True)
+
+
+def test_the_worst_case_replays_only_the_worlds_the_first_rollout_ranked_worst(doorway):
+    """SFL's protocol: rollout A ranks every world as :func:`play_worlds` plays it, rollout B
+    plays the worst max-alpha share alone, and each alpha scores B on its own share of it."""
+    env, params = doorway
+    seeds = np.arange(16)
+    players = world_players(env, params, "only_local", 8)
+    both = play_worlds(env, params, "only_local", seeds, seed=3, chunk=8, compiled=players)
+    worst = play_worst(env, params, "only_local", seeds, [0.25, 0.5], seed=3, chunk=8,
+                       compiled=players)
+    np.testing.assert_array_equal(worst.ranked, both.a[RANKED])
+    scored = np.flatnonzero(np.isfinite(both.a[RANKED]))
+    assert worst.scored == len(scored) and len(worst.worst) == int(np.ceil(0.5 * len(scored)))
+    ranks = both.a[RANKED][worst.worst]
+    assert np.all(np.diff(ranks) >= 0)  # lowest first
+    others = np.setdiff1d(scored, worst.worst)
+    assert ranks.max() <= both.a[RANKED][others].min()  # nothing better kept, nothing worse left
+    # rollout B: those worlds alone, keyed as play_worlds keys B
+    _, replay = play_rollout(*players, params, seeds[worst.worst], rollout_keys(3)[1])
+    np.testing.assert_array_equal(worst.second, replay[RANKED])
+    count = int(np.ceil(0.25 * len(scored)))
+    assert worst.fraction(0.25) == (float(np.mean(replay[RANKED][:count])), count)
+    # the same worlds as worst_fraction over both rollouts would pick
+    assert worst.fraction(0.5)[1] == worst_fraction(both.a[RANKED], both.b[RANKED], 0.5)[1]
+    with pytest.raises(ValueError, match="played the worst"):
+        worst.fraction(0.75)
+    with pytest.raises(ValueError, match="alpha"):
+        play_worst(env, params, "only_local", seeds, [0.0], compiled=players)
 
 
 def test_sgjax_generalise_writes_the_result_and_its_table(tmp_path, capsys):

@@ -297,6 +297,18 @@ def test_the_command_writes_its_files_after_every_map_and_adds_an_arm_on_resume(
     assert [r["own_specialist"] for r in owned["maps"].values()] == ["a", "a"]
     assert owned["maps"][OPEN.key]["arms"] == again["maps"][OPEN.key]["arms"]
     assert "b - own specialist" in owned["maps"][OPEN.key]["paired"]
+    # the worst case added to a finished judge (later code may play it): the maps keep the
+    # provenance of the run that played them, the worst case carries its own
+    monkeypatch.setattr(transfer, "FAMILIES", ("open",))
+    monkeypatch.setattr(transfer, "worst_of_seeds", lambda path, seeds, *rest: {
+        "0.1": [0.5] * seeds})
+    transfer.main([*first, "--arm", f"b={arms[1].path}", "--own-specialist", "a", "--resume",
+                   "--worst-worlds", "10", "--alpha", "0.1"])
+    worst = json.loads((out / "transfer.json").read_text())
+    check_document(worst)
+    assert worst["provenance"] == owned["provenance"] and worst["maps"] == owned["maps"]
+    assert worst["worst"]["pending"] == [] and set(worst["worst"]["arms"]) == {"a", "b"}
+    assert worst["worst"]["provenance"]["created"] >= owned["provenance"]["created"]
 
 
 @pytest.mark.slow
@@ -311,10 +323,38 @@ def test_the_worst_case_per_seed_is_kept_on_resume_and_tabled(arms, monkeypatch)
     def never(*args, **kwargs):
         raise AssertionError("an unchanged arm is not played again")
 
+    assert worst["protocol"] == "sfl" and worst["pending"] == []
+    assert worst["provenance"]["seconds"]["worst"] > 0
+
     monkeypatch.setattr(transfer, "worst_of_seeds", never)
-    assert transfer.judge_worst(arms[:1], 2, 4, [0.5, 1.0], 0, earlier=worst) == worst
+    again = transfer.judge_worst(arms[:1], 2, 4, [0.5, 1.0], 0, earlier=worst)
+    assert again["arms"] == worst["arms"]
     with pytest.raises(AssertionError, match="not played again"):  # other worlds: played
         transfer.judge_worst(arms[:1], 2, 8, [0.5, 1.0], 0, earlier=worst)
+    for changed in ({"protocol": None}, {"provenance": {**worst["provenance"], "git": {}}}):
+        with pytest.raises(AssertionError, match="not played again"):  # other code: played
+            transfer.judge_worst(arms[:1], 2, 4, [0.5, 1.0], 0, earlier=worst | changed)
+    # a stopped run keeps its finished families: a second family is played, the first lent,
+    # and every finished family is handed on as it ends
+    monkeypatch.setattr(transfer, "FAMILIES", ("open", "hallway"))
+    played, handed = [], []
+
+    def fake(path, seeds, deterministic, options, family, *rest):
+        played.append(family)
+        return {"0.5": [0.25] * seeds, "1": [0.5] * seeds}
+
+    monkeypatch.setattr(transfer, "worst_of_seeds", fake)
+    grown = transfer.judge_worst(arms[:1], 2, 4, [0.5, 1.0], 0, earlier=worst,
+                                 on_family=lambda b: handed.append(json.loads(json.dumps(b))))
+    assert played == ["hallway"] and [b["pending"] for b in handed] == [[]]
+    assert grown["arms"]["a"]["families"]["open"] == values
+    assert grown["arms"]["a"]["families"]["hallway"] == {"0.5": [0.25] * 2, "1": [0.5] * 2}
+    played.clear()
+    handed.clear()
+    transfer.judge_worst(arms[:1], 2, 4, [0.5, 1.0], 0,
+                         on_family=lambda b: handed.append(json.loads(json.dumps(b))))
+    assert played == ["open", "hallway"]
+    assert [b["pending"] for b in handed] == [["a/hallway"], []]
     made = transfer.document(arms[:1], {}, ["generated_test"], 2, 4, 0, "a", 0.05, 1.0)
     made["worst"] = worst
     check_document(made)

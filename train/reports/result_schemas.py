@@ -190,10 +190,15 @@ TRANSFER_SCHEMA: dict[str, Any] = {
         "pending": {"type": "array", "items": {"type": "string"}},  # maps still to play
         # maps some arm has not played yet (or of other sets), kept for a later --resume
         "unfinished": {"type": "object"},
-        # the worst alpha% per arm and generated family: {alpha: [one value per seed]}
+        # the worst alpha% per arm and generated family: {alpha: [one value per seed]};
+        # "protocol" "sfl": rollout B played only the worst worlds (absent: every world
+        # twice); its own provenance (it may be played by later code than the maps)
         "worst": {"type": "object", "required": ["worlds", "alphas", "arms"], "properties": {
             "worlds": {"type": "integer", "minimum": 1},
             "alphas": {"type": "array", "items": {"type": "string"}},
+            "protocol": {"enum": ["sfl"]},
+            "provenance": PROVENANCE_SCHEMA,
+            "pending": {"type": "array", "items": {"type": "string"}},
             "arms": {"type": "object", "additionalProperties": {
                 "type": "object", "required": ["sha256", "families"]}}}},
         # "<set>/<map>" -> the map's episodes: Only Local's [E], every arm's [S, E] per metric

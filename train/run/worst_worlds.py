@@ -1,9 +1,9 @@
 """The worst-case score of a trained run's seeds over a generated family's held-out worlds, as
-SFL reports it: every world of the test split (``TEST_SEEDS``) played twice by each seed's
-policy (:func:`sgjax.evaluation.generalisation.play_worlds`: rollout keys A and B), and the
-team success of rollout B over the ``ceil(alpha N)`` worlds rollout A scored lowest
-(:func:`~sgjax.evaluation.generalisation.worst_fraction`). One compiled player per seed (a
-seed's weights are constants of its policy), so it costs a compile per seed and family."""
+SFL reports it: every world of the test split (``TEST_SEEDS``) played by each seed's policy
+with rollout key A, and the team success of rollout B over the ``ceil(alpha N)`` worlds
+rollout A scored lowest, B playing only the worst ``ceil(max alpha N)``
+(:func:`sgjax.evaluation.generalisation.play_worst`). One compiled player per seed (a seed's
+weights are constants of its policy), so it costs a compile per seed and family."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import numpy as np
 
 from sgjax.environment.options import MakeOptions
 from sgjax.evaluation.evaluate import params_by_count
-from sgjax.evaluation.generalisation import RANKED, play_worlds, worst_fraction
+from sgjax.evaluation.generalisation import play_worst
 from sgjax.maps.generated.families import PREFIX
 from sgjax.maps.generated.splits import TEST_SEEDS
 from train.run.checkpoint import load_checkpoint_policy
@@ -34,7 +34,7 @@ def worst_of_seeds(path: str | Path, seeds: int, deterministic: bool, options: M
     for index in range(seeds):
         policy = load_checkpoint_policy(path, env, seed_index=index,
                                         deterministic=deterministic)
-        plays = play_worlds(env, params, policy, ids, seed, min(chunk, worlds))
+        plays = play_worst(env, params, policy, ids, alphas, seed, min(chunk, worlds))
         for alpha in alphas:
-            out[f"{alpha:g}"].append(worst_fraction(plays.a[RANKED], plays.b[RANKED], alpha)[0])
+            out[f"{alpha:g}"].append(plays.fraction(alpha)[0])
     return out
