@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from sgjax.compilation_cache import default_cache_dir
 
@@ -63,6 +64,7 @@ print(json.dumps([before, fast_cpu_compile(), options, os.environ.get("XLA_FLAGS
 """
 
 
+@pytest.mark.slow
 def test_commands_compile_with_the_elemental_emitters_unless_told_not_to():
     """The commands' programs compile with the elemental emitters, the trainer's update
     (learner_compiler_options) with XLA's default ones; a user's choice is left alone."""

@@ -413,6 +413,7 @@ def test_maps_check_of_50000_packed_walls_ends_within_seconds(tmp_path):
     assert seconds < 60, f"sgjax maps check took {seconds:.0f} s on 50,000 packed walls"
 
 
+@pytest.mark.slow
 def test_generate_draws_a_family_world_by_its_seed_and_refuses_bad_requests_by_name(server):
     from sgjax.environment.worlds import source_for
 

@@ -52,6 +52,7 @@ def test_a_law_without_a_fit_or_an_unknown_preset_is_refused(monkeypatch):
     assert calibrated.with_constants("anything", "published", "hsfm") == "anything"
 
 
+@pytest.mark.slow
 def test_sgjax_evaluate_takes_the_preset_and_refuses_a_law_without_one(tmp_path, capsys,
                                                                       monkeypatch):
     from sgjax.command import main

@@ -229,7 +229,8 @@ def test_handover_hands_over_only_the_people_a_robot_came_near(scene):
     assert np.all(deviation[~expected] < 1e-5)
 
 
-@pytest.mark.parametrize("mode", ["pause", pytest.param("handover", marks=pytest.mark.slow)])
+@pytest.mark.slow
+@pytest.mark.parametrize("mode", ["pause", "handover"])
 def test_replay_is_deterministic_and_jit_equals_eager_and_vmap_a_loop(scene, mode):
     env, params = env_of(scene, mode, num_agents=3)
     keys = jax.random.split(jax.random.key(7), 3)

@@ -143,6 +143,7 @@ def test_a_chosen_level_that_fails_the_checks_falls_back_to_a_fresh_world():
     assert int(played.seed) == 5 and int(played.pedestrians) == 3
 
 
+@pytest.mark.slow
 def test_a_chosen_levels_pedestrians_walk_in_its_episode_and_fresh_worlds_have_the_params():
     """A level's pedestrian count (an ACCEL edit's added group) is the active pedestrians of
     its episode, read by every step from its world; a fresh world keeps the params' count."""

@@ -38,6 +38,7 @@ def crowd(path, seed, rows=60, people=6):
                                 np.ones(x.shape, bool))
 
 
+@pytest.mark.slow
 def test_crowd_fit_writes_a_result_with_provenance_and_a_table(tmp_path, capsys):
     data = tmp_path / "data"
     data.mkdir()

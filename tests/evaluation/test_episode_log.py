@@ -222,6 +222,7 @@ def test_a_live_view_serves_foxglove_clients_on_loopback(episode):
                                        rtol=1e-6)
 
 
+@pytest.mark.slow
 def test_sgjax_evaluate_records_each_configurations_first_episode(tmp_path):
     main(["evaluate", "--scenario", "open", "--policy", "only_local", "random",
           "--num-agents", "2", "3", "--episodes", "3", "--time-limit", "5",

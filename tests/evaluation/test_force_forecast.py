@@ -85,6 +85,7 @@ def test_the_social_force_forecasts_recorded_scenes(name):
     assert float(scores.fde) > float(scores.ade)
 
 
+@pytest.mark.slow
 def test_a_fit_recovers_the_relaxation_time_of_a_simulated_crowd(tmp_path):
     """Tracks walked by the forecast's own model with tau = 1.2 s (five people crossing): a
     fit from the published 0.5 s lowers the one-row loss and moves tau towards 1.2."""

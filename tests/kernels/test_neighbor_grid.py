@@ -79,7 +79,8 @@ def forces(env, state, params):
                         params.dt / env.config.substeps)
 
 
-@pytest.mark.parametrize("model", ["moussaid", "helbing", "hsfm", "orca"])
+@pytest.mark.parametrize("model", ["moussaid", "helbing", *(pytest.param(m, marks=pytest.mark.slow)
+                                                     for m in ("hsfm", "orca"))])
 def test_forces_through_the_lists_equal_forces_over_every_body(model):
     """Along a 100-step rollout of 160 pedestrians, at every 10th state: the forces through
     the cell lists equal those over every body with the same range (float rounding of the
@@ -114,7 +115,8 @@ def test_forces_through_the_lists_equal_forces_over_every_body(model):
         assert float(jnp.max(jnp.abs(free[0] - dense[0]))) > 1e-3
 
 
-@pytest.mark.parametrize("model", ["moussaid", pytest.param("orca", marks=pytest.mark.slow)])
+@pytest.mark.slow
+@pytest.mark.parametrize("model", ["moussaid", "orca"])
 def test_trajectories_through_the_lists_follow_those_over_every_body(model):
     """200 steps of 160 pedestrians and 4 robots (GO), batched over 2 environments: the
     pedestrians' positions through the cell lists stay within 1 cm of those over every body

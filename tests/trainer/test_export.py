@@ -51,8 +51,8 @@ def recorded_observations(run: Path) -> np.ndarray:
 @pytest.mark.parametrize("network, env", [
     ({"kind": "mlp"}, {}),
     ({"kind": "gru", "recurrent_size": 16}, {}),
-    ({"kind": "lstm", "recurrent_size": 16, "others_encoder": "lstm", "encoder_size": 8},
-     {"observations": "cadrl"}),
+    pytest.param({"kind": "lstm", "recurrent_size": 16, "others_encoder": "lstm",
+                  "encoder_size": 8}, {"observations": "cadrl"}, marks=pytest.mark.slow),
     ({"kind": "mlp", "others_encoder": "attention", "encoder_size": 8},
      {"observations": "cadrl", "action_mode": "continuous"}),
 ], ids=["mlp", "gru", "lstm_ppo_others_lstm", "attention_continuous"])

@@ -121,6 +121,7 @@ def test_every_shipped_space_fits_its_config():
 
 
 # ---------------------------------------------------------------------- lanes
+@pytest.mark.slow
 def test_a_lane_trains_as_the_config_with_its_values_would():
     """Lane settings, reward-term weights and hidden features as runner-state numbers of one
     program give the run that a config holding those values gives."""

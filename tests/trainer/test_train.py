@@ -95,6 +95,7 @@ def test_the_config_validator_rejects_bad_keys(data, message):
         config_from_dict(data, "bad.yaml")
 
 
+@pytest.mark.slow
 def test_command_line_overrides_and_shipped_configs():
     config = load_config(ROOT / "train/configs/doorway.yaml",
                          ["algorithm.total_steps=1000", "env.curriculum=[[0, 3], [500, 5]]"])
@@ -485,6 +486,7 @@ def test_lstm_memory_resets_at_episode_starts_and_follows_torchs_lstm():
     assert not np.allclose(ys[:, 1], fresh_ys[:, 1])  # robot 1 kept its memory
 
 
+@pytest.mark.slow
 def test_an_lstm_ppo_run_trains_and_its_checkpoint_acts(tmp_path):
     """``network.kind: lstm``: the actor and the critic each carry ``[c, h]`` (twice
     ``recurrent_size``), an update runs, and the saved actor acts with its own memory."""

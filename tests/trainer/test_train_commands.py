@@ -236,6 +236,7 @@ def test_a_reproduce_cell_killed_midway_resumes_from_its_last_call(tmp_path, mon
     reproduce.train_baseline(other, partial)  # no resume: the stale file is not read
 
 
+@pytest.mark.slow
 def test_a_reproduce_cell_killed_in_its_evaluation_plays_only_the_counts_not_kept(
         tmp_path, monkeypatch):
     """Each robot count's evaluation is kept as it is played: killed after the first count
@@ -457,6 +458,7 @@ def test_variants_per_group_cuts_each_network_and_settings_set_in_order():
               "0"])
 
 
+@pytest.mark.slow
 def test_an_ablation_group_killed_midway_resumes_from_its_last_call(tmp_path, monkeypatch):
     """A group's lanes train in calls, each ending in a checkpoint of every lane call so far;
     killed in its second lane call and resumed, the group ends with the weights and logs of a

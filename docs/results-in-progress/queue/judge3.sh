@@ -3,10 +3,10 @@
 # clean v0.5.0 worktree (--resume: only the new arm, on the same episodes) as soon as its acting
 # copy exists; and SFL's worst case over 10,000 held-out worlds per family for every arm ready,
 # from the clean worktree /work/clean7 (5d04122: rollout B plays only the worst worlds, the file
-# is written after every arm's family and resumed per family). Waits for calib4's wall-clock fit.
+# is written after every arm's family and resumed per family).
 A=/work/runs/acting
 OUT=/work/runs/transfer-judge
-while pgrep -f "calib4.sh|judge.sh|judge2.sh" > /dev/null; do sleep 120; done
+while pgrep -f "judge.sh|judge2.sh" > /dev/null; do sleep 120; done
 own=""; for m in hallway intersection roundabout open; do own="$own --own-specialist $A/transfer_$m.msgpack"; done
 base="--arm specialist=$A/transfer_doorway.msgpack --arm dr=$A/transfer_dr.msgpack \
   --arm plr=$A/transfer_plr.msgpack --arm families=$A/transfer_dr_families.msgpack"
