@@ -23,8 +23,11 @@ jits and vmaps: lines are added one at a time; when the current velocity violate
 the best velocity on line ``i`` that respects lines ``0..i-1`` and the speed disc replaces it (a
 one-dimensional program over a masked vector). This is exact whenever the half-planes and the
 disc intersect. When they do not (a dense crowd), a second pass minimises the largest
-violation, as RVO2's fallback does (every line soft, walls included). Costs ``K`` and
-``K^2`` masked operations for ``K`` lines per agent. Shapes: ``[K]`` per agent; ``vmap`` over
+violation, as RVO2's fallback does (every line soft, walls included). Costs ``K^2`` masked
+operations for ``K`` lines per agent, and ``K^3`` for the fallback (both run under ``vmap``).
+The derivative of the solution is that of the closed form of its active constraints (a
+``custom_jvp``: the loops run once, undifferentiated; a crowd fit's gradient step costs about
+two forward passes instead of four). Shapes: ``[K]`` per agent; ``vmap`` over
 agents and environments from outside. Units: m, s, m/s.
 """
 
@@ -161,102 +164,220 @@ def join(*parts: Lines) -> Lines:
     return jax.tree.map(lambda *xs: jnp.concatenate(xs), *parts)
 
 
-def _on_line(lines: Lines, i: Array, others: Array, max_speed: Array, target_x: Array,
-             target_y: Array, direction: bool) -> tuple[Array, Array, Array]:
-    """Best velocity on line ``i`` inside the speed disc and the lines flagged in ``others``
-    (``[K]`` bool): the closest to ``target`` or, with ``direction``, the farthest along the
-    unit vector ``target``. Returns ``(vx, vy, feasible)``."""
-    px, py, dx, dy = lines.px[i], lines.py[i], lines.dx[i], lines.dy[i]
+@struct.dataclass
+class Active:
+    """Where a program's velocity came from (ints; ``-1`` where none): ``line`` the line it was
+    last moved onto (``-1``: never moved: the preferred velocity, capped, or the direction at
+    full speed), ``kind`` how it sits on that line (0 the target's projection, 1 the left end
+    of the line's permitted piece, 2 the right end), ``bound`` the line that ends that piece
+    (``-1``: the speed disc)."""
+
+    line: Array
+    kind: Array
+    bound: Array
+
+
+NO_ACTIVE = (-1, 0, -1)
+
+
+def _disc_ends(px: Array, py: Array, dx: Array, dy: Array, max_speed: Array
+               ) -> tuple[Array, Array, Array]:
+    """Where the line ``p + t d`` meets the speed disc: ``(t_left, t_right, disc)`` (``disc``
+    below 0: it misses it)."""
     dot = px * dx + py * dy
     disc = dot * dot + max_speed * max_speed - (px * px + py * py)
     root = jnp.sqrt(jnp.maximum(disc, TINY))
-    t_left, t_right = -dot - root, -dot + root
+    return -dot - root, -dot + root, disc
+
+
+def _crossings(lines: Lines, i: Array) -> tuple[Array, Array, Array]:
+    """Where line ``i`` crosses every line: ``(t [K], denominator [K], numerator [K])``, ``t``
+    along line ``i`` (1 where parallel)."""
+    px, py, dx, dy = lines.px[i], lines.py[i], lines.dx[i], lines.dy[i]
     denominator = _det(dx, dy, lines.dx, lines.dy)
     numerator = _det(lines.dx, lines.dy, px - lines.px, py - lines.py)
     parallel = jnp.abs(denominator) <= EPS
-    t = numerator / jnp.where(parallel, 1.0, denominator)
+    return numerator / jnp.where(parallel, 1.0, denominator), denominator, numerator
+
+
+def _on_line(lines: Lines, i: Array, others: Array, max_speed: Array, target_x: Array,
+             target_y: Array, direction: bool
+             ) -> tuple[Array, Array, Array, tuple[Array, Array]]:
+    """Best velocity on line ``i`` inside the speed disc and the lines flagged in ``others``
+    (``[K]`` bool): the closest to ``target`` or, with ``direction``, the farthest along the
+    unit vector ``target``. Returns ``(vx, vy, feasible, (kind, bound))`` (see
+    :class:`Active`)."""
+    px, py, dx, dy = lines.px[i], lines.py[i], lines.dx[i], lines.dy[i]
+    disc_left, disc_right, disc = _disc_ends(px, py, dx, dy, max_speed)
+    t, denominator, numerator = _crossings(lines, i)
+    parallel = jnp.abs(denominator) <= EPS
     bounds_right = others & ~parallel & (denominator >= 0.0)
     bounds_left = others & ~parallel & (denominator < 0.0)
-    t_right = jnp.minimum(t_right, jnp.min(jnp.where(bounds_right, t, jnp.inf)))
-    t_left = jnp.maximum(t_left, jnp.max(jnp.where(bounds_left, t, -jnp.inf)))
+    right_t = jnp.where(bounds_right, t, jnp.inf)
+    left_t = jnp.where(bounds_left, t, -jnp.inf)
+    right_line, left_line = jnp.argmin(right_t), jnp.argmax(left_t)
+    t_right = jnp.minimum(disc_right, jnp.min(right_t))
+    t_left = jnp.maximum(disc_left, jnp.max(left_t))
+    right_bound = jnp.where(right_t[right_line] < disc_right, right_line, -1)
+    left_bound = jnp.where(left_t[left_line] > disc_left, left_line, -1)
     blocked = jnp.any(others & parallel & (numerator < 0.0))
     feasible = (disc >= 0.0) & (t_left <= t_right) & ~blocked
     if direction:
-        best = jnp.where(target_x * dx + target_y * dy > 0.0, t_right, t_left)
+        right = target_x * dx + target_y * dy > 0.0
+        best = jnp.where(right, t_right, t_left)
+        kind = jnp.where(right, 2, 1)
     else:
-        best = jnp.clip(dx * (target_x - px) + dy * (target_y - py), t_left, t_right)
-    return px + best * dx, py + best * dy, feasible
+        along = dx * (target_x - px) + dy * (target_y - py)
+        best = jnp.clip(along, t_left, t_right)
+        kind = jnp.where(along > t_right, 2, jnp.where(along < t_left, 1, 0))
+    bound = jnp.where(kind == 2, right_bound, jnp.where(kind == 1, left_bound, -1))
+    return px + best * dx, py + best * dy, feasible, (kind, bound)
+
+
+def _start_velocity(max_speed: Array, target_x: Array, target_y: Array, direction: bool
+                    ) -> tuple[Array, Array]:
+    """A program's velocity before any line: the direction at full speed, or the target
+    capped at ``max_speed``."""
+    if direction:
+        return target_x * max_speed, target_y * max_speed
+    # floored under the root: a finite gradient where the preferred velocity is zero
+    speed = jnp.sqrt(jnp.maximum(target_x * target_x + target_y * target_y, EPS * EPS))
+    scale = jnp.where(speed > max_speed, max_speed / jnp.maximum(speed, EPS), 1.0)
+    return target_x * scale, target_y * scale
 
 
 def _program(lines: Lines, max_speed: Array, target_x: Array, target_y: Array,
-             direction: bool) -> tuple[Array, Array, Array]:
-    """The incremental two-dimensional program over every valid line. Returns the velocity and
-    the index of the first line it could not satisfy (``K`` when all were)."""
+             direction: bool) -> tuple[Array, Array, Array, Active]:
+    """The incremental two-dimensional program over every valid line. Returns the velocity,
+    the index of the first line it could not satisfy (``K`` when all were) and where the
+    velocity came from (:class:`Active`)."""
     count = lines.px.shape[0]
-    if direction:
-        vx, vy = target_x * max_speed, target_y * max_speed
-    else:
-        # floored under the root: a finite gradient where the preferred velocity is zero
-        speed = jnp.sqrt(jnp.maximum(target_x * target_x + target_y * target_y, EPS * EPS))
-        scale = jnp.where(speed > max_speed, max_speed / jnp.maximum(speed, EPS), 1.0)
-        vx, vy = target_x * scale, target_y * scale
+    vx, vy = _start_velocity(max_speed, target_x, target_y, direction)
     index = jnp.arange(count)
 
-    def add(i: Array, carry: tuple[Array, Array, Array]) -> tuple[Array, Array, Array]:
-        vx, vy, failed = carry
+    def add(i: Array, carry: tuple) -> tuple:
+        vx, vy, failed, active = carry
         violated = lines.valid[i] & (_det(lines.dx[i], lines.dy[i], lines.px[i] - vx,
                                           lines.py[i] - vy) > 0.0)
-        nx, ny, feasible = _on_line(lines, i, lines.valid & (index < i), max_speed, target_x,
-                                    target_y, direction)
+        nx, ny, feasible, (kind, bound) = _on_line(lines, i, lines.valid & (index < i),
+                                                   max_speed, target_x, target_y, direction)
         update = violated & (failed == count)
         ok = update & feasible
         failed = jnp.where(update & ~feasible, i, failed)
-        return jnp.where(ok, nx, vx), jnp.where(ok, ny, vy), failed
+        active = jax.tree.map(lambda new, old: jnp.where(ok, new, old),
+                              Active(line=i, kind=kind, bound=bound), active)
+        return jnp.where(ok, nx, vx), jnp.where(ok, ny, vy), failed, active
 
-    return jax.lax.fori_loop(0, count, add, (vx, vy, jnp.asarray(count)))
+    start = Active(*(jnp.asarray(v) for v in NO_ACTIVE))
+    return jax.lax.fori_loop(0, count, add, (vx, vy, jnp.asarray(count), start))
+
+
+def _projected(lines: Lines, i: Array) -> Lines:
+    """The lines before ``i`` projected onto the bisectors between each of them and line ``i``
+    (RVO2's fallback program runs over these)."""
+    count = lines.px.shape[0]
+    index = jnp.arange(count)
+    dxi, dyi, pxi, pyi = lines.dx[i], lines.dy[i], lines.px[i], lines.py[i]
+    determinant = _det(dxi, dyi, lines.dx, lines.dy)
+    parallel = jnp.abs(determinant) <= EPS
+    same_way = parallel & (dxi * lines.dx + dyi * lines.dy > 0.0)
+    along = _det(lines.dx, lines.dy, pxi - lines.px, pyi - lines.py) / jnp.where(
+        parallel, 1.0, determinant)
+    qx = jnp.where(parallel, 0.5 * (pxi + lines.px), pxi + along * dxi)
+    qy = jnp.where(parallel, 0.5 * (pyi + lines.py), pyi + along * dyi)
+    bx, by = lines.dx - dxi, lines.dy - dyi
+    b_len = jnp.sqrt(jnp.maximum(bx * bx + by * by, EPS * EPS))
+    return Lines(px=qx, py=qy, dx=bx / b_len, dy=by / b_len,
+                 valid=lines.valid & (index < i) & ~same_way)
 
 
 def _least_violation(lines: Lines, start: Array, max_speed: Array, vx: Array, vy: Array
-                     ) -> tuple[Array, Array]:
+                     ) -> tuple[Array, Array, Array, Active]:
     """RVO2's fallback: from line ``start`` on, move the velocity to keep the largest violation
-    of any line as small as the speed disc allows (lines before ``start`` were satisfied)."""
+    of any line as small as the speed disc allows (lines before ``start`` were satisfied).
+    Returns the velocity, the line whose projected program gave it last (``-1``: never
+    moved) and where in that program it came from (:class:`Active`)."""
     count = lines.px.shape[0]
-    index = jnp.arange(count)
 
-    def relax(i: Array, carry: tuple[Array, Array, Array]) -> tuple[Array, Array, Array]:
-        vx, vy, distance = carry
+    def relax(i: Array, carry: tuple) -> tuple:
+        vx, vy, distance, moved_by, active = carry
         dxi, dyi, pxi, pyi = lines.dx[i], lines.dy[i], lines.px[i], lines.py[i]
         worse = (i >= start) & lines.valid[i] & (_det(dxi, dyi, pxi - vx, pyi - vy) > distance)
-        # Lines j < i projected onto the bisectors between j and i.
-        determinant = _det(dxi, dyi, lines.dx, lines.dy)
-        parallel = jnp.abs(determinant) <= EPS
-        same_way = parallel & (dxi * lines.dx + dyi * lines.dy > 0.0)
-        along = _det(lines.dx, lines.dy, pxi - lines.px, pyi - lines.py) / jnp.where(
-            parallel, 1.0, determinant)
-        qx = jnp.where(parallel, 0.5 * (pxi + lines.px), pxi + along * dxi)
-        qy = jnp.where(parallel, 0.5 * (pyi + lines.py), pyi + along * dyi)
-        bx, by = lines.dx - dxi, lines.dy - dyi
-        b_len = jnp.sqrt(jnp.maximum(bx * bx + by * by, EPS * EPS))
-        projected = Lines(px=qx, py=qy, dx=bx / b_len, dy=by / b_len,
-                          valid=lines.valid & (index < i) & ~same_way)
-        nx, ny, failed = _program(projected, max_speed, -dyi, dxi, True)
+        nx, ny, failed, found = _program(_projected(lines, i), max_speed, -dyi, dxi, True)
         keep = failed < count  # numerically infeasible: keep the velocity
         nx, ny = jnp.where(keep, vx, nx), jnp.where(keep, vy, ny)
+        moved = worse & ~keep
         vx, vy = jnp.where(worse, nx, vx), jnp.where(worse, ny, vy)
         distance = jnp.where(worse, _det(dxi, dyi, pxi - vx, pyi - vy), distance)
-        return vx, vy, distance
+        active = jax.tree.map(lambda new, old: jnp.where(moved, new, old), found, active)
+        return vx, vy, distance, jnp.where(moved, i, moved_by), active
 
-    vx, vy, _ = jax.lax.fori_loop(0, count, relax, (vx, vy, jnp.asarray(0.0, vx.dtype)))
+    start_active = Active(*(jnp.asarray(v) for v in NO_ACTIVE))
+    vx, vy, _, moved_by, active = jax.lax.fori_loop(
+        0, count, relax, (vx, vy, jnp.asarray(0.0, vx.dtype), jnp.asarray(-1), start_active))
+    return vx, vy, moved_by, active
+
+
+def _tracked_solve(lines: Lines, pref_x: Array, pref_y: Array, max_speed: Array
+                   ) -> tuple[Array, Array, tuple[Active, Array, Active]]:
+    """:func:`solve`'s velocity and where it came from: ``(program's Active, the fallback's
+    line (-1: the program's velocity stands), the fallback's Active)``."""
+    vx, vy, failed, active = _program(lines, max_speed, pref_x, pref_y, False)
+    fx, fy, moved_by, fallback = _least_violation(lines, failed, max_speed, vx, vy)
+    infeasible = failed < lines.px.shape[0]
+    moved_by = jnp.where(infeasible, moved_by, -1)
+    return (jnp.where(infeasible, fx, vx), jnp.where(infeasible, fy, vy),
+            (active, moved_by, fallback))
+
+
+def _point_on(lines: Lines, active: Active, max_speed: Array, target_x: Array,
+              target_y: Array, direction: bool) -> tuple[Array, Array]:
+    """The velocity a program with this :class:`Active` gives, as a smooth function of the
+    lines, target and speed: the closed form its derivative is taken of."""
+    i, j = jnp.maximum(active.line, 0), jnp.maximum(active.bound, 0)
+    px, py, dx, dy = lines.px[i], lines.py[i], lines.dx[i], lines.dy[i]
+    disc_left, disc_right, _ = _disc_ends(px, py, dx, dy, max_speed)
+    crossing = _crossings(lines, i)[0][j]
+    by_line = active.bound >= 0
+    t = jnp.where(active.kind == 2, jnp.where(by_line, crossing, disc_right),
+                  jnp.where(by_line, crossing, disc_left))
+    if not direction:
+        t = jnp.where(active.kind == 0, dx * (target_x - px) + dy * (target_y - py), t)
+    sx, sy = _start_velocity(max_speed, target_x, target_y, direction)
+    moved = active.line >= 0
+    return jnp.where(moved, px + t * dx, sx), jnp.where(moved, py + t * dy, sy)
+
+
+def _smooth_solution(lines: Lines, pref_x: Array, pref_y: Array, max_speed: Array,
+                     where: tuple[Active, Array, Active]) -> tuple[Array, Array]:
+    """:func:`solve`'s velocity as the closed form of its active constraints ``where``."""
+    active, moved_by, fallback = where
+    vx, vy = _point_on(lines, active, max_speed, pref_x, pref_y, False)
+    i = jnp.maximum(moved_by, 0)
+    fx, fy = _point_on(_projected(lines, i), fallback, max_speed, -lines.dy[i], lines.dx[i],
+                       True)
+    return jnp.where(moved_by >= 0, fx, vx), jnp.where(moved_by >= 0, fy, vy)
+
+
+@jax.custom_jvp
+def solve(lines: Lines, pref_x: Array, pref_y: Array, max_speed: Array) -> tuple[Array, Array]:
+    """The velocity (m/s) within ``max_speed`` closest to ``(pref_x, pref_y)`` that every valid
+    line permits; the least-violating one when no velocity does (see the module doc).
+
+    Its derivative is that of the closed form of the constraints active at the solution (the
+    line it lies on and the line or disc that ends it there, or the fallback's projected line),
+    the derivative automatic differentiation through the programs' loops gives, without
+    differentiating the loops (their discrete choices are constant almost everywhere)."""
+    vx, vy, _ = _tracked_solve(lines, pref_x, pref_y, max_speed)
     return vx, vy
 
 
-def solve(lines: Lines, pref_x: Array, pref_y: Array, max_speed: Array) -> tuple[Array, Array]:
-    """The velocity (m/s) within ``max_speed`` closest to ``(pref_x, pref_y)`` that every valid
-    line permits; the least-violating one when no velocity does (see the module doc)."""
-    vx, vy, failed = _program(lines, max_speed, pref_x, pref_y, False)
-    fx, fy = _least_violation(lines, failed, max_speed, vx, vy)
-    infeasible = failed < lines.px.shape[0]
-    return jnp.where(infeasible, fx, vx), jnp.where(infeasible, fy, vy)
+@solve.defjvp
+def _solve_jvp(primals: tuple, tangents: tuple) -> tuple:
+    lines, pref_x, pref_y, max_speed = primals
+    vx, vy, where = _tracked_solve(lines, pref_x, pref_y, max_speed)
+    _, (dvx, dvy) = jax.jvp(lambda *p: _smooth_solution(*p, where), primals, tangents)
+    return (vx, vy), (dvx, dvy)
 
 
 def orca_velocity(px: Array, py: Array, vx: Array, vy: Array, radius: Array, pref_x: Array,
