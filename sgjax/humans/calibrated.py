@@ -8,11 +8,13 @@ standard ETH/UCY scenes (ETH, HOTEL, UNIV, ZARA1, ZARA2; ``sgjax crowd fit --mod
 teacher-forced one-row loss): Moussaid's and Helbing's social forces (``params.humans.forces``),
 and the headed social force model's driving, interaction and turning constants
 (``params.humans.hsfm``; its contact stiffness and friction stay as published: recorded people
-avoid contact). ORCA has none yet (its fit did not finish in the time allowed); a preset for it
-would set ``params.humans.orca``. The fits, their provenance and
-the leave-one-scene-out scores that say how well such a fit forecasts a scene it never saw are
-in ``docs/results/calibration/`` (docs/results.md). The other constants (desired speeds,
-walls) stay as published."""
+avoid contact). ORCA has none: its one fitted constant, the time horizon, has no finite
+optimum on these recordings (the one-row loss falls in every scene up to a 1,000 s horizon:
+``bench/orca_time_horizon.py``, docs/results.md), so a preset would name wherever a fit
+stopped; ``human_constants="eth_ucy"`` with ``human_model="orca"`` is an error. The fits,
+their provenance and the leave-one-scene-out scores that say how well such a fit forecasts a
+scene it never saw are in ``docs/results/calibration/`` (docs/results.md). The other constants
+(desired speeds, walls) stay as published."""
 
 from __future__ import annotations
 
@@ -28,6 +30,11 @@ CALIBRATED: dict[str, dict[str, dict[str, float]]] = {
                  "k_damping": 2117.9, "k_lambda": 0.042117},
     },
 }
+# preset -> law -> why it holds no constants for that law
+NOT_FITTED: dict[str, dict[str, str]] = {
+    "eth_ucy": {"orca": "its time horizon has no finite optimum on these recordings (the "
+                        "one-row loss falls up to a 1,000 s horizon: bench/orca_time_horizon.py)"},
+}
 CONSTANT_SETS = ("published", *CALIBRATED)
 # law -> the HumanParams field holding its constants
 PARAMS_FIELD = {"moussaid": "forces", "helbing": "forces", "hsfm": "hsfm", "orca": "orca"}
@@ -42,8 +49,10 @@ def fitted_constants(name: str, model: str) -> dict[str, float]:
         raise ValueError(f"human_constants must be one of {CONSTANT_SETS}, got {name!r}")
     fitted = CALIBRATED[name]
     if model not in fitted:
+        why = NOT_FITTED.get(name, {}).get(model)
         raise ValueError(f"human_constants={name!r} holds constants fitted for "
-                         f"{', '.join(fitted)}, not for human_model={model!r}")
+                         f"{', '.join(fitted)}, not for human_model={model!r}"
+                         + (f": {why}" if why else ""))
     return dict(fitted[model])
 
 

@@ -43,8 +43,11 @@ def test_make_puts_the_preset_in_the_params_of_its_law_alone(model):
 
 def test_a_law_without_a_fit_or_an_unknown_preset_is_refused(monkeypatch):
     monkeypatch.setitem(CALIBRATED, "eth_ucy", {"moussaid": CALIBRATED["eth_ucy"]["moussaid"]})
-    with pytest.raises(ValueError, match="not for human_model='orca'"):
+    with pytest.raises(ValueError, match="not for human_model='orca': its time horizon has no"):
         sgjax.make("open", num_agents=2, num_humans=4, human_model="orca",
+                   human_constants="eth_ucy")  # and why
+    with pytest.raises(ValueError, match=r"not for human_model='helbing'$"):
+        sgjax.make("open", num_agents=2, num_humans=4, human_model="helbing",
                    human_constants="eth_ucy")
     with pytest.raises(ValueError, match="human_constants"):
         sgjax.make("open", num_agents=2, num_humans=4, human_constants="eth-ucy")
