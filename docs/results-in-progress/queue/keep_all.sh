@@ -29,12 +29,6 @@ for a in /work/runs/acting/*.msgpack; do
   [ -f $D/transfer/arms/$name.msgpack ] || bash /work/runs-logs/keep_arm.sh $name
 done
 cd /work/main && git status --short docs/results-in-progress | head -30
-# ORCA fitted on all five scenes (an hour a phase)
-O=/work/runs/crowd-clean/all_orca_3600
-[ -f $O/crowd_fit.json ] && mkdir -p $D/calibration/all_orca && cp $O/crowd_fit.* $D/calibration/all_orca/
-# ORCA fitted on all five scenes with the closed-form gradient (calib5)
-O=/work/runs/crowd-clean/all_orca_fast
-[ -f $O/crowd_fit.json ] && mkdir -p $D/calibration/all_orca && cp $O/crowd_fit.* $D/calibration/all_orca/
 L=/work/runs/calibration/loso_orca_fast
 [ -f $L/crowd_fit.partial.json ] && mkdir -p $D/calibration/loso_orca_fast && cp $L/crowd_fit.partial.json $D/calibration/loso_orca_fast/
 [ -f $L/crowd_fit.json ] && mkdir -p $D/calibration/loso_orca_fast && cp $L/crowd_fit.* $D/calibration/loso_orca_fast/
