@@ -544,21 +544,12 @@ def worst_section(worst: Mapping[str, Any]) -> list[str]:
                        for name in arms for a in worst["alphas"])]
             for family in FAMILIES if all(family in arms[n]["families"] for n in arms)]
     return [f"## Worst case over {worst['worlds']:,} held-out worlds per family", "",
-            *_worst_protocol(worst),
-            "Mean over seeds [95% percentile-bootstrap interval over seeds].",
+            "Each seed plays every world of the family's test split once (rollout key A) "
+            "and the worst worlds again (rollout key B); its score is rollout B's team "
+            "success on the alpha share rollout A scored lowest (SFL's worst alpha%: ranking "
+            "and scoring on one rollout would pick worlds for their bad luck). Mean over "
+            "seeds [95% percentile-bootstrap interval over seeds].",
             "", *markdown_table(header, rows), ""]
-
-
-def _worst_protocol(worst: Mapping[str, Any]) -> list[str]:
-    if worst.get("protocol") == WORST_PROTOCOL:
-        return ["Each seed plays every world of the family's test split once (rollout key A) "
-                "and the worst worlds again (rollout key B); its score is rollout B's team "
-                "success on the alpha share rollout A scored lowest (SFL's worst alpha%: "
-                "ranking and scoring on one rollout would pick worlds for their bad luck)."]
-    return ["Each seed plays every world of the family's test split twice (rollout keys A "
-            "and B); its score is rollout B's team success on the worlds rollout A scored "
-            "lowest (SFL's worst alpha%: ranking and scoring on one rollout would pick worlds "
-            "for their bad luck)."]
 
 
 def _mean(values: Any) -> float:

@@ -128,11 +128,9 @@ class WorstPlays:
         """``(mean, count)``: rollout B's mean over the ``ceil(alpha x valid)`` worlds rollout
         A scored lowest (NaN, 0 where no world was valid); ``alpha`` may not exceed the
         largest alpha played."""
-        if not 0.0 < alpha <= 1.0:
-            raise ValueError(f"alpha must lie in (0, 1], got {alpha}")
+        count = worst_count(alpha, self.scored)
         if not self.scored:
             return math.nan, 0
-        count = max(1, math.ceil(alpha * self.scored))
         if count > len(self.worst):
             raise ValueError(f"alpha {alpha:g} needs the worst {count} worlds; rollout B "
                              f"played the worst {len(self.worst)} only")
@@ -154,7 +152,7 @@ def play_worst(env: SocialNavEnv, params: EnvParams, policy: Policy | RecurrentP
     _, first = play_rollout(runner, draw, params, seeds, key_a)
     ranked = first[RANKED]
     scored = np.flatnonzero(np.isfinite(ranked))
-    count = math.ceil(max(alphas) * len(scored)) if len(scored) else 0
+    count = worst_count(max(alphas), len(scored)) if len(scored) else 0
     worst = scored[np.argsort(ranked[scored], kind="stable")[:count]]
     _, second = play_rollout(runner, draw, params, seeds[worst], key_b)
     return WorstPlays(seeds=seeds, ranked=ranked, worst=worst, second=second[RANKED])
@@ -172,16 +170,23 @@ def world_players(env: SocialNavEnv, params: EnvParams, policy: Any, chunk: int
     return runner, jax.jit(jax.vmap(source.of_seed))
 
 
+def worst_count(alpha: float, scored: int) -> int:
+    """How many of ``scored`` worlds the worst ``alpha`` share holds: ``ceil(alpha N)``, at
+    least one; an error for an alpha outside (0, 1]."""
+    if not 0.0 < alpha <= 1.0:
+        raise ValueError(f"alpha must lie in (0, 1], got {alpha}")
+    return max(1, math.ceil(alpha * scored))
+
+
 def worst_fraction(first: np.ndarray, second: np.ndarray, alpha: float) -> tuple[float, int]:
     """``(mean, count)``: the mean of ``second`` over the ``ceil(alpha N)`` worlds ``first``
     scored lowest (``N`` the worlds with both scores; ties in world order)."""
-    if not 0.0 < alpha <= 1.0:
-        raise ValueError(f"alpha must lie in (0, 1], got {alpha}")
+    worst_count(alpha, 1)  # an alpha outside (0, 1] is an error even with no world
     keep = np.isfinite(first) & np.isfinite(second)
     first, second = first[keep], second[keep]
     if not len(first):
         return math.nan, 0
-    count = max(1, math.ceil(alpha * len(first)))
+    count = worst_count(alpha, len(first))
     worst = np.argsort(first, kind="stable")[:count]
     return float(np.mean(second[worst])), count
 

@@ -191,9 +191,10 @@ TRANSFER_SCHEMA: dict[str, Any] = {
         # maps some arm has not played yet (or of other sets), kept for a later --resume
         "unfinished": {"type": "object"},
         # the worst alpha% per arm and generated family: {alpha: [one value per seed]};
-        # "protocol" "sfl": rollout B played only the worst worlds (absent: every world
-        # twice); its own provenance (it may be played by later code than the maps)
-        "worst": {"type": "object", "required": ["worlds", "alphas", "arms"], "properties": {
+        # "protocol" "sfl": rollout B played only the worst worlds; its own provenance (it
+        # may be played by later code than the maps)
+        "worst": {"type": "object", "required": ["worlds", "alphas", "protocol", "arms"],
+                  "properties": {
             "worlds": {"type": "integer", "minimum": 1},
             "alphas": {"type": "array", "items": {"type": "string"}},
             "protocol": {"enum": ["sfl"]},
