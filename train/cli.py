@@ -6,9 +6,12 @@ beside the baseline and a GIF of an evaluation episode.
 Writes into ``logging.out`` (or ``--out``): ``config.yaml``, ``progress.csv`` and its
 ``learning_curve.png`` (``train.reports.curves``), TensorBoard events under ``tb/``,
 ``checkpoints/{latest,best}.msgpack``, and ``eval/`` (``metrics.json``,
-``metrics.csv``, ``table.md``, charts, ``episode.gif``) and ``provenance.json`` (commit,
-versions, machine, command, seeds, phase times). ``--resume`` continues from
-``checkpoints/latest.msgpack``.
+``metrics.csv``, ``table.md``, charts, ``episode.gif``; with a baseline ``paired.json`` and
+``paired.md``: both policies' team success on the same episodes and their paired difference;
+with several seeds ``seed_spread.json`` and ``seed_spread.md``) and ``provenance.json``
+(commit, versions, machine, command, seeds, phase times). ``--resume`` continues from
+``checkpoints/latest.msgpack``; ``--from-results RUN/eval`` writes the two markdown tables again
+from their JSON files.
 """
 
 from __future__ import annotations
@@ -32,7 +35,13 @@ from sgjax.evaluation.provenance import provenance
 from sgjax.evaluation.render import episode_frames, recorded_map, save_gif
 from sgjax.evaluation.report import markdown_table, summary_tables, write_all
 from sgjax.evaluation.runner import Episodes
-from sgjax.evaluation.statistics import Summary, paired_difference, seed_aggregate
+from sgjax.evaluation.statistics import (
+    ConfigResult,
+    Summary,
+    paired_difference,
+    seed_aggregate,
+    t_interval,
+)
 from sgjax.evaluation.trained import TrainedEvaluation
 from sgjax.files import write_atomic
 from sgjax.terms.base import ConfigError
@@ -50,7 +59,7 @@ from train.algorithm.config import (
 from train.algorithm.trainer import Trainer, seed_keys
 from train.algorithm.world_curriculum import LEVEL_STATS
 from train.reports.curves import plot_learning_curves
-from train.reports.result_schemas import SEED_SPREAD
+from train.reports.result_schemas import PAIRED, SEED_SPREAD
 from train.run import checkpoint
 from train.run.loop import Call, train_in_calls
 from train.run.phases import Phases
@@ -330,6 +339,11 @@ def final_evaluation(config: TrainConfig, out: Path, path: Path) -> dict[str, An
     write_all(results, out / "eval", DEFAULT_CONSTANTS, made)
     print(summary_tables(results))
     _print_paired(paired, e.baseline, _trained_name(config), e.episodes)
+    if any(paired.values()):
+        document = paired_document(trained + baseline, paired, _trained_name(config),
+                                   e.baseline, e.episodes, made)
+        write_atomic(out / "eval" / "paired.json", json.dumps(document, indent=1) + "\n")
+        write_atomic(out / "eval" / "paired.md", paired_markdown(document))
     _print_seed_spread(spread, e.baseline, e.episodes)
     if any(spread.values()):
         document = _seed_spread_document(spread, _trained_name(config), e.baseline,
@@ -399,6 +413,52 @@ def _print_seed_spread(spread: dict[str, dict[int, dict[str, Any]]], baseline: s
             print(line)
 
 
+def paired_document(results: list[ConfigResult], paired: dict[str, dict[int, Summary]],
+                    policy: str, baseline: str | None, episodes: int,
+                    made: dict[str, Any]) -> dict[str, Any]:
+    """``eval/paired.json`` (``sgjax.paired/1``): per scenario and robot count, the team
+    success of the evaluated policy and of the baseline on the same ``episodes`` (mean and 95%
+    interval, as ``metrics.json`` has them) and their paired difference (mean [95% t interval]
+    over the episodes, :func:`sgjax.evaluation.statistics.paired_difference`). ``results``: the
+    final evaluation's :class:`sgjax.evaluation.statistics.ConfigResult` of both policies."""
+    success = {(r.policy, r.scenario, r.num_agents): r.metrics["team_success"]
+               for r in results}
+    scenarios = {}
+    for scenario, by_count in paired.items():
+        if by_count:
+            scenarios[scenario] = {str(n): {
+                "policy": success[policy, scenario, n].as_dict(),
+                "baseline": success[baseline, scenario, n].as_dict(),
+                "difference": d.as_dict()} for n, d in by_count.items()}
+    return {"schema_version": PAIRED, "provenance": made, "policy": policy,
+            "baseline": baseline, "episodes": episodes, "scenarios": scenarios}
+
+
+def paired_markdown(document: dict[str, Any]) -> str:
+    """A ``paired.json`` document as one markdown table per scenario: robot counts as columns;
+    rows the policy's and the baseline's team success (mean [95% interval]) and the paired
+    difference (mean [95% t interval])."""
+
+    def cell(s: dict[str, Any], sign: str = "") -> str:
+        return f"{s['mean']:{sign}.2f} [{s['ci_low']:{sign}.2f}, {s['ci_high']:{sign}.2f}]"
+
+    policy, baseline = document["policy"], document["baseline"]
+    p = document["provenance"]
+    commit = ((p.get("git") or {}).get("commit") or "unknown")[:7]
+    lines = []
+    for scenario, cells in document["scenarios"].items():
+        counts = list(cells)
+        lines += [f"{scenario}: team success on the same {document['episodes']} episodes per "
+                  f"robot count, mean [95% interval] (sgjax {p['versions']['sgjax']}, "
+                  f"{p['machine']['cpu']}, commit {commit}).", "",
+                  *markdown_table(["robots", *counts], [
+                      [policy, *(cell(cells[n]["policy"]) for n in counts)],
+                      [baseline, *(cell(cells[n]["baseline"]) for n in counts)],
+                      [f"{policy} - {baseline}, paired",
+                       *(cell(cells[n]["difference"], "+") for n in counts)]]), ""]
+    return "\n".join(lines).rstrip("\n") + "\n"
+
+
 def _seed_spread_document(spread: dict[str, dict[int, dict[str, Any]]], policy: str,
                           baseline: str | None, episodes: int,
                           made: dict[str, Any]) -> dict[str, Any]:
@@ -424,7 +484,8 @@ def seed_spread_markdown(document: dict[str, Any]) -> str:
     baseline = document["baseline"]
     header = ["Scenario", "Robots", "Team success per seed", "Mean [95% CI]", "IQM [95% CI]"]
     if baseline:
-        header.append(f"Each seed - {baseline}, paired")
+        header += [f"Each seed - {baseline}, paired",
+                   f"Mean - {baseline} [95% t over seeds]"]
     rows = []
     for scenario, cells in document["scenarios"].items():
         for count, cell in cells.items():
@@ -433,14 +494,46 @@ def seed_spread_markdown(document: dict[str, Any]) -> str:
                    f"{a['mean']:.3f} [{a['mean_low']:.3f}, {a['mean_high']:.3f}]",
                    f"{a['iqm']:.3f} [{a['iqm_low']:.3f}, {a['iqm_high']:.3f}]"]
             if baseline:
+                differences = [d["mean"] for d in cell.get("paired", [])]
                 row.append("; ".join(f"{d['mean']:+.3f} [{d['ci_low']:+.3f}, {d['ci_high']:+.3f}]"
                                      for d in cell.get("paired", [])) or "n/a")
+                row.append(_over_seeds(differences))
             rows.append(row)
-    commit = (document["provenance"].get("git") or {}).get("commit") or "unknown"
+    made = document["provenance"]
+    commit = (made.get("git") or {}).get("commit") or "unknown"
     lines = [f"{document['policy']}: team success of every training seed on the same "
-             f"{document['episodes']} evaluation episodes (commit {commit[:7]}).", "",
+             f"{document['episodes']} evaluation episodes (sgjax {made['versions']['sgjax']}, "
+             f"commit {commit[:7]}, {made['machine']['cpu']}). The last column is the mean over "
+             "seeds of each seed's paired difference, with a Student-t interval over the seeds "
+             "(the seed is the unit: it holds the training seeds' spread and, within each "
+             "seed's mean, the episodes').", "",
              *markdown_table(header, rows)]
     return "\n".join(lines) + "\n"
+
+
+def _over_seeds(differences: list[float]) -> str:
+    """``mean [low, high]`` of per-seed paired differences with a 95% Student-t interval over
+    the seeds (:func:`sgjax.evaluation.statistics.t_interval`); ``n/a`` under two seeds."""
+    if len(differences) < 2:
+        return "n/a"
+    low, high = t_interval(np.asarray(differences, float))
+    return f"{np.mean(differences):+.3f} [{low:+.3f}, {high:+.3f}]"
+
+
+def tables_from_results(folder: Path) -> list[Path]:
+    """Write a run's ``eval/seed_spread.md`` and ``eval/paired.md`` again from the JSON files
+    beside them (``python -m train --from-results RUN/eval``); returns the files written.
+    Raises ``ValueError`` naming the folder when it holds neither JSON file."""
+    written = []
+    for name, markdown in (("seed_spread", seed_spread_markdown), ("paired", paired_markdown)):
+        source = folder / f"{name}.json"
+        if source.is_file():
+            write_atomic(folder / f"{name}.md", markdown(json.loads(source.read_text())))
+            written.append(folder / f"{name}.md")
+    if not written:
+        raise ValueError(f"--from-results {folder}: no seed_spread.json or paired.json there "
+                         "(a run's eval folder)")
+    return written
 
 
 def _trained_name(config: TrainConfig) -> str:
@@ -585,17 +678,26 @@ def _socialgym_config(path: str, overrides: list[str]) -> TrainConfig | None:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m train", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--config", required=True,
+    parser.add_argument("--config", default=None,
                         help="YAML file (train/configs/*.yaml), or a SocialGym 2.0 experiment "
-                             "config (.json)")
+                             "config (.json); required unless --from-results")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                         help="override one config key (repeatable), e.g. algorithm.total_steps=1e6")
     parser.add_argument("--out", default=None, help="run folder (default: logging.out)")
     parser.add_argument("--resume", action="store_true",
                         help="continue from <out>/checkpoints/latest.msgpack")
+    parser.add_argument("--from-results", default=None, metavar="RUN/eval",
+                        help="write a run's seed_spread.md and paired.md again from their JSON "
+                             "files, then exit (no training)")
     add_cache_arguments(parser)
     args = parser.parse_args(argv)
+    if args.from_results is None and args.config is None:
+        parser.error("--config is required (or --from-results RUN/eval)")
     try:
+        if args.from_results is not None:
+            for path in tables_from_results(Path(args.from_results)):
+                print(f"wrote {path}")
+            return
         cache_from_arguments(args)
         config = _socialgym_config(args.config, args.set) or load_config(args.config, args.set)
         train(config, Path(args.out or config.logging.out), resume=args.resume)

@@ -1,4 +1,5 @@
-"""docs/results.md's generated tables equal the files the runs wrote (train.reports.results_doc)."""
+"""docs/results.md's and the README's generated tables equal the files the runs wrote
+(train.reports.results_doc)."""
 
 from pathlib import Path
 
@@ -13,6 +14,13 @@ def test_every_generated_block_of_the_results_document_matches_its_file(capsys):
     assert stale == [], (f"stale: {stale} (python -m train.reports.results_doc docs/results.md "
                          "--write)")
     assert text.count("<!-- generated from docs/results/") >= 4
+
+
+def test_the_readmes_main_job_table_is_the_published_runs_file():
+    text = (ROOT / "README.md").read_text()
+    _, stale = refresh(text, "README.md")
+    assert stale == [], "stale: python -m train.reports.results_doc README.md --write"
+    assert "<!-- generated from docs/results/main_job/paired.md -->" in text
 
 
 def _doc(tmp_path: Path, body: str) -> str:

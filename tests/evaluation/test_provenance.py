@@ -139,9 +139,12 @@ def test_every_published_result_file_follows_its_schema():
         name = path.relative_to(folder).as_posix()
         if name in LEGACY_RESULTS or path.name == "marl_eval.json":
             continue  # marl_eval.json: the results.json beside it in marl-eval's layout
-        check_document(json.loads(path.read_text()))
+        if path.name == "provenance.json":  # a training run's own block, beside its results
+            check_block(json.loads(path.read_text()))
+        else:
+            check_document(json.loads(path.read_text()))
         checked.append(name)
     assert "sweeps/doorway/sweep.json" in checked and "tuned_doorway/ablation.json" in checked
-    assert "shipped_configs/doorway/seed_spread.json" in checked
+    assert "release-0.5.0/shipped/doorway/seed_spread.json" in checked
     assert "reproduce-protocol/results.json" in checked and "table5/ablation.json" in checked
     assert {p.relative_to(folder).as_posix() for p in found} >= LEGACY_RESULTS

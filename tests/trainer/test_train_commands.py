@@ -188,6 +188,21 @@ def test_final_evaluation_reports_every_training_seed(tmp_path, capsys):
     assert document["scenarios"]["open"]["2"]["team_success"] == cell["seeds"]
     table = (tmp_path / "eval" / "seed_spread.md").read_text()
     assert f"| open | 2 | {cell['seeds'][0]:.3f} {cell['seeds'][1]:.3f} |" in table
+    paired = json.loads((tmp_path / "eval" / "paired.json").read_text())
+    check_document(paired)
+    both = paired["scenarios"]["open"]["2"]
+    assert both["policy"]["mean"] == team["trained (ippo)"]
+    assert both["baseline"]["mean"] == team["only_local"]
+    assert both["difference"]["mean"] == pytest.approx(team["trained (ippo)"]
+                                                       - team["only_local"])
+    assert both["difference"]["n"] == 4
+    lines = (tmp_path / "eval" / "paired.md").read_text().splitlines()
+    assert lines[0].startswith("open: team success on the same 4 episodes per robot count")
+    assert lines[2:5] == ["| robots | 2 |", "|---|---|",
+                          f"| trained (ippo) | {team['trained (ippo)']:.2f} "
+                          f"[{both['policy']['ci_low']:.2f}, {both['policy']['ci_high']:.2f}] |"]
+    assert lines[6].startswith(f"| trained (ippo) - only_local, paired | "
+                               f"{both['difference']['mean']:+.2f} [")
     out = capsys.readouterr().out
     assert "team success of each of the 2 training seeds on the same 4 episodes" in out
     assert "  2 robots: seeds " in out and "above only_local" in out

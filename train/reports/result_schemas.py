@@ -9,6 +9,9 @@ file at once (``docs/results/schema.json``).
 - ``sgjax.seed_spread/1``: ``RUN/eval/seed_spread.json`` of a training run of several seeds
   (every seed's team success on the final evaluation's episodes, the aggregate over seeds and
   each seed's paired difference against the baseline);
+- ``sgjax.paired/1``: ``RUN/eval/paired.json`` of a training run with a baseline (the
+  evaluated policy's and the baseline's team success on the same episodes per robot count, and
+  their paired difference);
 - ``sgjax.transfer/1``: ``transfer.json`` of ``python -m train.transfer`` (trained runs on
   held-out worlds: every seed's team success per episode on every map beside Only Local's, the
   paired comparisons);
@@ -35,6 +38,7 @@ REPRODUCE = "sgjax.reproduce/1"
 ABLATION = "sgjax.ablation/1"
 SWEEP = "sgjax.sweep/1"
 SEED_SPREAD = "sgjax.seed_spread/1"
+PAIRED = "sgjax.paired/1"
 TRANSFER = "sgjax.transfer/1"
 
 _PER_SEED_METRICS = {
@@ -161,6 +165,28 @@ SEED_SPREAD_SCHEMA: dict[str, Any] = {
     },
 }
 
+PAIRED_SCHEMA: dict[str, Any] = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "title": "sgjax training run eval/paired.json",
+    "type": "object",
+    "required": ["schema_version", "provenance", "policy", "baseline", "episodes",
+                 "scenarios"],
+    "properties": {
+        "schema_version": {"const": PAIRED},
+        "provenance": PROVENANCE_SCHEMA,
+        "policy": {"type": "string"},
+        "baseline": {"type": "string"},
+        "episodes": {"type": "integer", "minimum": 1},
+        # scenario -> robot count -> both policies' team success and their paired difference
+        "scenarios": {"type": "object", "additionalProperties": {
+            "type": "object", "patternProperties": {COUNT_KEY: {
+                "type": "object", "required": ["policy", "baseline", "difference"],
+                "properties": {"policy": SUMMARY, "baseline": SUMMARY,
+                               "difference": SUMMARY}}},
+            "additionalProperties": False}},
+    },
+}
+
 _EPISODES = {"type": "array", "items": NUMBER_OR_NULL}
 _PER_EPISODE = {"type": "object", "required": ["team_success", "collisions", "makespan"],
                 "additionalProperties": _EPISODES}
@@ -223,7 +249,7 @@ TRANSFER_SCHEMA: dict[str, Any] = {
 
 RESULT_SCHEMAS: dict[str, dict[str, Any]] = {
     **evaluate_schema.RESULT_SCHEMAS, REPRODUCE: REPRODUCE_SCHEMA, ABLATION: ABLATION_SCHEMA,
-    SWEEP: SWEEP_SCHEMA, SEED_SPREAD: SEED_SPREAD_SCHEMA,
+    SWEEP: SWEEP_SCHEMA, SEED_SPREAD: SEED_SPREAD_SCHEMA, PAIRED: PAIRED_SCHEMA,
     TRANSFER: TRANSFER_SCHEMA}
 
 
