@@ -3,14 +3,7 @@
 D=/work/main/docs/results-in-progress
 R=/work/runs/release-0.5.0
 mkdir -p $D/release-0.5.0
-# shipped configs: finished runs' small files (checkpoints are not kept: a run restarts)
-for name in doorway hallway intersection; do
-  run=$R/shipped/$name
-  [ -f $run/DONE ] || continue
-  mkdir -p $D/release-0.5.0/shipped/$name
-  cp $run/{config.yaml,progress.csv,provenance.json} $D/release-0.5.0/shipped/$name/
-  cp $run/eval/{metrics.json,table.md,seed_spread.json,seed_spread.md} $D/release-0.5.0/shipped/$name/ 2>/dev/null
-done
+# shipped configs: published in docs/results/release-0.5.0/shipped/ (2026-11-29)
 [ -f $R/table5/ablation.partial.json ] && mkdir -p $D/release-0.5.0/table5 && cp $R/table5/ablation.partial.json $D/release-0.5.0/table5/
 [ -f $R/table5/ablation.json ] && mkdir -p $D/release-0.5.0/table5 && cp $R/table5/ablation.{json,md} $D/release-0.5.0/table5/ 2>/dev/null
 for t in tables34-sgjax tables34-socialgym; do
