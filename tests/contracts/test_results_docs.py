@@ -57,3 +57,19 @@ def test_the_command_fails_on_a_stale_block_and_write_fixes_it(tmp_path, monkeyp
     assert "1 block(s) differ from their files: table.md" in capsys.readouterr().out
     assert main([str(doc), "--write"]) == 0
     assert main([str(doc)]) == 0 and "| 0.5 |" in doc.read_text()
+
+
+def test_a_files_sections_sit_one_level_below_the_documents_section(tmp_path):
+    (tmp_path / "parts.md").write_text("# Title\n\n## Part\n\ntext\n\n### Detail\n\n```text\n"
+                                       "## not a heading\n```\n")
+    document = ("# Results\n\n## Section\n\n```text\n# code, not a heading\n```\n\n"
+                "<!-- generated from parts.md -->\n<!-- end generated -->\n\n"
+                "## Next\n\n<!-- generated from parts.md -->\n<!-- end generated -->\n")
+    new, stale = refresh(document, "doc.md", tmp_path)
+    assert stale == ["parts.md", "parts.md"]
+    first, second = new.split("## Next")
+    assert "### Part" in first and "#### Detail" in first and "\n## not a heading" in first
+    assert "Title" not in new and "# code, not a heading" in first
+    assert "### Part" in second and "\n## Part" not in new
+    top = "<!-- generated from parts.md -->\n<!-- end generated -->\n"
+    assert "\n## Part" in refresh(top, "doc.md", tmp_path)[0]  # no section: the file's levels

@@ -7,7 +7,10 @@ A block in the document between
     <!-- end generated -->
 
 holds that file's text (path relative to the repository root), less its title lines (lines
-beginning ``# ``: the document's own heading names the section). The runs write those files
+beginning ``# ``: the document's own heading names the section), its own section headings
+moved one level below the document's section that holds the block (a file's ``## Summary``
+under the document's ``## Transfer`` becomes ``### Summary``), so the page's outline stays
+the page's. The runs write those files
 (``train.reproduce``, ``--from-results``, ``train.ablation``, ``python -m train``), so a number
 in the document is never copied by hand::
 
@@ -34,10 +37,35 @@ class DocumentError(ValueError):
     """A document whose generated blocks cannot be checked (missing file, unclosed block)."""
 
 
-def generated_text(source: Path) -> str:
+HEADING = re.compile(r"^(#{1,6}) ")
+
+
+def heading_level(text: str) -> int:
+    """The level of the last Markdown heading in ``text`` (0 when none), fenced code left out."""
+    level, fenced = 0, False
+    for line in text.splitlines():
+        if line.startswith("```"):
+            fenced = not fenced
+        elif not fenced and (match := HEADING.match(line)):
+            level = len(match[1])
+    return level
+
+
+def generated_text(source: Path, level: int = 1) -> str:
     """The block text for ``source``: its lines less the ``# `` title lines, ending in a
-    newline, without leading or trailing blank lines."""
-    lines = [line for line in source.read_text().splitlines() if not line.startswith("# ")]
+    newline, without leading or trailing blank lines; its ``##`` headings (and deeper) moved to
+    ``level + 1`` (and deeper) for a block inside a section of ``level`` (at most ``######``)."""
+    lines, fenced = [], False
+    for line in source.read_text().splitlines():
+        if line.startswith("```"):
+            fenced = not fenced
+        match = None if fenced else HEADING.match(line)
+        if match and len(match[1]) == 1:
+            continue
+        if match:
+            depth = min(len(match[1]) - 1 + max(level, 1), 6)
+            line = "#" * depth + line[len(match[1]):]
+        lines.append(line)
     return "\n".join(lines).strip("\n") + "\n"
 
 
@@ -57,7 +85,7 @@ def refresh(text: str, where: str, root: Path = ROOT) -> tuple[str, list[str]]:
             line = text.count("\n", 0, match.start()) + 1
             raise DocumentError(f"{where}:{line}: generated block names {match['source']}, "
                                 "which does not exist")
-        body = generated_text(source)
+        body = generated_text(source, heading_level(text[:match.start()]))
         if body != match["body"]:
             stale.append(match["source"])
         return f"{match.group(1)}{body}{match.group(4)}"
