@@ -437,20 +437,21 @@ def paired_document(results: list[ConfigResult], paired: dict[str, dict[int, Sum
 def paired_markdown(document: dict[str, Any]) -> str:
     """A ``paired.json`` document as one markdown table per scenario: robot counts as columns;
     rows the policy's and the baseline's team success (mean [95% interval]) and the paired
-    difference (mean [95% t interval])."""
+    difference (mean [95% t interval]). No commit in the text (the provenance holds it): the
+    README includes the main job's table."""
 
     def cell(s: dict[str, Any], sign: str = "") -> str:
         return f"{s['mean']:{sign}.2f} [{s['ci_low']:{sign}.2f}, {s['ci_high']:{sign}.2f}]"
 
     policy, baseline = document["policy"], document["baseline"]
     p = document["provenance"]
-    commit = ((p.get("git") or {}).get("commit") or "unknown")[:7]
     lines = []
     for scenario, cells in document["scenarios"].items():
         counts = list(cells)
         lines += [f"{scenario}: team success on the same {document['episodes']} episodes per "
-                  f"robot count, mean [95% interval] (sgjax {p['versions']['sgjax']}, "
-                  f"{p['machine']['cpu']}, commit {commit}).", "",
+                  "robot count, mean [95% interval: Wilson per policy, Student-t over the "
+                  f"episodes for the paired difference] (sgjax {p['versions']['sgjax']}, "
+                  f"{p['machine']['cpu']}; the commit is in the provenance).", "",
                   *markdown_table(["robots", *counts], [
                       [policy, *(cell(cells[n]["policy"]) for n in counts)],
                       [baseline, *(cell(cells[n]["baseline"]) for n in counts)],
