@@ -500,6 +500,20 @@ def format_table(scores: Mapping[str, list[float]], paper: Mapping[str, int | No
     return "\n".join(lines) + "\n"
 
 
+def table_of(document: Mapping[str, Any]) -> str:
+    """``ablation.md`` again from an ``ablation.json`` document (schema :data:`ABLATION`):
+    one :func:`format_table` per robot count; the paper's value beside every variant named
+    as a row of the paper's Table 5 (:data:`PAPER_VARIANTS`), none for the others (a file of
+    another variants set, or an older name)."""
+    variants = set(document["variants"])
+    paper = {name: cited for name, (_, cited) in PAPER_VARIANTS.items() if name in variants}
+    if all(cited is None for cited in paper.values()):
+        paper = {}
+    scenario = document["config"]["env"]["scenarios"][0]
+    return "\n".join(format_table(scores, paper, scenario, int(n), int(document["episodes"]))
+                     for n, scores in document["team_success_by_robots"].items())
+
+
 def parser() -> argparse.ArgumentParser:
     """The command line of ``python -m train.ablation``."""
     parser = argparse.ArgumentParser(

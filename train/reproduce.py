@@ -609,13 +609,25 @@ def write_tables(results: dict, counts: Sequence[int], table_robots: int, seeds:
     return tables
 
 
+def results_of(document: dict) -> tuple[dict, list[int]]:
+    """A ``results.json`` document's results (robot counts as ints) and its counts."""
+    counts = [int(n) for n in document["counts"]]
+    results = {s: {b: {int(n): m for n, m in c.items()} for b, c in r.items()}
+               for s, r in document["results"].items()}
+    return results, counts
+
+
+def tables_of(document: dict, table_robots: int = 4) -> dict[str, str]:
+    """Every markdown table of a ``results.json`` document, by file name (no files written)."""
+    results, counts = results_of(document)
+    return format_tables(results, counts, table_robots, int(document["seeds"]))
+
+
 def tables_from_results(path: Path, out: Path, table_robots: int = 4) -> dict[str, str]:
     """Write the tables again from a ``results.json`` (no training): ``out`` gets the same
     markdown files as a run. Returns them by name."""
     document = json.loads(Path(path).read_text())
-    counts = [int(n) for n in document["counts"]]
-    results = {s: {b: {int(n): m for n, m in c.items()} for b, c in r.items()}
-               for s, r in document["results"].items()}
+    results, counts = results_of(document)
     tables = write_tables(results, counts, table_robots, int(document["seeds"]), out)
     write_atomic(out / "marl_eval.json", json.dumps(to_marl_eval(document), indent=1))
     return tables

@@ -11,7 +11,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 MODULES = ["train.cli", "train.ablation", "train.reports.curves", "train.reports.marl_eval",
-           "train.reproduce", "train.run.socialgym_config", "train.sweep", "train.transfer",
+           "train.reproduce", "train.run.socialgym_config", "train.sweep", "train.tables",
+           "train.transfer",
            "train.reports.sweep_table", "sgjax.command",
            "sgjax.evaluation.metrics.catalogue", "train.reports.result_schemas"]
 # bench/ and scripts/ files that read arguments (make_maps and make_pictures take none).

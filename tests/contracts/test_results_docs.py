@@ -73,3 +73,46 @@ def test_a_files_sections_sit_one_level_below_the_documents_section(tmp_path):
     assert "### Part" in second and "\n## Part" not in new
     top = "<!-- generated from parts.md -->\n<!-- end generated -->\n"
     assert "\n## Part" in refresh(top, "doc.md", tmp_path)[0]  # no section: the file's levels
+
+
+def test_every_published_table_is_what_the_current_code_makes_of_its_json():
+    from train.tables import regenerate
+
+    changed, same, skipped = regenerate([ROOT / "docs" / "results"], check=True)
+    assert changed == [], (f"{[str(p) for p in changed]}: python -m train.tables docs/results")
+    names = {p.relative_to(ROOT / "docs" / "results").as_posix() for p in same}
+    assert {"table5/ablation.md", "release-0.5.0/shipped/doorway/seed_spread.md",
+            "main_job/paired.md", "calibration/loso_orca/crowd_fit.md",
+            "release-0.4.0/tables34-sgjax/success_table.md",
+            "crowd_gap/transfer.md"} <= names
+    assert skipped > 0  # provenance blocks, metrics.json, sweeps: no tables of their own here
+
+
+def test_the_tables_command_rewrites_an_edited_table_and_names_bad_files(tmp_path, capsys):
+    import json
+
+    from train.tables import main as tables_main
+
+    source = ROOT / "docs" / "results" / "main_job" / "paired.json"
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "paired.json").write_text(source.read_text())
+    table = tmp_path / "run" / "paired.md"
+    assert tables_main([str(tmp_path), "--check"]) == 1  # the table is missing
+    assert tables_main([str(tmp_path)]) == 0
+    assert table.read_text() == (source.parent / "paired.md").read_text()
+    table.write_text(table.read_text().replace("0.95", "0.96"))
+    assert tables_main([str(tmp_path / "run" / "paired.json"), "--check"]) == 1
+    assert f"{table}: differ from their JSON" in capsys.readouterr().out
+    assert tables_main([str(tmp_path)]) == 0 and tables_main([str(tmp_path), "--check"]) == 0
+    (tmp_path / "other.json").write_text(json.dumps({"schema_version": "sgjax.sweep/1"}))
+    assert tables_main([str(tmp_path), "--check"]) == 0
+    assert "1 JSON file(s) without tables here skipped" in capsys.readouterr().out
+    (tmp_path / "bad.json").write_text("{")
+    with pytest.raises(SystemExit, match=r"bad.json: not JSON"):
+        tables_main([str(tmp_path)])
+    (tmp_path / "bad.json").write_text(json.dumps({"schema_version": "sgjax.paired/1"}))
+    with pytest.raises(SystemExit, match=r"bad.json: a sgjax.paired/1 file whose tables cannot "
+                                         r"be made \(KeyError"):
+        tables_main([str(tmp_path)])
+    with pytest.raises(SystemExit, match="nope: no such file or folder"):
+        tables_main([str(tmp_path / "nope")])
