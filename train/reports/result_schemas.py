@@ -140,52 +140,41 @@ SWEEP_SCHEMA: dict[str, Any] = {
 
 _BOUNDED = {"type": "object", "required": ["mean", "mean_low", "mean_high", "iqm", "iqm_low",
                                              "iqm_high", "seeds"]}
-SEED_SPREAD_SCHEMA: dict[str, Any] = {
-    "$schema": "https://json-schema.org/draft/2020-12/schema",
-    "title": "sgjax training run eval/seed_spread.json",
-    "type": "object",
-    "required": ["schema_version", "provenance", "policy", "baseline", "episodes",
-                 "scenarios"],
-    "properties": {
-        "schema_version": {"const": SEED_SPREAD},
-        "provenance": PROVENANCE_SCHEMA,
-        "policy": {"type": "string"},
-        "baseline": {"type": ["string", "null"]},
-        "episodes": {"type": "integer", "minimum": 1},
-        # scenario -> robot count -> the cell
-        "scenarios": {"type": "object", "additionalProperties": {
-            "type": "object", "patternProperties": {COUNT_KEY: {
-                "type": "object", "required": ["team_success", "aggregate"],
-                "properties": {
-                    "team_success": {"type": "array", "items": {"type": "number"},
-                                     "minItems": 2},
-                    "aggregate": _BOUNDED,
-                    "paired": {"type": "array", "items": SUMMARY}}}},
-            "additionalProperties": False}},
-    },
-}
+def _run_eval_schema(version: str, file: str, baseline: dict[str, Any],
+                     cell: dict[str, Any]) -> dict[str, Any]:
+    """The schema of a training run's ``eval/<file>``: the evaluated policy, its baseline
+    (``baseline``: its JSON type), the episodes and ``scenario -> robot count -> cell``."""
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "title": f"sgjax training run eval/{file}",
+        "type": "object",
+        "required": ["schema_version", "provenance", "policy", "baseline", "episodes",
+                     "scenarios"],
+        "properties": {
+            "schema_version": {"const": version},
+            "provenance": PROVENANCE_SCHEMA,
+            "policy": {"type": "string"},
+            "baseline": baseline,
+            "episodes": {"type": "integer", "minimum": 1},
+            "scenarios": {"type": "object", "additionalProperties": {
+                "type": "object", "patternProperties": {COUNT_KEY: cell},
+                "additionalProperties": False}},
+        },
+    }
 
-PAIRED_SCHEMA: dict[str, Any] = {
-    "$schema": "https://json-schema.org/draft/2020-12/schema",
-    "title": "sgjax training run eval/paired.json",
-    "type": "object",
-    "required": ["schema_version", "provenance", "policy", "baseline", "episodes",
-                 "scenarios"],
-    "properties": {
-        "schema_version": {"const": PAIRED},
-        "provenance": PROVENANCE_SCHEMA,
-        "policy": {"type": "string"},
-        "baseline": {"type": "string"},
-        "episodes": {"type": "integer", "minimum": 1},
-        # scenario -> robot count -> both policies' team success and their paired difference
-        "scenarios": {"type": "object", "additionalProperties": {
-            "type": "object", "patternProperties": {COUNT_KEY: {
-                "type": "object", "required": ["policy", "baseline", "difference"],
-                "properties": {"policy": SUMMARY, "baseline": SUMMARY,
-                               "difference": SUMMARY}}},
-            "additionalProperties": False}},
-    },
-}
+
+# each seed's team success, the aggregate over seeds and each seed's paired difference
+SEED_SPREAD_SCHEMA = _run_eval_schema(
+    SEED_SPREAD, "seed_spread.json", {"type": ["string", "null"]},
+    {"type": "object", "required": ["team_success", "aggregate"], "properties": {
+        "team_success": {"type": "array", "items": {"type": "number"}, "minItems": 2},
+        "aggregate": _BOUNDED,
+        "paired": {"type": "array", "items": SUMMARY}}})
+# both policies' team success and their paired difference
+PAIRED_SCHEMA = _run_eval_schema(
+    PAIRED, "paired.json", {"type": "string"},
+    {"type": "object", "required": ["policy", "baseline", "difference"], "properties": {
+        "policy": SUMMARY, "baseline": SUMMARY, "difference": SUMMARY}})
 
 _EPISODES = {"type": "array", "items": NUMBER_OR_NULL}
 _PER_EPISODE = {"type": "object", "required": ["team_success", "collisions", "makespan"],
