@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+import warnings
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -96,10 +97,13 @@ def probability_of_improvement(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.mean((a[:, None] > b[None]) + 0.5 * (a[:, None] == b[None])))
 
 
-def interquartile_mean(values: np.ndarray) -> float:
+def interquartile_mean(values: np.ndarray, axis: int | None = None) -> float | np.ndarray:
     """Mean of the middle half of ``values`` (25% trimmed from each end: rliable's IQM, robust
-    to one outlying seed and less noisy than the median); NaN for no values."""
+    to one outlying seed and less noisy than the median); NaN for no values. With ``axis``,
+    the IQM along that axis of an array (one per row: the bootstrap's resamples at once)."""
     values = np.asarray(values, float)
+    if axis is not None:
+        return _scipy_stats().trim_mean(values, 0.25, axis=axis)
     return float(_scipy_stats().trim_mean(values, 0.25)) if values.size else math.nan
 
 
@@ -119,7 +123,7 @@ def seed_aggregate(per_seed: np.ndarray, confidence: float = CONFIDENCE, resampl
         low = high = math.nan
         if values.size > 1 and np.ptp(values) > 0:
             result = _scipy_stats().bootstrap(
-                (values,), lambda v, axis=-1, f=statistic: np.apply_along_axis(f, axis, v),
+                (values,), lambda v, axis=-1, f=statistic: f(v, axis=axis),
                 confidence_level=confidence, n_resamples=resamples, method="percentile",
                 random_state=np.random.default_rng(seed))
             low, high = (float(result.confidence_interval.low),
@@ -184,27 +188,51 @@ def per_seed_paired_t(a: np.ndarray, b: np.ndarray, confidence: float = CONFIDEN
 
 
 def stratified_resamples(cells: Mapping[str, np.ndarray], resamples: int, seed: int
-                         ) -> list[np.ndarray]:
+                         ) -> np.ndarray:
     """``resamples`` stratified bootstrap resamples of per-seed scores by cell (``cells
-    {cell: [S_c]}``): each resample draws every cell's seeds with replacement within the
-    cell, and concatenates them (rliable's stratified bootstrap)."""
+    {cell: [S_c]}``), ``[resamples, runs]``: each row draws every cell's finite seeds with
+    replacement within the cell, the cells side by side in their order (rliable's stratified
+    bootstrap)."""
     if not any(np.isfinite(np.asarray(v, float)).any() for v in cells.values()):
         raise ValueError(f"no finite score in any of the {len(cells)} cells to resample")
-    rng = np.random.default_rng(seed)
-    return [np.concatenate(list(resample_cells(cells, rng).values()))
-            for _ in range(resamples)]
+    (drawn,) = _draws([_finite(cells)], np.random.default_rng(seed), resamples)
+    return np.concatenate(list(drawn.values()), axis=1)
+
+
+def _finite(cells: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Every cell's finite scores, as float arrays."""
+    out = {}
+    for cell, values in cells.items():
+        v = np.asarray(values, float)
+        out[cell] = v[np.isfinite(v)]
+    return out
+
+
+def _draws(groups: Sequence[Mapping[str, np.ndarray]], rng: np.random.Generator,
+           resamples: int) -> list[dict[str, np.ndarray]]:
+    """``resamples`` stratified draws of every group of cells (each cell already reduced to
+    its finite scores): per group, ``{cell: [resamples, S_c]}``. One call of the generator
+    draws them all, in the order of a loop over resamples, then groups, then cells, each
+    ``rng.integers(0, S_c, S_c)`` (numpy gives the same numbers either way), so a resample
+    is what one :func:`resample_cells` per group gives."""
+    layout = [(g, cell, v) for g, group in enumerate(groups) for cell, v in group.items()]
+    sizes = np.asarray([v.size for *_, v in layout], np.int64)
+    highs = np.repeat(sizes, sizes)
+    picks = rng.integers(0, np.tile(highs, resamples)).reshape(resamples, highs.size)
+    out: list[dict[str, np.ndarray]] = [{} for _ in groups]
+    start = 0
+    for (g, cell, v), size in zip(layout, sizes, strict=True):
+        out[g][cell] = v[picks[:, start:start + size]]
+        start += size
+    return out
 
 
 def resample_cells(cells: Mapping[str, np.ndarray], rng: np.random.Generator
                    ) -> dict[str, np.ndarray]:
     """Every cell's finite scores drawn with replacement within the cell (one stratified
     bootstrap draw; a cell without finite scores stays empty)."""
-    out = {}
-    for cell, values in cells.items():
-        v = np.asarray(values, float)
-        v = v[np.isfinite(v)]
-        out[cell] = v[rng.integers(0, v.size, v.size)] if v.size else v
-    return out
+    (drawn,) = _draws([_finite(cells)], rng, 1)
+    return {cell: v[0] for cell, v in drawn.items()}
 
 
 def aggregate_over_cells(cells: Mapping[str, np.ndarray], confidence: float = CONFIDENCE,
@@ -219,11 +247,20 @@ def aggregate_over_cells(cells: Mapping[str, np.ndarray], confidence: float = CO
            "mean": float(np.mean(everything)) if everything.size else math.nan}
     draws = stratified_resamples(cells, resamples, seed)
     tail = (1 - confidence) / 2
-    for name, statistic in (("iqm", interquartile_mean), ("mean", np.mean)):
-        values = np.asarray([statistic(d) for d in draws])
+    for name, values in (("iqm", interquartile_mean(draws, axis=1)),
+                         ("mean", np.mean(draws, axis=1))):
         out[f"{name}_low"], out[f"{name}_high"] = (float(q) for q in np.quantile(
             values, [tail, 1 - tail]))
     return out
+
+
+def _improvement(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """:func:`probability_of_improvement` of every resample at once: ``a [R, S_a]``, ``b [R,
+    S_b]`` finite scores -> ``[R]`` (NaN where a side is empty)."""
+    if a.shape[1] == 0 or b.shape[1] == 0:
+        return np.full(a.shape[0], math.nan)
+    above = (a[:, :, None] > b[:, None, :]) + 0.5 * (a[:, :, None] == b[:, None, :])
+    return np.mean(above.reshape(a.shape[0], -1), axis=1)
 
 
 def improvement_over_cells(a: Mapping[str, np.ndarray], b: Mapping[str, np.ndarray],
@@ -235,17 +272,17 @@ def improvement_over_cells(a: Mapping[str, np.ndarray], b: Mapping[str, np.ndarr
     shared = [c for c in a if c in b]
     if not shared:
         raise ValueError("improvement_over_cells: no cell in common")
-
-    def value(x: Mapping[str, np.ndarray], y: Mapping[str, np.ndarray]) -> float:
-        return float(np.nanmean([probability_of_improvement(x[c], y[c]) for c in shared]))
-
-    rng = np.random.default_rng(seed)
-    a_shared, b_shared = {c: a[c] for c in shared}, {c: b[c] for c in shared}
-    values = np.asarray([value(resample_cells(a_shared, rng), resample_cells(b_shared, rng))
-                         for _ in range(resamples)])
+    value = float(np.nanmean([probability_of_improvement(a[c], b[c]) for c in shared]))
+    a_drawn, b_drawn = _draws([_finite({c: a[c] for c in shared}),
+                               _finite({c: b[c] for c in shared})],
+                              np.random.default_rng(seed), resamples)
+    by_cell = np.stack([_improvement(a_drawn[c], b_drawn[c]) for c in shared], axis=1)
+    with warnings.catch_warnings():  # a resample whose every cell is empty: NaN, left out
+        warnings.simplefilter("ignore", RuntimeWarning)
+        values = np.nanmean(by_cell, axis=1)
     tail = (1 - confidence) / 2
     low, high = np.nanquantile(values, [tail, 1 - tail])
-    return {"probability": value(a, b), "low": float(low), "high": float(high),
+    return {"probability": value, "low": float(low), "high": float(high),
             "cells": len(shared)}
 
 
@@ -259,8 +296,8 @@ def performance_profile(cells: Mapping[str, np.ndarray], thresholds: np.ndarray,
     everything = np.concatenate([np.asarray(v, float) for v in cells.values()])
     everything = everything[np.isfinite(everything)]
     fraction = np.mean(everything[:, None] > thresholds[None], axis=0)
-    draws = np.asarray([np.mean(d[:, None] > thresholds[None], axis=0)
-                        for d in stratified_resamples(cells, resamples, seed)])
+    drawn = stratified_resamples(cells, resamples, seed)
+    draws = np.mean(drawn[:, :, None] > thresholds[None, None], axis=1)
     tail = (1 - confidence) / 2
     return {"thresholds": thresholds, "fraction": fraction,
             "low": np.quantile(draws, tail, axis=0), "high": np.quantile(draws, 1 - tail, axis=0)}

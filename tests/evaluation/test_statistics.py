@@ -80,3 +80,45 @@ def test_aggregates_over_cells_without_a_finite_score_are_refused_by_name():
         aggregate_over_cells(empty, resamples=10)
     with pytest.raises(ValueError, match="no finite score"):
         performance_profile(empty, np.asarray([0.5]), resamples=10)
+
+
+def test_the_batched_bootstrap_draws_what_a_loop_of_single_draws_draws():
+    """The stratified resamples, the aggregates and P(improvement) over cells draw all their
+    resamples in one generator call: the same numbers, and the same intervals, as one draw per
+    resample per side (the loop the statistics describe), empty and NaN cells included."""
+    import math
+
+    from sgjax.evaluation.statistics import (
+        aggregate_over_cells,
+        improvement_over_cells,
+        interquartile_mean,
+        probability_of_improvement,
+        resample_cells,
+        stratified_resamples,
+    )
+
+    rng = np.random.default_rng(7)
+    for trial in range(20):
+        cells = {f"c{i}": rng.integers(0, 5, rng.integers(1, 7)) / 4.0 for i in range(6)}
+        other = {f"c{i}": rng.integers(0, 5, rng.integers(1, 7)) / 4.0 for i in range(1, 7)}
+        cells["c2"] = np.asarray([math.nan, *cells["c2"]])
+        if trial % 4 == 0:
+            other["c3"] = np.asarray([math.nan])  # a cell with nothing to draw on one side
+        loop = np.random.default_rng(trial)
+        rows = [np.concatenate(list(resample_cells(cells, loop).values())) for _ in range(50)]
+        assert np.array_equal(stratified_resamples(cells, 50, trial), np.asarray(rows))
+        iqm = np.quantile([interquartile_mean(r) for r in rows], [0.025, 0.975])
+        agg = aggregate_over_cells(cells, resamples=50, seed=trial)
+        assert [agg["iqm_low"], agg["iqm_high"]] == pytest.approx(iqm, abs=1e-12)
+        shared = [c for c in cells if c in other]
+        loop = np.random.default_rng(trial)
+        values = []
+        for _ in range(60):
+            a = resample_cells({c: cells[c] for c in shared}, loop)
+            b = resample_cells({c: other[c] for c in shared}, loop)
+            values.append(np.nanmean([probability_of_improvement(a[c], b[c])
+                                      if a[c].size and b[c].size else math.nan
+                                      for c in shared]))
+        p = improvement_over_cells(cells, other, resamples=60, seed=trial)
+        assert [p["low"], p["high"]] == pytest.approx(np.nanquantile(values, [0.025, 0.975]),
+                                                      abs=1e-12)
