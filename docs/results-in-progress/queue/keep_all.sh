@@ -14,14 +14,9 @@ done
 # the transfer judge
 J=/work/runs/transfer-judge
 [ -f $J/transfer.json ] && cp $J/transfer.{json,md} $D/transfer/
-# ORCA leave-one-scene-out
-[ -f /work/runs/calibration/loso_orca/crowd_fit.partial.json ] && mkdir -p $D/calibration/loso_orca && cp /work/runs/calibration/loso_orca/crowd_fit.partial.json $D/calibration/loso_orca/
 # finished arms
 for a in /work/runs/acting/*.msgpack; do
   name=$(basename $a .msgpack)
   [ -f $D/transfer/arms/$name.msgpack ] || bash /work/runs-logs/keep_arm.sh $name
 done
 cd /work/main && git status --short docs/results-in-progress | head -30
-L=/work/runs/calibration/loso_orca_fast
-[ -f $L/crowd_fit.partial.json ] && mkdir -p $D/calibration/loso_orca_fast && cp $L/crowd_fit.partial.json $D/calibration/loso_orca_fast/
-[ -f $L/crowd_fit.json ] && mkdir -p $D/calibration/loso_orca_fast && cp $L/crowd_fit.* $D/calibration/loso_orca_fast/
