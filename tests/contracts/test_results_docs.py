@@ -75,6 +75,7 @@ def test_a_files_sections_sit_one_level_below_the_documents_section(tmp_path):
     assert "\n## Part" in refresh(top, "doc.md", tmp_path)[0]  # no section: the file's levels
 
 
+@pytest.mark.slow  # 8 s of bootstrap intervals; CI runs it
 def test_every_published_table_is_what_the_current_code_makes_of_its_json():
     from train.tables import regenerate
 

@@ -116,7 +116,8 @@ def _stop_every(lane):
 
 @pytest.mark.parametrize("make_policy, lanes", [
     (_go_with_chance, {"go": jnp.array([0.2, 0.9, 0.6])}),
-    (_stop_every, {"period": jnp.array([2, 5, 3])})], ids=["stateless", "memory"])
+    pytest.param(_stop_every, {"period": jnp.array([2, 5, 3])}, marks=pytest.mark.slow)],
+    ids=["stateless", "memory"])
 def test_param_lanes_play_the_episodes_of_separate_runs(make_policy, lanes):
     """Lane ``l`` of a ``ParamLaneRunner`` (inside the ``jit`` that takes the lanes' parameters)
     plays the episodes an ``EpisodeRunner`` of lane ``l``'s policy plays with the same key;

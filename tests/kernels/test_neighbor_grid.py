@@ -79,8 +79,8 @@ def forces(env, state, params):
                         params.dt / env.config.substeps)
 
 
-@pytest.mark.parametrize("model", ["moussaid", "helbing", *(pytest.param(m, marks=pytest.mark.slow)
-                                                     for m in ("hsfm", "orca"))])
+@pytest.mark.parametrize("model", ["moussaid", *(pytest.param(m, marks=pytest.mark.slow)
+                                       for m in ("helbing", "hsfm", "orca"))])
 def test_forces_through_the_lists_equal_forces_over_every_body(model):
     """Along a 100-step rollout of 160 pedestrians, at every 10th state: the forces through
     the cell lists equal those over every body with the same range (float rounding of the

@@ -50,7 +50,7 @@ def recorded_observations(run: Path) -> np.ndarray:
 
 @pytest.mark.parametrize("network, env", [
     ({"kind": "mlp"}, {}),
-    ({"kind": "gru", "recurrent_size": 16}, {}),
+    pytest.param({"kind": "gru", "recurrent_size": 16}, {}, marks=pytest.mark.slow),
     pytest.param({"kind": "lstm", "recurrent_size": 16, "others_encoder": "lstm",
                   "encoder_size": 8}, {"observations": "cadrl"}, marks=pytest.mark.slow),
     ({"kind": "mlp", "others_encoder": "attention", "encoder_size": 8},
