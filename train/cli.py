@@ -10,8 +10,8 @@ Writes into ``logging.out`` (or ``--out``): ``config.yaml``, ``progress.csv`` an
 ``paired.md``: both policies' team success on the same episodes and their paired difference;
 with several seeds ``seed_spread.json`` and ``seed_spread.md``) and ``provenance.json``
 (commit, versions, machine, command, seeds, phase times). ``--resume`` continues from
-``checkpoints/latest.msgpack``; ``--from-results RUN/eval`` writes the two markdown tables again
-from their JSON files.
+``checkpoints/latest.msgpack``; ``python -m train.tables RUN/eval`` writes the markdown tables
+again from their JSON files.
 """
 
 from __future__ import annotations
@@ -521,22 +521,6 @@ def _over_seeds(differences: list[float]) -> str:
     return f"{np.mean(differences):+.3f} [{low:+.3f}, {high:+.3f}]"
 
 
-def tables_from_results(folder: Path) -> list[Path]:
-    """Write a run's ``eval/seed_spread.md`` and ``eval/paired.md`` again from the JSON files
-    beside them (``python -m train --from-results RUN/eval``); returns the files written.
-    Raises ``ValueError`` naming the folder when it holds neither JSON file."""
-    written = []
-    for name, markdown in (("seed_spread", seed_spread_markdown), ("paired", paired_markdown)):
-        source = folder / f"{name}.json"
-        if source.is_file():
-            write_atomic(folder / f"{name}.md", markdown(json.loads(source.read_text())))
-            written.append(folder / f"{name}.md")
-    if not written:
-        raise ValueError(f"--from-results {folder}: no seed_spread.json or paired.json there "
-                         "(a run's eval folder)")
-    return written
-
-
 def _trained_name(config: TrainConfig) -> str:
     return f"trained ({config.algorithm.name})"
 
@@ -679,26 +663,17 @@ def _socialgym_config(path: str, overrides: list[str]) -> TrainConfig | None:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m train", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--config", default=None,
+    parser.add_argument("--config", required=True,
                         help="YAML file (train/configs/*.yaml), or a SocialGym 2.0 experiment "
-                             "config (.json); required unless --from-results")
+                             "config (.json)")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                         help="override one config key (repeatable), e.g. algorithm.total_steps=1e6")
     parser.add_argument("--out", default=None, help="run folder (default: logging.out)")
     parser.add_argument("--resume", action="store_true",
                         help="continue from <out>/checkpoints/latest.msgpack")
-    parser.add_argument("--from-results", default=None, metavar="RUN/eval",
-                        help="write a run's seed_spread.md and paired.md again from their JSON "
-                             "files, then exit (no training)")
     add_cache_arguments(parser)
     args = parser.parse_args(argv)
-    if args.from_results is None and args.config is None:
-        parser.error("--config is required (or --from-results RUN/eval)")
     try:
-        if args.from_results is not None:
-            for path in tables_from_results(Path(args.from_results)):
-                print(f"wrote {path}")
-            return
         cache_from_arguments(args)
         config = _socialgym_config(args.config, args.set) or load_config(args.config, args.set)
         train(config, Path(args.out or config.logging.out), resume=args.resume)

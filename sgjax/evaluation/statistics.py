@@ -91,10 +91,7 @@ def probability_of_improvement(a: np.ndarray, b: np.ndarray) -> float:
     ``a_i > b_j``, ties counting half (rliable's probability of improvement, the Mann-Whitney
     U statistic over ``len(a) * len(b)``); NaN values left out, NaN if either side is empty."""
     a, b = np.asarray(a, float), np.asarray(b, float)
-    a, b = a[np.isfinite(a)], b[np.isfinite(b)]
-    if not a.size or not b.size:
-        return math.nan
-    return float(np.mean((a[:, None] > b[None]) + 0.5 * (a[:, None] == b[None])))
+    return float(_improvement(a[None, np.isfinite(a)], b[None, np.isfinite(b)])[0])
 
 
 def interquartile_mean(values: np.ndarray, axis: int | None = None) -> float | np.ndarray:
@@ -255,8 +252,9 @@ def aggregate_over_cells(cells: Mapping[str, np.ndarray], confidence: float = CO
 
 
 def _improvement(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """:func:`probability_of_improvement` of every resample at once: ``a [R, S_a]``, ``b [R,
-    S_b]`` finite scores -> ``[R]`` (NaN where a side is empty)."""
+    """P(A > B) of every row at once (:func:`probability_of_improvement`, and every bootstrap
+    resample): ``a [R, S_a]``, ``b [R, S_b]`` finite scores -> ``[R]`` (NaN where a side is
+    empty)."""
     if a.shape[1] == 0 or b.shape[1] == 0:
         return np.full(a.shape[0], math.nan)
     above = (a[:, :, None] > b[:, None, :]) + 0.5 * (a[:, :, None] == b[:, None, :])
