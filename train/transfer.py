@@ -95,7 +95,7 @@ from sgjax.maps.generated.splits import TEST_SEEDS
 from train.algorithm.actor import ActorWeights, TrainedActor
 from train.reports.result_schemas import TRANSFER
 from train.run import checkpoint
-from train.run.worst_worlds import worst_of_seeds
+from train.run.worst_worlds import WorstPlayers, worst_of_seeds
 
 ROOT = Path(__file__).resolve().parents[1]
 SG2MAPS = ROOT.parent / "shared" / "sg2maps"
@@ -484,7 +484,9 @@ def judge_worst(arms: Sequence[Arm], robots: int, worlds: int, alphas: Sequence[
     """Every arm's worst-alpha team success per generated family over ``worlds`` held-out
     worlds (:func:`train.run.worst_worlds.worst_of_seeds`): ``{"worlds", "alphas",
     "protocol", "provenance", "arms": {name: {"sha256", "families": {family: {alpha: [S]}}}},
-    "pending": ["arm/family", ...]}``. ``on_family(block)`` after every family an arm played
+    "pending": ["arm/family", ...]}``, played family by family (every arm of a family on one
+    compiled player, :class:`train.run.worst_worlds.WorstPlayers`, where the arms' actor spec,
+    options and play mode agree). ``on_family(block)`` after every family an arm played
     (the block so far, its ``pending`` the pairs still to play), so that a stopped run keeps
     what it finished. An ``earlier`` block of the same worlds, alphas and protocol, made by
     the same code (its provenance's git state), lends every family an unchanged checkpoint
@@ -502,7 +504,7 @@ def judge_worst(arms: Sequence[Arm], robots: int, worlds: int, alphas: Sequence[
                   if same else 0.0)
     out: dict[str, Any] = {"worlds": int(worlds), "alphas": keys, "protocol": WORST_PROTOCOL,
                            "arms": {}}
-    pairs = [(arm.name, family) for arm in arms for family in FAMILIES]
+    pairs = [(arm.name, family) for family in FAMILIES for arm in arms]  # the play order
 
     def block() -> dict[str, Any]:
         out["provenance"] = provenance(
@@ -514,23 +516,28 @@ def judge_worst(arms: Sequence[Arm], robots: int, worlds: int, alphas: Sequence[
                           if f not in out["arms"].get(n, {}).get("families", {})]
         return out
 
-    for arm in arms:
+    for arm in arms:  # what an earlier run of the same code played for an unchanged arm
         old = (earlier or {}).get("arms", {}).get(arm.name, {}) if same else {}
-        kept = dict(old.get("families", {})) if old.get("sha256") == arm.sha256 else {}
-        families = out["arms"].setdefault(arm.name, {"sha256": arm.sha256, "families": {}})
-        families = families["families"]
-        for family in FAMILIES:
-            if family in kept:
-                families[family] = kept[family]
+        kept = old.get("families", {}) if old.get("sha256") == arm.sha256 else {}
+        out["arms"][arm.name] = {"sha256": arm.sha256, "families": {
+            f: kept[f] for f in FAMILIES if f in kept}}
+    players = WorstPlayers()  # every arm of a family on one compiled player where they can
+    for family in FAMILIES:  # family by family, so that the arms share its player
+        held = HeldOutMap("generated_test", family, PREFIX + family, robots)
+        for arm in arms:
+            families = out["arms"][arm.name]["families"]
+            if family in families:
                 continue
-            held = HeldOutMap("generated_test", family, PREFIX + family, robots)
-            families[family] = worst_of_seeds(arm.path, arm.seeds, arm.deterministic,
+            families[family] = worst_of_seeds(arm.actor, arm.weights, arm.deterministic,
                                               map_options(arm, held), family, robots, worlds,
-                                              alphas, seed)
+                                              alphas, seed, players=players)
             log(f"worst of {worlds} {family} worlds, {arm.name}: " + ", ".join(
                 f"{k}: {_mean(v):.2f}" for k, v in families[family].items()))
             if on_family is not None:
                 on_family(block())
+    for arm in arms:  # each arm's families in FAMILIES order, whichever order they were played
+        families = out["arms"][arm.name]["families"]
+        out["arms"][arm.name]["families"] = {f: families[f] for f in FAMILIES if f in families}
     return block()
 
 

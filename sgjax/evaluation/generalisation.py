@@ -13,6 +13,7 @@ less the test split's."""
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 from collections.abc import Mapping, Sequence
@@ -30,6 +31,7 @@ from sgjax.evaluation.policies import Policy, RecurrentPolicy, load_policy
 from sgjax.evaluation.report import markdown_table
 from sgjax.evaluation.runner import EpisodeRunner
 from sgjax.evaluation.statistics import summarize
+from sgjax.evaluation.trained import ActorSpec
 from sgjax.maps.generated.families import PREFIX
 from sgjax.maps.generated.splits import TEST_SEEDS
 from sgjax.types import EnvParams, EnvState
@@ -49,6 +51,25 @@ class WorldRunner(EpisodeRunner):
         return jax.vmap(self.env.reset_in_world, in_axes=(0, None, 0))(keys, params, worlds)
 
 
+class ActorWorldRunner(WorldRunner):
+    """A :class:`WorldRunner` of a trained actor whose weights are an argument of :attr:`run`
+    (``run(key, params, worlds, weights)``, ``weights`` one seed's): one compiled program
+    plays every seed of a run, and every run of the same actor spec, instead of a program per
+    set of weights (weights closed over are constants of the program)."""
+
+    def __init__(self, env: SocialNavEnv, actor: ActorSpec, deterministic: bool,
+                 num_episodes: int, max_steps: int):
+        super().__init__(env, None, num_episodes, max_steps)
+        self.actor, self.deterministic = actor, bool(deterministic)
+
+    def episodes(self, key: Array, params: EnvParams, worlds: WorldDraw, weights: Any
+                 ) -> tuple:
+        """:meth:`WorldRunner.episodes` under the actor's policy with ``weights`` (traced)."""
+        acting = copy.copy(self)  # this trace's runner: the policy of these weights
+        acting.policy = self.actor.policy(weights, self.deterministic)
+        return WorldRunner.episodes(acting, key, params, worlds)
+
+
 @dataclasses.dataclass(frozen=True)
 class WorldPlays:
     """Worlds ``seeds [N]`` played twice: ``valid [N]`` (worlds that failed the family's
@@ -62,11 +83,12 @@ class WorldPlays:
 
 
 def play_rollout(runner: WorldRunner, draw: Any, params: EnvParams, seeds: np.ndarray,
-                 key: Array) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+                 key: Array, *args: Any) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """One rollout of every world of ``seeds [N]`` (``runner.num_episodes`` worlds a call,
     call ``i`` keyed ``fold_in(key, i)``, the last call padded with its last world):
     ``(valid [N], {name: [N]})``, each :data:`REPORTED` metric NaN where the world failed the
-    family's checks."""
+    family's checks. ``args``: the runner's further arguments (an :class:`ActorWorldRunner`'s
+    weights)."""
     seeds = np.asarray(seeds, np.uint32)
     size = runner.num_episodes
     valid, values = [], {k: [] for k in REPORTED}
@@ -76,7 +98,7 @@ def play_rollout(runner: WorldRunner, draw: Any, params: EnvParams, seeds: np.nd
         worlds = draw(jnp.asarray(padded))
         ok = np.asarray(worlds.valid)[:len(part)]
         valid.append(ok)
-        played = runner(jax.random.fold_in(key, i), params, worlds)
+        played = runner(jax.random.fold_in(key, i), params, worlds, *args)
         for name in REPORTED:
             value = np.asarray(played.values[name], np.float64)[:len(part)]
             values[name].append(np.where(ok, value, np.nan))
@@ -137,24 +159,27 @@ class WorstPlays:
         return float(np.mean(self.second[:count])), count
 
 
-def play_worst(env: SocialNavEnv, params: EnvParams, policy: Policy | RecurrentPolicy | str,
+def play_worst(env: SocialNavEnv, params: EnvParams, policy: Policy | RecurrentPolicy | str | None,
                seeds: np.ndarray, alphas: Sequence[float], seed: int = 0, chunk: int = 1000,
-               compiled: tuple[WorldRunner, Any] | None = None) -> WorstPlays:
+               compiled: tuple[WorldRunner, Any] | None = None, args: tuple = ()
+               ) -> WorstPlays:
     """SFL's worst alpha% of every ``alphas`` at the cost SFL pays: rollout A (the key
     :func:`play_worlds` gives it, so its scores equal that function's ``a``) plays every world
     of ``seeds``, rollout B only the ``ceil(max(alphas) x valid)`` worlds A scored lowest
-    (about ``1 + max(alphas)`` rollouts a world instead of two)."""
+    (about ``1 + max(alphas)`` rollouts a world instead of two). With ``compiled`` the
+    ``policy`` is the players' (None will do), and ``args`` their runner's further arguments
+    (the weights of :func:`actor_world_players`)."""
     if not alphas or not all(0.0 < a <= 1.0 for a in alphas):
         raise ValueError(f"play_worst: every alpha must lie in (0, 1], got {list(alphas)}")
     seeds = np.asarray(seeds, np.uint32)
     runner, draw = compiled or world_players(env, params, policy, min(chunk, len(seeds)))
     key_a, key_b = rollout_keys(seed)
-    _, first = play_rollout(runner, draw, params, seeds, key_a)
+    _, first = play_rollout(runner, draw, params, seeds, key_a, *args)
     ranked = first[RANKED]
     scored = np.flatnonzero(np.isfinite(ranked))
     count = worst_count(max(alphas), len(scored)) if len(scored) else 0
     worst = scored[np.argsort(ranked[scored], kind="stable")[:count]]
-    _, second = play_rollout(runner, draw, params, seeds[worst], key_b)
+    _, second = play_rollout(runner, draw, params, seeds[worst], key_b, *args)
     return WorstPlays(seeds=seeds, ranked=ranked, worst=worst, second=second[RANKED])
 
 
@@ -162,12 +187,29 @@ def world_players(env: SocialNavEnv, params: EnvParams, policy: Any, chunk: int
                   ) -> tuple[WorldRunner, Any]:
     """``(runner, draw)``: a :class:`WorldRunner` of ``chunk`` episodes under ``policy`` and
     the jitted ``vmap`` of the family's ``of_seed``, made once for every split."""
-    source = env.config.world
-    if source is None:
-        raise ValueError(f"play_worlds: {env.config.scenario!r} is a fixed map; give a "
-                         "generated family (generated:<family>)")
+    source = _world_source(env)
     runner = WorldRunner(env, load_policy(policy, env), chunk, int(params.max_steps))
     return runner, jax.jit(jax.vmap(source.of_seed))
+
+
+def actor_world_players(env: SocialNavEnv, params: EnvParams, actor: ActorSpec,
+                        deterministic: bool, chunk: int) -> tuple[ActorWorldRunner, Any]:
+    """:func:`world_players` of a trained actor whose weights are the runner's last argument
+    (:class:`ActorWorldRunner`): pass ``args=(weights,)`` to :func:`play_worst`."""
+    source = _world_source(env)
+    if env.observation_size != actor.obs_size:
+        raise ValueError(f"{env.config.scenario}: the trained policy reads observations of size "
+                         f"{actor.obs_size}, this environment gives {env.observation_size}")
+    runner = ActorWorldRunner(env, actor, deterministic, chunk, int(params.max_steps))
+    return runner, jax.jit(jax.vmap(source.of_seed))
+
+
+def _world_source(env: SocialNavEnv) -> Any:
+    """The generated family ``env`` draws its worlds from (an error for a fixed map)."""
+    if env.config.world is None:
+        raise ValueError(f"play_worlds: {env.config.scenario!r} is a fixed map; give a "
+                         "generated family (generated:<family>)")
+    return env.config.world
 
 
 def worst_count(alpha: float, scored: int) -> int:

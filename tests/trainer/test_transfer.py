@@ -13,10 +13,12 @@ from shared_data import SG2MAPS, require
 from test_train import tiny
 
 from sgjax.evaluation.evaluate import params_by_count, run_episodes
+from sgjax.evaluation.generalisation import REPORTED, play_rollout, play_worst, world_players
 from sgjax.maps.generated.families import family
 from train import transfer
 from train.algorithm.trainer import Trainer, seed_keys
 from train.run.checkpoint import load_checkpoint_policy, save
+from train.run.worst_worlds import WorstPlayers, worst_of_seeds
 
 OPEN = transfer.HeldOutMap("minigames", "open", "open", 2)
 
@@ -300,8 +302,8 @@ def test_the_command_writes_its_files_after_every_map_and_adds_an_arm_on_resume(
     # the worst case added to a finished judge (later code may play it): the maps keep the
     # provenance of the run that played them, the worst case carries its own
     monkeypatch.setattr(transfer, "FAMILIES", ("open",))
-    monkeypatch.setattr(transfer, "worst_of_seeds", lambda path, seeds, *rest: {
-        "0.1": [0.5] * seeds})
+    monkeypatch.setattr(transfer, "worst_of_seeds", lambda actor, weights, *rest, **kw: {
+        "0.1": [0.5] * weights.lanes})
     transfer.main([*first, "--arm", f"b={arms[1].path}", "--own-specialist", "a", "--resume",
                    "--worst-worlds", "10", "--alpha", "0.1"])
     worst = json.loads((out / "transfer.json").read_text())
@@ -309,6 +311,39 @@ def test_the_command_writes_its_files_after_every_map_and_adds_an_arm_on_resume(
     assert worst["provenance"] == owned["provenance"] and worst["maps"] == owned["maps"]
     assert worst["worst"]["pending"] == [] and set(worst["worst"]["arms"]) == {"a", "b"}
     assert worst["worst"]["provenance"]["created"] >= owned["provenance"]["created"]
+
+
+@pytest.mark.slow
+def test_every_seed_of_every_arm_plays_its_worst_case_on_one_compiled_player(arms):
+    """The weights are the worst-case player's argument: a seed's rollouts equal those of its
+    checkpoint's policy (its weights constants of the program) on the same worlds and keys,
+    metric by metric, and every seed of both arms plays on one compiled program."""
+    held = transfer.HeldOutMap("generated_test", "open", "generated:open", 2)
+    options = transfer.map_options(arms[0], held)
+    players = WorstPlayers()
+    results = [worst_of_seeds(arm.actor, arm.weights, arm.deterministic, options, "open", 2, 6,
+                              [0.5, 1.0], 3, chunk=4, players=players) for arm in arms]
+    params, runner, draw = players.get("open", 2, options, arms[0].actor, arms[0].deterministic,
+                                       4)
+    assert len(runner._executables) == 1  # one program for 2 arms x 2 seeds
+    env, by_count = params_by_count("generated:open", [2], options=options)
+    ids = transfer.TEST_SEEDS[0] + np.arange(6)
+    key = jax.random.key(11)
+    for arm, result in zip(arms, results, strict=True):
+        for index in range(arm.seeds):
+            policy = load_checkpoint_policy(arm.path, env, seed_index=index,
+                                            deterministic=arm.deterministic)
+            constants = world_players(env, params, policy, 4)
+            _, alone = play_rollout(*constants, params, ids, key)
+            _, argued = play_rollout(runner, draw, params, ids, key, arm.weights.seed(index))
+            for name in REPORTED:
+                np.testing.assert_array_equal(argued[name], alone[name])
+            worst = play_worst(env, params, policy, ids, [0.5, 1.0], 3, 4, compiled=constants)
+            assert [result[k][index] for k in ("0.5", "1")] == [
+                worst.fraction(a)[0] for a in (0.5, 1.0)]
+    assert len(runner._executables) == 1
+    assert len({np.asarray(x).tobytes() for x in jax.tree.leaves(arms[1].weights.seed(0))}
+               - {np.asarray(x).tobytes() for x in jax.tree.leaves(arms[0].weights.seed(0))})
 
 
 @pytest.mark.slow
@@ -339,9 +374,9 @@ def test_the_worst_case_per_seed_is_kept_on_resume_and_tabled(arms, monkeypatch)
     monkeypatch.setattr(transfer, "FAMILIES", ("open", "hallway"))
     played, handed = [], []
 
-    def fake(path, seeds, deterministic, options, family, *rest):
+    def fake(actor, weights, deterministic, options, family, *rest, **kwargs):
         played.append(family)
-        return {"0.5": [0.25] * seeds, "1": [0.5] * seeds}
+        return {"0.5": [0.25] * weights.lanes, "1": [0.5] * weights.lanes}
 
     monkeypatch.setattr(transfer, "worst_of_seeds", fake)
     grown = transfer.judge_worst(arms[:1], 2, 4, [0.5, 1.0], 0, earlier=worst,
