@@ -152,18 +152,40 @@ def paired_over_seeds_and_episodes(a: np.ndarray, b: np.ndarray,
     seeds, episodes = diff.shape
     if not np.isfinite(diff).any():
         return Summary(math.nan, math.nan, math.nan, math.nan, 0)
-    rng = np.random.default_rng(seed)
-    means = np.empty(resamples)
-    for r in range(resamples):  # one resample: a [S, E] pick of the difference table
-        rows = rng.integers(0, seeds, seeds)
-        cols = rng.integers(0, episodes, episodes)
-        means[r] = np.nanmean(diff[np.ix_(rows, cols)])
+    means = _two_level_means(diff, np.random.default_rng(seed), resamples)
     tail = (1 - confidence) / 2
     low, high = np.nanquantile(means, [tail, 1 - tail])
     finite = diff[np.isfinite(diff)]
     return Summary(float(np.mean(finite)), float(low), float(high),
                    float(np.std(finite, ddof=1)) if finite.size > 1 else math.nan,
                    int(finite.size))
+
+
+def _two_level_means(diff: np.ndarray, rng: np.random.Generator, resamples: int
+                     ) -> np.ndarray:
+    """``[resamples]`` NaN-aware means of two-level resamples of ``diff [S, E]``: resample
+    ``r`` picks ``S`` rows, then ``E`` columns, with replacement (the draws of a loop of
+    ``rng.integers(0, S, S)``, ``rng.integers(0, E, E)`` per resample, made in one call:
+    numpy gives the same numbers either way), and its mean over the picked block is the
+    count-weighted sum ``(n_rows @ values @ n_cols) / (n_rows @ finite @ n_cols)`` (NaN where
+    the block holds no finite value)."""
+    seeds, episodes = diff.shape
+    highs = np.concatenate([np.full(seeds, seeds), np.full(episodes, episodes)])
+    picks = rng.integers(0, np.tile(highs, resamples)).reshape(resamples, highs.size)
+    rows = _pick_counts(picks[:, :seeds], seeds)  # [R, S] how often each seed was drawn
+    cols = _pick_counts(picks[:, seeds:], episodes)  # [R, E]
+    finite = np.isfinite(diff)
+    total = np.einsum("rs,se,re->r", rows, np.where(finite, diff, 0.0), cols)
+    count = np.einsum("rs,se,re->r", rows, finite.astype(float), cols)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, total / np.maximum(count, 1.0), np.nan)
+
+
+def _pick_counts(picks: np.ndarray, size: int) -> np.ndarray:
+    """``[R, size]`` counts of each index in every row of ``picks [R, n]``."""
+    rows = picks.shape[0]
+    flat = (picks + size * np.arange(rows)[:, None]).ravel()  # row r's indices shifted by r x size
+    return np.bincount(flat, minlength=rows * size).reshape(rows, size).astype(float)
 
 
 def per_seed_paired_t(a: np.ndarray, b: np.ndarray, confidence: float = CONFIDENCE

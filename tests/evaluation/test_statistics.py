@@ -31,6 +31,35 @@ def test_the_two_level_bootstrap_covers_the_truth_where_episodes_alone_do_not():
     assert naive / trials < covered / trials - 0.07
 
 
+@pytest.mark.parametrize("trial", range(6))
+def test_the_two_level_bootstrap_is_a_loop_of_seed_then_episode_draws(trial):
+    """Its resamples, drawn and averaged in one pass, are the loop that defines them: per
+    resample ``S`` seeds then ``E`` episodes drawn with replacement from one generator, the
+    NaN-aware mean of the picked block; the interval's ends agree to rounding (NaN cells,
+    one seed, one episode, continuous values included)."""
+    from sgjax.evaluation.statistics import paired_over_seeds_and_episodes
+
+    rng = np.random.default_rng(trial)
+    seeds, episodes = [(5, 100), (1, 40), (3, 1), (7, 13), (2, 250), (4, 60)][trial]
+    a = (rng.random((seeds, episodes)) < 0.7).astype(float)
+    if trial % 2:
+        a = rng.normal(size=(seeds, episodes))
+    a[rng.random(a.shape) < 0.15] = np.nan
+    b = (rng.random(episodes) < 0.5).astype(float)
+    diff, draws = a - b, np.random.default_rng(trial + 10)
+    means = []
+    for _ in range(300):
+        rows = draws.integers(0, seeds, seeds)
+        cols = draws.integers(0, episodes, episodes)
+        block = diff[np.ix_(rows, cols)]
+        means.append(np.nanmean(block) if np.isfinite(block).any() else np.nan)
+    low, high = np.nanquantile(means, [0.025, 0.975])
+    got = paired_over_seeds_and_episodes(a, b, resamples=300, seed=trial + 10)
+    assert got.ci_low == pytest.approx(low, abs=1e-12)
+    assert got.ci_high == pytest.approx(high, abs=1e-12)
+    assert got.mean == pytest.approx(np.nanmean(diff))
+
+
 def test_per_seed_t_intervals_are_never_the_range_of_the_seeds():
     from sgjax.evaluation.statistics import per_seed_paired_t, seed_aggregate
 
