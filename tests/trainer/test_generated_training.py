@@ -14,13 +14,20 @@ from train.algorithm.trainer import Trainer, seed_keys
 from train.algorithm.world_curriculum import crowds
 
 
-@pytest.mark.slow
-def test_a_run_on_generated_worlds_trains_on_a_world_per_environment():
+@pytest.fixture(scope="module")
+def generated_run():
+    """A tiny run on generated doorways (door widths 1.0 to 1.6 m, 1 s episodes): its config,
+    trainer and fresh runners (one seed), built and compiled once for the tests below."""
     config = tiny(env={"scenarios": ["generated:doorway"], "curriculum": [[0, 2]],
                        "time_limit": 1.0, "world_ranges": {"door_width": [1.0, 1.6]}})
-    assert config.env.options.worlds.ranges() == {"door_width": (1.0, 1.6)}
     trainer = Trainer(config)
-    runners = jax.jit(jax.vmap(trainer.init))(seed_keys(config))
+    return config, trainer, jax.jit(jax.vmap(trainer.init))(seed_keys(config))
+
+
+@pytest.mark.slow
+def test_a_run_on_generated_worlds_trains_on_a_world_per_environment(generated_run):
+    config, trainer, runners = generated_run
+    assert config.env.options.worlds.ranges() == {"door_width": (1.0, 1.6)}
     widths = np.asarray(runners.env_states[0].world.values["door_width"])  # [seeds, envs]
     assert widths.shape == (1, trainer.num_envs) and len(set(widths[0].round(5))) > 1
     assert np.all((widths >= 1.0) & (widths <= 1.6))
@@ -33,11 +40,14 @@ def test_a_run_on_generated_worlds_trains_on_a_world_per_environment():
 @pytest.mark.slow
 @pytest.mark.parametrize("method", ["plr", "accel", "learnability"])
 def test_a_curriculum_keeps_a_buffer_per_lane_and_replays_its_levels(method):
-    """Every lane its own buffer of valid levels, replayed; under ``accel`` (with room for
-    pedestrians: 1 of 5) edits also add groups of 2, which the worlds play."""
-    crowd = {"num_humans": 1, "max_humans": 5} if method == "accel" else {}
+    """Every lane its own buffer of valid levels, replayed; with room for pedestrians (1 of
+    5), ``accel``'s edits also add groups of 2, which the worlds play, and ``plr``'s and
+    ``learnability``'s levels keep the environment's count. (The three methods differ only
+    in the lanes' curriculum numbers: they run one compiled update. Without room for
+    pedestrians an edit adds none: test_curricula_train_as_lanes_of_one_program.)"""
+    edits = method == "accel"
     config = tiny(env={"scenarios": ["generated:doorway", "doorway"], "curriculum": [[0, 2]],
-                       "time_limit": 1.0, **crowd},
+                       "time_limit": 1.0, "num_humans": 1, "max_humans": 5},
                   levels={"method": method, "buffer_size": 8, "min_fill": 0.25,
                           "replay_prob": 1.0, "mutate_prob": 0.5, "pedestrian_group": 2},
                   num_seeds=2)
@@ -53,15 +63,16 @@ def test_a_curriculum_keeps_a_buffer_per_lane_and_replays_its_levels(method):
         states = runners.env_states[0]
         count = np.asarray(states.world.pedestrians)
         active = np.asarray(states.humans.active).sum(axis=-1)
-        np.testing.assert_array_equal(active, np.where(count >= 0, count, 1 if crowd else 0))
+        np.testing.assert_array_equal(active, np.where(count >= 0, count, 1))
         seen |= set(count.ravel().tolist())
         held = np.asarray(runners.levels[0].pedestrians)[np.asarray(runners.levels[0].filled)]
-        assert set(held.tolist()) <= {-1, 3, 5}  # 1 and whole groups of 2, capped at 5
+        # 1 and whole groups of 2, capped at 5; without edits the environment's count
+        assert set(held.tolist()) <= ({-1, 3, 5} if edits else {-1})
     # the edits may add groups of 2 on top of 1, up to 5 (whether one was drawn in these few
-    # updates is chance: tests/trainer/test_level_buffer.py draws them)
-    assert crowds(trainer.batch, config.levels)[0] == (
-        Crowd(group=2, base=1, capacity=5) if crowd else Crowd(group=2, base=0, capacity=0))
-    assert seen <= {-1, 3, 5} if crowd else seen == {-1}
+    # updates is chance: tests/trainer/test_level_buffer.py draws them); replays without
+    # edits play the environment's count
+    assert crowds(trainer.batch, config.levels)[0] == Crowd(group=2, base=1, capacity=5)
+    assert seen <= {-1, 3, 5} if edits else seen == {-1}
     buffers = runners.levels[0]
     filled = np.asarray(buffers.filled)  # [seeds, slots]
     assert filled.any(axis=1).all()
@@ -93,7 +104,8 @@ def test_a_curriculum_needs_a_generated_scenario_and_valid_settings():
 @pytest.mark.slow
 def test_curricula_train_as_lanes_of_one_program():
     """DR, PLR and ACCEL lanes of one vmap: the DR lane never replays, the PLR lane replays
-    levels as they are, the ACCEL lane plays edits too."""
+    levels as they are, the ACCEL lane plays edits too; without room for pedestrians its
+    edits add none."""
     config = tiny(env={"scenarios": ["generated:doorway"], "curriculum": [[0, 2]],
                        "time_limit": 1.0},
                   levels={"method": "plr", "buffer_size": 8, "min_fill": 0.25,
@@ -123,6 +135,11 @@ def test_curricula_train_as_lanes_of_one_program():
             assert len(picked - held) >= len(picked) // 2  # an edit clipped at a bound stays
         else:
             assert picked <= held
+    # no pedestrian slots: an edit never adds a group, every level keeps the environment's
+    # count (-1)
+    assert crowds(trainer.batch, config.levels) == (Crowd(group=2, base=0, capacity=0),)
+    assert (np.asarray(buffers.pedestrians) == -1).all()
+    assert (np.asarray(nxt.pedestrians) == -1).all()
 
 
 def test_a_lane_curriculum_needs_a_curriculum_config():
@@ -145,14 +162,11 @@ def test_a_curriculum_variant_needs_a_curriculum_config_and_a_known_method(tmp_p
 
 
 @pytest.mark.slow
-def test_a_checkpoint_saved_before_curricula_restores_and_other_gaps_still_fail(tmp_path,
-                                                                              monkeypatch):
+def test_a_checkpoint_saved_before_curricula_restores_and_other_gaps_still_fail(
+        generated_run, tmp_path, monkeypatch):
     from train.run import checkpoint
 
-    config = tiny(env={"scenarios": ["generated:doorway"], "curriculum": [[0, 2]],
-                       "time_limit": 1.0})
-    trainer = Trainer(config)
-    runner = jax.jit(jax.vmap(trainer.init))(seed_keys(config))
+    config, trainer, runner = generated_run
     path = checkpoint.save(tmp_path / "c.msgpack", config, runner, {"steps": 0})
     cfg, meta, raw = checkpoint.read(path)
     old = {k: v for k, v in raw.items() if k not in ("levels", "curriculum")}

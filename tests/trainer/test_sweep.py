@@ -194,9 +194,12 @@ def test_a_grid_sweep_runs_its_whole_grid_and_ends(tmp_path):
     """Optuna's grid sampler signals its last point with ``Study.stop()``, which raises outside
     ``Study.optimize``; the sweep ran the paper's Table 6 grid to its last trial and died there
     before writing its outputs. Every point runs once, and the sweep ends normally."""
-    data = {**SPACE, "trial": {"seeds": 1, "evaluations": 1},
-            "sweep": {"trials": 3, "lanes": 2, "sampler": "grid", "pruner": "none"},
-            "params": {"algorithm.learning_rate": {"choices": [1e-3, 3e-4, 1e-4]}}}
+    # The learning rate's three points; gamma at one value makes the lanes' program the one
+    # test_trials_run_as_lanes_and_groups_and_write_the_results compiled for its [16] group
+    # (the same lane settings and chunks: read from the compilation cache).
+    data = {**SPACE, "sweep": {"trials": 3, "lanes": 2, "sampler": "grid", "pruner": "none"},
+            "params": {"algorithm.learning_rate": {"choices": [1e-3, 3e-4, 1e-4]},
+                       "algorithm.gamma": {"choices": [0.95]}}}
     space = load_space(write(tmp_path / "space.yaml", data))
     (tmp_path / "out").mkdir()
     study = open_study(space, f"sqlite:///{tmp_path}/out/study.db", "grid", 0)

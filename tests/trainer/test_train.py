@@ -4,7 +4,9 @@ end: tests/trainer/test_train_commands.py)."""
 
 import functools
 import json
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -23,7 +25,7 @@ from train.algorithm import trainer as trainer_module
 from train.algorithm.actor import ActorWeights
 from train.algorithm.config import config_from_dict, load_config
 from train.algorithm.networks import ResetGRU, ResetLSTM
-from train.algorithm.state import Rollout
+from train.algorithm.state import Rollout, RunnerState
 from train.algorithm.trainer import Trainer, seed_keys
 from train.run import checkpoint
 
@@ -257,14 +259,22 @@ def test_sequential_and_batched_lanes_train_the_same_seeds():
     assert not np.allclose(first[0], first[1])
 
 
-@pytest.mark.parametrize("network", [{"hidden": [16]},
-                                     {"kind": "gru", "recurrent_size": 8, "hidden": [16],
-                                      "others_encoder": "lstm", "encoder_size": 8}])
-def test_a_training_call_returns_the_types_it_takes_so_it_compiles_once(network):
+@pytest.mark.parametrize("network,levels", [
+    ({"hidden": [16]}, None),
+    ({"kind": "gru", "recurrent_size": 8, "hidden": [16], "others_encoder": "lstm",
+      "encoder_size": 8}, None),
+    ({"hidden": [16]}, {"method": "accel", "buffer_size": 4, "min_fill": 0.25}),
+], ids=["mlp", "gru_others_lstm", "curriculum"])
+def test_a_training_call_returns_the_types_it_takes_so_it_compiles_once(network, levels):
     """The runner after an update has the shapes, dtypes and weak types of the runner ``init``
     made: otherwise the first training call of every command traces and compiles the update
-    again for the second (the running statistics' weakly typed start count once did that)."""
-    config = tiny(num_seeds=2, env={"observations": "navigation"}, network=network)
+    again for the second (the running statistics' weakly typed start count once did that, and
+    a curriculum's level buffer its weakly typed empty scores)."""
+    env = {"observations": "navigation"}
+    if levels is not None:  # a curriculum picks generated worlds
+        env |= {"scenarios": ["generated:doorway"], "curriculum": [[0, 2]], "time_limit": 1.0}
+    extra = {} if levels is None else {"levels": levels}
+    config = tiny(num_seeds=2, env=env, network=network, **extra)
     trainer = Trainer(config)
     runner = jax.eval_shape(jax.vmap(trainer.init), seed_keys(config))
     after, _ = jax.eval_shape(lambda r: trainer.update_chunk_lanes(r, 1), runner)
@@ -357,14 +367,22 @@ def test_mappo_with_lstm_encoder_and_continuous_actions_updates():
     assert kernel.shape[0] == trainer.slots * (trainer.batch.obs_size + 1)  # global state + id
 
 
+SHARED_ENCODER = {"others_encoder": "lstm", "encoder_size": 8, "shared_encoder": True}
+
+
+@pytest.fixture(scope="module")
+def shared_encoder() -> Trainer:
+    """A tiny trainer whose one LSTM others encoder feeds both towers (its ``init`` compiled
+    once for the tests that use it)."""
+    return Trainer(tiny(network=SHARED_ENCODER, env={"observations": "navigation"}))
+
+
 @pytest.mark.slow
-def test_others_encoders_learn_shared_or_separate():
+def test_others_encoders_learn_shared_or_separate(shared_encoder):
     """``network.shared_encoder``: one others encoder (parameters ``encoder``) feeds both
     towers and learns (separate encoders learn as well:
     test_compact_learning_phase_matches_the_masked_one[lstm-False])."""
-    config = tiny(network={"others_encoder": "lstm", "encoder_size": 8,
-                           "shared_encoder": True}, env={"observations": "navigation"})
-    trainer = Trainer(config)
+    trainer = shared_encoder
     runner = trainer.init(jax.random.PRNGKey(1))
     params = runner.params["params"]
     assert "encoder" in params
@@ -379,14 +397,13 @@ def test_others_encoders_learn_shared_or_separate():
     assert count(fresh.params) - count(runner.params) == count(params["encoder"])
 
 
-def test_lstm_encoder_skips_the_slots_that_are_always_empty_in_training():
+def test_lstm_encoder_skips_the_slots_that_are_always_empty_in_training(shared_encoder):
     """The trainer's LSTM reads only the slots that can hold a body in its environments (one
     other robot here, of k = 4 slots): outputs and gradients equal, bit for bit, those of the
     network reading every slot, which the saved actor keeps for other robot counts."""
     from train.algorithm.networks import ActorCritic, initial_carry
 
-    trainer = Trainer(tiny(network={"others_encoder": "lstm", "encoder_size": 8,
-                                    "shared_encoder": True}, env={"observations": "navigation"}))
+    trainer = shared_encoder
     assert trainer.actor.others.k == 4 and trainer.network.bodies == 1
     every = ActorCritic(trainer.config.network, trainer.actor.action_dim, trainer.actor.discrete,
                         trainer.actor.others)
@@ -549,29 +566,49 @@ def test_compact_auto_is_on_for_a_cpu_and_off_elsewhere(monkeypatch):
         tiny(algorithm={"compact": "yes"})
 
 
-def _compact_trainers(network: dict, **algorithm) -> tuple[Trainer, Trainer, Rollout]:
+class CompactRun(NamedTuple):
     """A masked and a compacted trainer of the same tiny run (two robots in three slots: one
-    slot is always absent), and a rollout of the first update."""
-    trainers = [Trainer(tiny(env={"observations": "navigation", "max_agents": 3},
-                             network=network, algorithm={**algorithm, "compact": compact}))
-                for compact in (False, True)]
-    runner = trainers[0].init(jax.random.PRNGKey(4))
-    _, rollout, _ = jax.jit(trainers[0].collect)(runner)
-    return trainers[0], trainers[1], rollout
+    slot is always absent), the fresh run both start from, a rollout of its first update,
+    and each trainer's ``learn_lane`` jitted (by ``config.algorithm.compact``)."""
+
+    masked: Trainer
+    compact: Trainer
+    runner: RunnerState
+    rollout: Rollout
+    learn: dict[bool, Callable[..., Any]]
+
+
+def _compact_run(name: str) -> CompactRun:
+    """The :class:`CompactRun` of ``COMPACT_NETWORKS[name]``."""
+    masked, compact = (Trainer(tiny(env={"observations": "navigation", "max_agents": 3},
+                                    network=COMPACT_NETWORKS[name],
+                                    algorithm={"compact": flag}))
+                       for flag in (False, True))
+    runner = masked.init(jax.random.PRNGKey(4))  # compact.init gives the same: one network
+    _, rollout, _ = jax.jit(masked.collect)(runner)
+    learn = {t.config.algorithm.compact: jax.jit(t.learn_lane) for t in (masked, compact)}
+    return CompactRun(masked, compact, runner, rollout, learn)
+
+
+@pytest.fixture(scope="module")
+def compact_runs() -> Callable[[str], CompactRun]:
+    """``name -> CompactRun``, each built, rolled out and compiled once for the tests of this
+    file (the gradient and learning-phase tests of a network share them)."""
+    return functools.cache(_compact_run)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", list(COMPACT_NETWORKS))
-def test_compact_minibatch_gradient_equals_the_masked_one(name):
+def test_compact_minibatch_gradient_equals_the_masked_one(name, compact_runs):
     """``algorithm.compact``: a minibatch's gradient and loss terms, computed over its active
     units only (transitions; agent sequences for a GRU), are the masked minibatch's, for the
     same minibatch (the same agents); the chunks that hold no active unit are not run."""
-    masked, compact, rollout = _compact_trainers(COMPACT_NETWORKS[name])
+    masked, compact, start, rollout, _ = compact_runs(name)
     assert compact.learner.recurrent == (name in RECURRENT)
     # a third of the rest inactive too, at random (as settled or parked robots)
     drop = jax.random.bernoulli(jax.random.PRNGKey(5), 0.33, rollout.traj.active.shape)
     rollout = rollout.replace(traj=rollout.traj.replace(active=rollout.traj.active & ~drop))
-    params = compact.init(jax.random.PRNGKey(4)).params
+    params = start.params
     order = jax.random.permutation(jax.random.PRNGKey(6), compact.num_agents)
     dense = masked.learner.masked_batches(order, rollout)
     units, counts = jax.jit(compact.learner.compact_batches)(order, rollout)
@@ -603,20 +640,17 @@ def test_compact_minibatch_gradient_equals_the_masked_one(name):
 @pytest.mark.parametrize(("name", "all_active"), [
     *((name, False) for name in COMPACT_NETWORKS), ("mlp", True)])
 @pytest.mark.slow
-def test_compact_learning_phase_matches_the_masked_one(name, all_active):
+def test_compact_learning_phase_matches_the_masked_one(name, all_active, compact_runs):
     """A whole learning phase (epochs of shuffled minibatches, Adam) gives the masked path's
     parameters and loss terms up to float rounding: with the rollout's own absent slots (every
     network) and with every slot active (nothing to skip; the MLP)."""
-    masked, compact, rollout = _compact_trainers(COMPACT_NETWORKS[name])
+    _, _, runner, rollout, learn = compact_runs(name)
     if all_active:
         rollout = rollout.replace(traj=rollout.traj.replace(
             active=jnp.ones_like(rollout.traj.active)))
-    runner = masked.init(jax.random.PRNGKey(4))
     key = jax.random.PRNGKey(7)
-    out = {}
-    for trainer in (masked, compact):
-        out[trainer.config.algorithm.compact] = jax.jit(trainer.learn_lane)(
-            runner.params, runner.opt_state, key, rollout)
+    out = {compact: fn(runner.params, runner.opt_state, key, rollout)
+           for compact, fn in learn.items()}
     (m_params, _, m_key, m_aux), (c_params, _, c_key, c_aux) = out[False], out[True]
     np.testing.assert_array_equal(m_key, c_key)
     assert leaves_close(c_params, m_params, rtol=1e-4, atol=3e-5)
@@ -660,15 +694,16 @@ def test_compact_lanes_train_the_same_seeds_batched_or_sequential():
     assert not np.allclose(first[0], first[1])
 
 
-@pytest.mark.parametrize("network", [
-    {"others_encoder": "lstm", "encoder_size": 8, "shared_encoder": True},
-    COMPACT_NETWORKS["gru"], COMPACT_NETWORKS["mlp"]])
-def test_critic_alone_gives_the_values_of_the_whole_network(network):
+@pytest.mark.parametrize("network", ["shared_encoder", "gru", "mlp"])
+def test_critic_alone_gives_the_values_of_the_whole_network(network, shared_encoder,
+                                                            compact_runs):
     """``ActorCritic.value`` (the bootstrap values of the rollout) is the whole network's
-    value, bit for bit, for separate and shared encoders and a GRU."""
+    value, bit for bit, for separate and shared encoders and a GRU (the trainers of the
+    tests above: the GRU's and the MLP's with an absent slot)."""
     from train.algorithm.networks import ActorCritic, initial_carry
 
-    trainer = Trainer(tiny(network=network, env={"observations": "navigation"}))
+    trainer = (shared_encoder if network == "shared_encoder"
+               else compact_runs(network).masked)
     runner = trainer.init(jax.random.PRNGKey(2))
     actor, critic = trainer.inputs(runner.obs_stats, runner.obs)
     carry = jax.tree.map(lambda c: c + 0.5, initial_carry(trainer.config.network,

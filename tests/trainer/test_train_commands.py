@@ -60,7 +60,7 @@ def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
     config = tmp_path / "tiny.yaml"
     config.write_text(yaml.safe_dump({
         # the final evaluation's settings of the next test: one compiled program for both
-        **TINY, "evaluation": {"every": 64, "episodes": 3, "num_agents": [2, 3]},
+        **TINY, "evaluation": {"every": 64, "episodes": 4, "num_agents": [2, 3]},
         "logging": {"out": str(tmp_path / "run"), "checkpoint_every": 64,
                     "tensorboard": False, "progress": False},
         "env": {**TINY["env"], "time_limit": 10.0}}))
@@ -86,7 +86,7 @@ def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
     assert made["seeds"] == {"training": [0], "validation": [1234], "evaluation": [1000]}
     assert {"train", "final evaluation", "total"} <= set(made["seconds"])
     check_document(json.loads((run / "eval" / "metrics.json").read_text()))
-    assert "paired over the same 3 episodes" in out
+    assert "paired over the same 4 episodes" in out
     from sgjax.command import main as sgjax_main
 
     sgjax_main(["evaluate", "--scenario", "open", "--policy", str(run), "--num-agents", "2",
@@ -101,31 +101,41 @@ def test_train_command_end_to_end_then_evaluate_and_resume(tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_final_evaluation_evaluates_like_separate_evaluate_calls_and_records_its_gif(tmp_path):
-    """The final evaluation's one program (the trained policy and only_local at every count as
-    lanes) gives the results of one ``evaluate`` call per policy, its GIF is the evaluated
-    episode (the same states as a separate recording run of it), and the program compiles once
-    per process."""
+def test_final_evaluation_evaluates_like_separate_calls_reports_every_seed_and_records_its_gif(
+        tmp_path, capsys):
+    """A run of two seeds, the second its best. (1) The final evaluation's one program (the
+    best seed and only_local at every count as lanes) gives the results of one ``evaluate``
+    call per policy, its GIF is the evaluated episode (the same states as a separate recording
+    run of it), and the program compiles once per process. (2) It plays each seed on the same
+    episodes as the best seed and the baseline (rows "trained (ippo) seed i", seed i's results
+    as its own policy gives them), aggregates them over seeds and prints and tables the spread.
+    One test: both properties are of the same final evaluation, which compiles and plays once
+    (with the same settings as the previous test's run: one compiled program for both)."""
     import jax
-    import numpy as np
     from test_train import tiny
 
     from sgjax.evaluation.evaluate import evaluate, policy_environment, run_episodes
     from train.algorithm.trainer import Trainer, seed_keys
     from train.cli import _checkpoint_actor, _evaluate_scenario, final_evaluation
     from train.run.checkpoint import load_checkpoint_policy, save
+    from train.tables import main as tables_main
 
-    config = tiny(env={"time_limit": 10.0}, evaluation={"episodes": 3, "num_agents": [2, 3]})
+    config = tiny(num_seeds=2, env={"time_limit": 10.0},
+                  evaluation={"episodes": 4, "num_agents": [2, 3]})
     trainer = Trainer(config)
     runner = jax.jit(jax.vmap(trainer.init))(seed_keys(config))
-    path = save(tmp_path / "best.msgpack", config, runner, {"best_seed": 0}, trainer.actor)
+    path = save(tmp_path / "best.msgpack", config, runner, {"best_seed": 1}, trainer.actor)
     summary = final_evaluation(config, tmp_path, path)
+    results = summary["results"]
     seed, options = config.seed + EVALUATION_SEED_OFFSET, config.env.options
-    separate = (evaluate(["open"], [str(path)], [2, 3], 3, seed=seed, options=options, log=None,
+    # (1) the best seed's and only_local's rows: one evaluate call per policy (the checkpoint's
+    # policy is its best seed, played alone)
+    separate = (evaluate(["open"], [str(path)], [2, 3], 4, seed=seed, options=options, log=None,
                          policy_names=["trained (ippo)"])
-                + evaluate(["open"], ["only_local"], [2, 3], 3, seed=seed, log=None,
+                + evaluate(["open"], ["only_local"], [2, 3], 4, seed=seed, log=None,
                            options=options.replace(action_mode="go_stop")))
-    assert [(r.policy, r.num_agents, r.as_dict()["metrics"]) for r in summary["results"]] == [
+    assert [(r.policy, r.num_agents, r.as_dict()["metrics"]) for r in results
+            if r.policy in ("trained (ippo)", "only_local")] == [
         (r.policy, r.num_agents, r.as_dict()["metrics"]) for r in separate]
     with Image.open(tmp_path / "eval" / "episode.gif") as gif:
         assert gif.n_frames > 1
@@ -135,54 +145,35 @@ def test_final_evaluation_evaluates_like_separate_evaluate_calls_and_records_its
     assert mine[0].compile_seconds == 0.0  # the final evaluation compiled this program
     # The paired difference's mean is the difference of the two means (the same episodes).
     for n, (a, b) in zip((2, 3), zip(mine, theirs, strict=True), strict=True):
-        assert paired[n].n == 3 and paired[n].mean == pytest.approx(
+        assert paired[n].n == 4 and paired[n].mean == pytest.approx(
             a.metrics["team_success"].mean - b.metrics["team_success"].mean)
-    env, _ = policy_environment("open", [2, 3], None, options)
-    replay = run_episodes(env, params, load_checkpoint_policy(path), jax.random.key(seed), 3,
+    env, by_count = policy_environment("open", [2, 3], None, options)
+    replay = run_episodes(env, params, load_checkpoint_policy(path), jax.random.key(seed), 4,
                           record=True)
     assert length == replay.values["episode_length"][0] > 0
     for ours, theirs in zip(jax.tree.leaves(states), jax.tree.leaves(
             jax.tree.map(lambda leaf: leaf[:, 0], replay.states)), strict=True):
         np.testing.assert_array_equal(np.asarray(ours), np.asarray(theirs))
     np.testing.assert_array_equal(states.robots.x[length], replay.states.robots.x[length, 0])
-
-
-@pytest.mark.slow
-def test_final_evaluation_reports_every_training_seed(tmp_path, capsys):
-    """A run of two seeds: the final evaluation plays each seed on the same episodes as the
-    best seed and the baseline (rows "trained (ippo) seed i", seed i's results as its own
-    policy gives them), aggregates them over seeds and prints the spread."""
-    import jax
-    import numpy as np
-    from test_train import tiny
-
-    from sgjax.evaluation.evaluate import policy_environment, run_episodes
-    from train.algorithm.trainer import Trainer, seed_keys
-    from train.cli import final_evaluation
-    from train.run.checkpoint import load_checkpoint_policy, save
-
-    config = tiny(num_seeds=2, env={"time_limit": 10.0},
-                  evaluation={"episodes": 4, "num_agents": [2], "gif": False})
-    trainer = Trainer(config)
-    runner = jax.jit(jax.vmap(trainer.init))(seed_keys(config))
-    path = save(tmp_path / "best.msgpack", config, runner, {"best_seed": 1}, trainer.actor)
-    summary = final_evaluation(config, tmp_path, path)
-    rows = {r.policy: r for r in summary["results"]}
-    assert list(rows) == ["trained (ippo)", "trained (ippo) seed 0", "trained (ippo) seed 1",
-                          "only_local"]
-    team = {name: r.metrics["team_success"].mean for name, r in rows.items()}
-    assert team["trained (ippo)"] == team["trained (ippo) seed 1"]  # the best seed
-    env, by_count = policy_environment("open", [2], None, config.env.options)
-    key = jax.random.key(config.seed + EVALUATION_SEED_OFFSET)
-    for index in (0, 1):
-        alone = run_episodes(env, by_count[2], load_checkpoint_policy(path, seed_index=index),
-                             key, 4)
-        assert team[f"trained (ippo) seed {index}"] == pytest.approx(
-            float(np.mean(alone.values["team_success"])))
+    # (2) every seed's rows, on the same episodes
+    assert list(dict.fromkeys(r.policy for r in results)) == [
+        "trained (ippo)", "trained (ippo) seed 0", "trained (ippo) seed 1", "only_local"]
+    team = {(r.policy, r.num_agents): r.metrics["team_success"].mean for r in results}
+    alone = {("trained (ippo) seed 1", r.num_agents): r.metrics["team_success"].mean
+             for r in separate if r.policy == "trained (ippo)"}  # the best seed, alone
+    seed_0 = run_episodes(env, by_count[2], load_checkpoint_policy(path, seed_index=0),
+                          jax.random.key(seed), 4)
+    alone["trained (ippo) seed 0", 2] = float(np.mean(seed_0.values["team_success"]))
+    for (name, n), value in alone.items():
+        assert team[name, n] == pytest.approx(value), (name, n)
+    for n in (2, 3):
+        assert team["trained (ippo)", n] == team["trained (ippo) seed 1", n]  # the best seed
+        cell = summary["seed_spread"]["open"][n]
+        assert cell["seeds"] == [team["trained (ippo) seed 0", n],
+                                 team["trained (ippo) seed 1", n]]
+        assert cell["aggregate"]["mean"] == pytest.approx(np.mean(cell["seeds"]))
+        assert len(cell["paired"]) == 2
     cell = summary["seed_spread"]["open"][2]
-    assert cell["seeds"] == [team["trained (ippo) seed 0"], team["trained (ippo) seed 1"]]
-    assert cell["aggregate"]["mean"] == pytest.approx(np.mean(cell["seeds"]))
-    assert len(cell["paired"]) == 2
     document = json.loads((tmp_path / "eval" / "seed_spread.json").read_text())
     check_document(document)
     assert document["scenarios"]["open"]["2"]["team_success"] == cell["seeds"]
@@ -191,33 +182,52 @@ def test_final_evaluation_reports_every_training_seed(tmp_path, capsys):
     paired = json.loads((tmp_path / "eval" / "paired.json").read_text())
     check_document(paired)
     both = paired["scenarios"]["open"]["2"]
-    assert both["policy"]["mean"] == team["trained (ippo)"]
-    assert both["baseline"]["mean"] == team["only_local"]
-    assert both["difference"]["mean"] == pytest.approx(team["trained (ippo)"]
-                                                       - team["only_local"])
+    assert both["policy"]["mean"] == team["trained (ippo)", 2]
+    assert both["baseline"]["mean"] == team["only_local", 2]
+    assert both["difference"]["mean"] == pytest.approx(team["trained (ippo)", 2]
+                                                       - team["only_local", 2])
     assert both["difference"]["n"] == 4
+    at_3 = paired["scenarios"]["open"]["3"]["policy"]
     lines = (tmp_path / "eval" / "paired.md").read_text().splitlines()
     assert lines[0].startswith("open: team success on the same 4 episodes per robot count")
-    assert lines[2:5] == ["| robots | 2 |", "|---|---|",
-                          f"| trained (ippo) | {team['trained (ippo)']:.2f} "
-                          f"[{both['policy']['ci_low']:.2f}, {both['policy']['ci_high']:.2f}] |"]
+    assert lines[2:5] == ["| robots | 2 | 3 |", "|---|---|---|",
+                          f"| trained (ippo) | {team['trained (ippo)', 2]:.2f} "
+                          f"[{both['policy']['ci_low']:.2f}, {both['policy']['ci_high']:.2f}] | "
+                          f"{team['trained (ippo)', 3]:.2f} "
+                          f"[{at_3['ci_low']:.2f}, {at_3['ci_high']:.2f}] |"]
     assert lines[6].startswith(f"| trained (ippo) - only_local, paired | "
                                f"{both['difference']['mean']:+.2f} [")
     out = capsys.readouterr().out
     assert "team success of each of the 2 training seeds on the same 4 episodes" in out
-    from train.tables import main as tables_main
-
     written = {name: (tmp_path / "eval" / name).read_text()
                for name in ("paired.md", "seed_spread.md")}
     for name in written:
         (tmp_path / "eval" / name).unlink()
     assert tables_main([str(tmp_path / "eval")]) == 0  # the tables again, from the JSON files
     assert {name: (tmp_path / "eval" / name).read_text() for name in written} == written
-    assert "  2 robots: seeds " in out and "above only_local" in out
+    assert "  2 robots: seeds " in out and "  3 robots: seeds " in out
+    assert "above only_local" in out
+
+
+@pytest.fixture(scope="module")
+def whole_cell():
+    """A reproduce cell of two seeds trained for 4 updates and never killed: its config,
+    trainer and seed-batched runner, trained once for the two tests below (its update program
+    serves test_an_ablation_group_killed_midway_resumes_from_its_last_call too, from the
+    compilation cache)."""
+    from test_train import tiny
+
+    import train.reproduce as reproduce
+
+    config = tiny(num_seeds=2, algorithm={"total_steps": 4 * 8 * 8})  # 4 updates
+    assert config.algorithm.num_updates == 4
+    trainer, runner, _, _ = reproduce.train_baseline(config)
+    return config, trainer, runner
 
 
 @pytest.mark.slow
-def test_a_reproduce_cell_killed_midway_resumes_from_its_last_call(tmp_path, monkeypatch):
+def test_a_reproduce_cell_killed_midway_resumes_from_its_last_call(tmp_path, monkeypatch,
+                                                                   whole_cell):
     """A cell trains in calls, each ending in a checkpoint; killed after its first call and
     resumed, it ends with the same weights as a cell never killed; a run without resume, or a
     checkpoint of another config, does not continue from a stale file."""
@@ -228,9 +238,7 @@ def test_a_reproduce_cell_killed_midway_resumes_from_its_last_call(tmp_path, mon
     import train.reproduce as reproduce
     from train.run import checkpoint
 
-    config = tiny(num_seeds=2, algorithm={"total_steps": 4 * 8 * 8})  # 4 updates
-    assert config.algorithm.num_updates == 4
-    _, whole, _, _ = reproduce.train_baseline(config)
+    config, _, whole = whole_cell
     partial = tmp_path / "partial" / "open-cadrl.msgpack"
     saved = checkpoint.save
     saves = []
@@ -261,18 +269,16 @@ def test_a_reproduce_cell_killed_midway_resumes_from_its_last_call(tmp_path, mon
 
 @pytest.mark.slow
 def test_a_reproduce_cell_killed_in_its_evaluation_plays_only_the_counts_not_kept(
-        tmp_path, monkeypatch):
+        tmp_path, monkeypatch, whole_cell):
     """Each robot count's evaluation is kept as it is played: killed after the first count
     and resumed, the cell plays the second alone and ends with the values of an evaluation
     never killed; weights trained again, or a run without resume, do not use the file."""
     import jax
-    from test_train import tiny
 
     import train.reproduce as reproduce
     from sgjax.evaluation.trained import TrainedEvaluation
 
-    config = tiny(num_seeds=2, algorithm={"total_steps": 2 * 8 * 8})
-    trainer, runner, _, _ = reproduce.train_baseline(config)
+    config, trainer, runner = whole_cell  # any trained cell: the previous test's
     options, kept = config.env.options, tmp_path / "partial" / "open-cadrl.evaluation.json"
     whole = reproduce.evaluate_seeds("open", [2, 3], 3, 0, trainer, runner, options)
     played, killed = [], []
@@ -496,11 +502,14 @@ def test_an_ablation_group_killed_midway_resumes_from_its_last_call(tmp_path, mo
     from train.run import checkpoint
 
     monkeypatch.setattr(ablation, "SAVES_PER_RUN", 4)  # one update per call
+    # two seeds, two lanes a call: the update program of the two-seed reproduce cell above
+    # (whole_cell), read from the compilation cache; one lane a call compiles its own
     trainer = Trainer(tiny(algorithm={"total_steps": 4 * 8 * 8}))  # 4 updates
     variants = {"baseline": ablation.Variant(),
                 "no collision": ablation.Variant(rewards_off=("collision",))}
-    whole, whole_logs, labels = ablation.train_variants(trainer, variants, 1, lanes_per_run=1)
-    assert labels == [("baseline", 0), ("no collision", 0)]
+    whole, whole_logs, labels = ablation.train_variants(trainer, variants, 2, lanes_per_run=2)
+    assert labels == [("baseline", 0), ("baseline", 1), ("no collision", 0),
+                      ("no collision", 1)]
     partial = tmp_path / "ablation.partial" / "group-1.msgpack"
     saved = checkpoint.save
     saves = []
@@ -513,7 +522,7 @@ def test_an_ablation_group_killed_midway_resumes_from_its_last_call(tmp_path, mo
 
     monkeypatch.setattr(checkpoint, "save", killed_at_the_sixth_save)
     with pytest.raises(KeyboardInterrupt):
-        ablation.train_variants(trainer, variants, 1, lanes_per_run=1, partial=partial)
+        ablation.train_variants(trainer, variants, 2, lanes_per_run=2, partial=partial)
     assert saves[:5] == [(1, 1), (1, 2), (1, 3), (1, 4), (2, 1)]
     assert checkpoint.read(partial)[1]["updates"] == 1  # the second lane call's first update
 
@@ -523,19 +532,19 @@ def test_an_ablation_group_killed_midway_resumes_from_its_last_call(tmp_path, mo
 
     saves.clear()
     monkeypatch.setattr(checkpoint, "save", recorded)
-    resumed, logs, _ = ablation.train_variants(trainer, variants, 1, lanes_per_run=1,
+    resumed, logs, _ = ablation.train_variants(trainer, variants, 2, lanes_per_run=2,
                                                partial=partial, resume=True)
     assert saves == [(2, 2), (2, 3), (2, 4)]  # only the updates not yet done
     monkeypatch.setattr(checkpoint, "save", saved)
     for a, b in zip(jax.tree.leaves((whole.params, whole_logs)),
                     jax.tree.leaves((resumed.params, logs)), strict=True):
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
-    assert logs["steps"].shape == (2, 4)
+    assert logs["steps"].shape == (4, 4)
     with pytest.raises(ValueError, match="group-1.msgpack: a partly trained group of other"):
-        ablation.train_variants(trainer, variants, 1, lanes_per_run=2, partial=partial,
+        ablation.train_variants(trainer, variants, 2, lanes_per_run=4, partial=partial,
                                 resume=True)
-    ablation.train_variants(trainer, {"baseline": ablation.Variant()}, 1, partial=partial)
-    assert checkpoint.read(partial)[1]["labels"] == [["baseline", 0]]
+    ablation.train_variants(trainer, {"baseline": ablation.Variant()}, 2, partial=partial)
+    assert checkpoint.read(partial)[1]["labels"] == [["baseline", 0], ["baseline", 1]]
 
 
 def _free_port() -> int:

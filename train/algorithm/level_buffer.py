@@ -60,7 +60,7 @@ class LevelBuffer:
         return cls(seed=jnp.zeros(size, jnp.uint32),
                    values={name: zeros for name in sorted(parameters)},
                    pedestrians=jnp.full(size, -1, jnp.int32),
-                   score=jnp.full(size, NEVER), plays=zeros, success=zeros,
+                   score=jnp.full(size, NEVER, jnp.float32), plays=zeros, success=zeros,
                    last_played=jnp.zeros(size, jnp.int32), filled=jnp.zeros(size, bool),
                    episode_score=jnp.zeros(num_envs, jnp.float32),
                    episode_steps=jnp.zeros(num_envs, jnp.float32))
