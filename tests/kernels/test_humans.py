@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -17,6 +19,7 @@ from sgjax.maps import parse_map
 DT = 0.1
 
 
+@jax.jit  # one program where called outside jit, not a compile per operation
 def _wall_distance(m, x, y):
     d = point_segment_distance(x[..., None], y[..., None], m.wall_x1, m.wall_y1, m.wall_x2,
                                m.wall_y2)
@@ -43,12 +46,19 @@ def _walkers(m, start_xy, goal_nodes, speed=1.3) -> HumanState:
 
 
 def _rollout(env, params, state, actions, steps, key=0):
+    return _scan_steps(env, params, state, actions, jax.random.split(jax.random.key(key), steps))
+
+
+@functools.partial(jax.jit, static_argnums=0)
+def _scan_steps(env, params, state, actions, keys):
+    """A step of ``env`` (static: environments of equal configurations share the program) per
+    key under the held ``actions``: the last state and the pedestrians, robots and
+    human-collision flags after each step."""
     def body(st, k):
         _, st, _, _, _, info = env.step_env(k, st, actions, params)
         return st, (st.humans, st.robots, info["collision_human"])
 
-    keys = jax.random.split(jax.random.key(key), steps)
-    return jax.jit(lambda s: jax.lax.scan(body, s, keys))(state)
+    return jax.lax.scan(body, state, keys)
 
 
 # ------------------------------------------------------------------ spawning and params
@@ -57,17 +67,25 @@ def _rollout(env, params, state, actions, steps, key=0):
 def test_spawns_are_clear_of_walls_robots_and_each_other(scenario):
     env, params = sgjax.make(scenario, num_agents=4, num_humans=30)
     keys = jax.random.split(jax.random.key(3), 32)
-    _, state = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(keys, params)
-    h, r = state.humans, state.robots
-    assert bool(jnp.all(jnp.sum(h.active, axis=1) == 30))
+
+    @jax.jit  # the spawns and their gaps in one program, not a compile per operation
+    def spawned(keys, params):
+        _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+        h, r = state.humans, state.robots
+        pair = jnp.hypot(h.x[:, :, None] - h.x[:, None, :], h.y[:, :, None] - h.y[:, None, :])
+        pair = jnp.where(jnp.eye(30, dtype=bool), jnp.inf, pair)
+        to_robot = jnp.hypot(h.x[:, :, None] - r.x[:, None, :],
+                             h.y[:, :, None] - r.y[:, None, :])
+        reach = params.humans.radius + params.robots.radius[None, None, :]
+        return (jnp.sum(h.active, axis=1), jnp.min(_wall_distance(params.map, h.x, h.y)),
+                jnp.min(pair), jnp.all(jnp.where(r.present[:, None, :], to_robot >= reach, True)))
+
+    active, wall_gap, pair_gap, robots_clear = spawned(keys, params)
     radius = float(params.humans.radius)
-    assert float(jnp.min(_wall_distance(params.map, h.x, h.y))) >= radius
-    pair = jnp.hypot(h.x[:, :, None] - h.x[:, None, :], h.y[:, :, None] - h.y[:, None, :])
-    pair = jnp.where(jnp.eye(30, dtype=bool), jnp.inf, pair)
-    assert float(jnp.min(pair)) >= 2 * radius
-    to_robot = jnp.hypot(h.x[:, :, None] - r.x[:, None, :], h.y[:, :, None] - r.y[:, None, :])
-    reach = radius + params.robots.radius[None, None, :]
-    assert bool(jnp.all(jnp.where(r.present[:, None, :], to_robot >= reach, True)))
+    assert bool(jnp.all(active == 30))
+    assert float(wall_gap) >= radius
+    assert float(pair_gap) >= 2 * radius
+    assert bool(robots_clear)
 
 
 @pytest.mark.slow
@@ -166,8 +184,9 @@ def test_pedestrians_avoid_a_robot_standing_in_a_corridor(robot_weight, avoids):
     touching it. With robots' social force switched off they walk into it (the test can fail)."""
     env, params = sgjax.make(_wide_corridor(), num_agents=1, num_humans=4)
     if robot_weight is not None:  # None: the default
-        params = params.replace(humans=params.humans.replace(
-            robot_weight=jnp.asarray(robot_weight)))
+        # the default's type (not weakly typed): both cases share one compiled rollout
+        weight = jnp.full_like(params.humans.robot_weight, robot_weight)
+        params = params.replace(humans=params.humans.replace(robot_weight=weight))
     m = params.map
     # The robot stands at x = 1.5 m, between two of the corridor's nodes; STOP keeps it there.
     _, state = env.reset_to(jnp.array([3]), jnp.array([6]), jnp.array([True]), params)
@@ -246,7 +265,9 @@ def test_deterministic():
     episode = jax.jit(_episode, static_argnums=(0,))
     a = episode(env, params, key)
     b = episode(env, params, key)
-    assert jax.tree.all(jax.tree.map(lambda u, v: bool(jnp.array_equal(u, v)), a, b))
+    # compared on the host (an eager comparison per array shape is a compile each)
+    assert jax.tree.all(jax.tree.map(lambda u, v: np.array_equal(np.asarray(u), np.asarray(v)),
+                                     a, b))
 
 
 @pytest.mark.slow
@@ -330,7 +351,8 @@ def test_helbing_forces_are_minus_the_potential_gradient():
         x, y = (jnp.asarray(rng.uniform(-2, 2, 5), jnp.float64) for _ in range(2))
         ox, oy, ovx, ovy = (jnp.asarray(rng.uniform(-2, 2, 3), jnp.float64) for _ in range(4))
         heading = jnp.ones(5, jnp.float64), jnp.zeros(5, jnp.float64)
-        fx, fy = helbing_interaction(x, y, *heading, ox, oy, ovx, ovy, jnp.ones((5, 3)), p)
+        interaction = jax.jit(helbing_interaction)  # one program, not a dispatch per operation
+        fx, fy = interaction(x, y, *heading, ox, oy, ovx, ovy, jnp.ones((5, 3)), p)
 
         def potential(px, py):
             rx, ry = px - ox, py - oy
@@ -339,17 +361,17 @@ def test_helbing_forces_are_minus_the_potential_gradient():
             b = 0.5 * jnp.sqrt(total**2 - (sx**2 + sy**2))
             return jnp.sum(p.v0 * jnp.exp(-b / p.sigma))
 
-        gx, gy = jax.vmap(jax.grad(potential, argnums=(0, 1)))(x, y)
+        gx, gy = jax.jit(jax.vmap(jax.grad(potential, argnums=(0, 1))))(x, y)
     np.testing.assert_allclose(fx, -gx, rtol=1e-6, atol=1e-9)
     np.testing.assert_allclose(fy, -gy, rtol=1e-6, atol=1e-9)
     # The field of view halves a force from behind.
     behind = SocialForceParams()
-    bx, _ = helbing_interaction(jnp.zeros(1), jnp.zeros(1), jnp.ones(1), jnp.zeros(1),
-                                jnp.array([-0.5]), jnp.zeros(1), jnp.zeros(1), jnp.zeros(1),
-                                jnp.ones((1, 1)), behind)
-    fx1, _ = helbing_interaction(jnp.zeros(1), jnp.zeros(1), jnp.ones(1), jnp.zeros(1),
-                                 jnp.array([-0.5]), jnp.zeros(1), jnp.zeros(1), jnp.zeros(1),
-                                 jnp.ones((1, 1)), p)
+    bx, _ = interaction(jnp.zeros(1), jnp.zeros(1), jnp.ones(1), jnp.zeros(1),
+                        jnp.array([-0.5]), jnp.zeros(1), jnp.zeros(1), jnp.zeros(1),
+                        jnp.ones((1, 1)), behind)
+    fx1, _ = interaction(jnp.zeros(1), jnp.zeros(1), jnp.ones(1), jnp.zeros(1),
+                         jnp.array([-0.5]), jnp.zeros(1), jnp.zeros(1), jnp.zeros(1),
+                         jnp.ones((1, 1)), p)
     np.testing.assert_allclose(bx, 0.5 * fx1, rtol=1e-6)
 
 
@@ -357,13 +379,18 @@ def test_helbing_wall_force_is_minus_the_potential_gradient():
     p = SocialForceParams()
     wall = [jnp.array([v]) for v in (-1.0, 0.3, 2.0, 0.3)]
     x, y = jnp.array([0.5, -1.5]), jnp.array([0.0, 0.1])
-    ax, ay = point_segment_offset(x[:, None], y[:, None], *wall)
-    fx, fy = helbing_wall_force(ax, ay, jnp.array([True]), p)
+
+    @jax.jit  # one program, not a dispatch per operation
+    def force(x, y):
+        ax, ay = point_segment_offset(x[:, None], y[:, None], *wall)
+        return helbing_wall_force(ax, ay, jnp.array([True]), p)
+
+    fx, fy = force(x, y)
 
     def potential(px, py):
         qx, qy = point_segment_offset(px[None, None], py[None, None], *wall)
         return jnp.sum(p.u0 * jnp.exp(-jnp.hypot(qx, qy) / p.wall_range))
 
-    gx, gy = jax.vmap(jax.grad(potential, argnums=(0, 1)))(x, y)
+    gx, gy = jax.jit(jax.vmap(jax.grad(potential, argnums=(0, 1))))(x, y)
     np.testing.assert_allclose(fx, -gx, rtol=1e-4, atol=1e-6)
     np.testing.assert_allclose(fy, -gy, rtol=1e-4, atol=1e-6)

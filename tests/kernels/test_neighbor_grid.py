@@ -3,6 +3,8 @@ every body within the range is a candidate, a full list is counted (never a sile
 every force model gives the same forces and trajectories through the lists as over every body
 with the same range."""
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -55,54 +57,102 @@ def test_every_body_within_the_range_is_a_candidate(cell):
 def test_a_full_cell_list_counts_every_body_it_leaves_out():
     """20 bodies in one cell, lists of 8: 12 left out, counted; only 8 are candidates."""
     grid = covering_grid(jnp.zeros(2), (10.0, 10.0), 2.0)
-    x = jnp.full(20, 5.1) + 0.01 * jnp.arange(20)
-    y = jnp.full(20, 5.3)
-    cells = sort_into_cells(grid, x, y, jnp.ones(20, bool), 8)
-    index, listed = candidates(grid, cells, x[:1], y[:1], 8)
-    assert int(cells.overflow) == 12
-    assert int(listed.sum()) == 8
+
+    @jax.jit  # one program, not a dispatch per operation
+    def listed(x, y):
+        cells = sort_into_cells(grid, x, y, jnp.ones(20, bool), 8)
+        return cells.overflow, jnp.sum(candidates(grid, cells, x[:1], y[:1], 8)[1])
+
+    overflow, count = listed(jnp.full(20, 5.1) + 0.01 * jnp.arange(20), jnp.full(20, 5.3))
+    assert int(overflow) == 12
+    assert int(count) == 8
 
 
-def crossing(humans: int, model: str, search: str, capacity: int = 0, **kw):
-    """The 40 m square crossing with ``humans`` pedestrians on their routes and 4 robots."""
-    return sgjax.make(square_crossing(side=40.0), num_agents=4, num_humans=humans,
-                      human_goals="routes", human_model=model, human_range=RANGE,
-                      human_search=search, human_cell_capacity=capacity, **kw)
+def crossing_options(model: str, search: str | None, capacity: int = 0) -> dict:
+    """``sgjax.make``'s keywords for the 40 m square crossing's 160 pedestrians on their
+    routes and 4 robots, with a neighbour range of ``RANGE`` (``search`` None: no range, every
+    body)."""
+    options = {"num_agents": 4, "num_humans": 160, "human_goals": "routes",
+               "human_model": model}
+    if search is None:
+        return options
+    return {**options, "human_range": RANGE, "human_search": search,
+            "human_cell_capacity": capacity}
 
 
-def forces(env, state, params):
-    """``human_forces`` of ``env``'s configuration at ``state`` (the first sub-step)."""
-    r, h = state.robots, state.humans
-    v = r.body_velocity
-    return human_forces(env.config.humans, params.humans, params.map, h, r.x, r.y, v[:, 0],
-                        v[:, 1], r.in_world, r.moving, params.robots.radius,
-                        params.dt / env.config.substeps)
+@functools.cache
+def crossing(model: str, search: str | None):
+    """The crossing with :func:`crossing_options`, made once per module (the tests share the
+    environments and their compiled programs)."""
+    return sgjax.make(square_crossing(side=40.0), **crossing_options(model, search))
+
+
+def crowd_config(model: str, search: str | None, capacity: int = 0) -> HumanConfig:
+    """The pedestrian configuration ``sgjax.make`` gives :func:`crossing_options` (the same
+    ``MakeOptions``; its map, parameters and placement check are not needed)."""
+    return MakeOptions.from_keywords(**crossing_options(model, search, capacity)).humans.config()
+
+
+def forces(config: HumanConfig, substeps: int, robots, humans, params):
+    """``human_forces`` of ``config`` for ``robots`` and ``humans`` (the first of
+    ``substeps`` sub-steps)."""
+    v = robots.body_velocity
+    return human_forces(config, params.humans, params.map, humans, robots.x, robots.y,
+                        v[:, 0], v[:, 1], robots.in_world, robots.moving,
+                        params.robots.radius, params.dt / substeps)
+
+
+@functools.cache
+def rollout(model: str, search: str):
+    """200 steps of 160 pedestrians and 4 robots (GO) on the crossing, batched over 2
+    environments (``step_batch``): every step's pedestrians, robots and neighbour overflow
+    (``[200, 2, ...]``). Run once per module: the forces test reads its states, the
+    trajectories test compares the two searches' runs."""
+    env, params = crossing(model, search)
+
+    def run(keys):
+        _, s = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+
+        def body(s, k):
+            _, s, _, _, _, info = env.step_batch(jax.random.split(k, 2), s,
+                                               jnp.zeros((2, 4), jnp.int32), params)
+            return s, (s.humans, s.robots, info["neighbor_overflow"])
+
+        return jax.lax.scan(body, s, jax.random.split(jax.random.key(9), 200))[1]
+
+    return jax.jit(run)(jax.random.split(jax.random.key(3), 2))
+
+
+# The crowd whose states each force law is checked at: the model's own where its trajectories
+# are tested too (that rollout is run anyway), else the Moussaid crowd's. The check is per
+# state (one state through both searches), so any crowd of 160 on the crossing serves; a
+# rollout of its own would cost Helbing's 4.5 s and HSFM's 8 s of CPU (HSFM: 5 sub-steps).
+CROWD_OF = {"moussaid": "moussaid", "helbing": "moussaid", "hsfm": "moussaid", "orca": "orca"}
 
 
 @pytest.mark.parametrize("model", ["moussaid", *(pytest.param(m, marks=pytest.mark.slow)
                                        for m in ("helbing", "hsfm", "orca"))])
 def test_forces_through_the_lists_equal_forces_over_every_body(model):
-    """Along a 100-step rollout of 160 pedestrians, at every 10th state: the forces through
-    the cell lists equal those over every body with the same range (float rounding of the
-    sum's order), and the forces without a range differ (the range matters: the check can
+    """Along a 100-step rollout of 160 pedestrians (the first environment of
+    :func:`rollout` of the crowd :data:`CROWD_OF` names), at every 10th state: the forces
+    through the cell lists equal those over every body with the same range (float rounding of
+    the sum's order), and the forces without a range differ (the range matters: the check can
     fail). Lists of one body per cell miss neighbours: counted, and the forces differ."""
-    env, params = crossing(160, model, "all")
-    grid_env, _ = crossing(160, model, "grid")
-    tiny_env, _ = crossing(160, model, "grid", capacity=1)
-    free_env, _ = sgjax.make(square_crossing(side=40.0), num_agents=4, num_humans=160,
-                             human_goals="routes", human_model=model)
-    assert grid_env.config.humans.uses_grid and not env.config.humans.uses_grid
-    step = jax.jit(env.step)
-    all_f, grid_f, tiny_f, free_f = (jax.jit(lambda s, p, e=e: forces(e, s, p))
-                                     for e in (env, grid_env, tiny_env, free_env))
-    _, state = env.reset(jax.random.key(1), params)
-    go = jnp.zeros(4, jnp.int32)
+    env, params = crossing(model, "all")
+    assert crowd_config(model, "all") == env.config.humans  # the configurations make gives
+    grid = crowd_config(model, "grid")
+    assert grid.uses_grid and not env.config.humans.uses_grid
+    # the lists, lists of one body per cell, and no range (the parameters are the dense run's)
+    configs = (env.config.humans, grid, crowd_config(model, "grid", 1),
+               crowd_config(model, None))
+    substeps = env.config.substeps  # the same for every configuration of the model
+    # the four configurations' forces in one program (one compile, not four)
+    all_forces = jax.jit(lambda r, h, p: tuple(forces(c, substeps, r, h, p) for c in configs))
+    humans, robots, _ = rollout(CROWD_OF[model], "all")
     checked = 0
-    for t in range(100):
-        _, state, *_ = step(jax.random.key(t), state, go, params)
-        if t % 10:
-            continue
-        dense, listed, tiny, free = (f(state, params) for f in (all_f, grid_f, tiny_f, free_f))
+    for t in range(0, 100, 10):  # the state after step t + 1
+        dense, listed, tiny, free = all_forces(*jax.tree.map(lambda a, t=t: a[t, 0],
+                                                             (robots, humans)), params)
         assert int(listed[4]) == 0 and int(dense[4]) == 0
         scale = float(jnp.max(jnp.abs(jnp.stack(dense[:2]))))
         for a, b in zip(dense[:2], listed[:2], strict=True):
@@ -122,42 +172,29 @@ def test_trajectories_through_the_lists_follow_those_over_every_body(model):
     pedestrians' positions through the cell lists stay within 1 cm of those over every body
     (the forces differ by float rounding alone; a crowd amplifies it slowly), nothing
     overflows, and the robots' trajectories agree as closely."""
-    env, params = crossing(160, model, "all")
-    grid_env, _ = crossing(160, model, "grid")
-
-    def rollout(e):
-        def run(keys):
-            _, s = jax.vmap(e.reset, in_axes=(0, None))(keys, params)
-
-            def body(s, k):
-                _, s, _, _, _, info = e.step_batch(jax.random.split(k, 2), s,
-                                                   jnp.zeros((2, 4), jnp.int32), params)
-                return s, (s.humans.x, s.humans.y, s.robots.x, info["neighbor_overflow"])
-
-            return jax.lax.scan(body, s, jax.random.split(jax.random.key(9), 200))[1]
-
-        return jax.jit(run)(jax.random.split(jax.random.key(3), 2))
-
-    dense, listed = rollout(env), rollout(grid_env)
-    assert int(jnp.max(listed[3])) == 0 and int(jnp.max(dense[3])) == 0
-    for a, b in zip(dense[:3], listed[:3], strict=True):
+    assert crossing(model, "grid")[0].config.humans.uses_grid  # the lists are used
+    (dense_h, dense_r, dense_o), (listed_h, listed_r, listed_o) = (
+        rollout(model, search) for search in ("all", "grid"))
+    assert int(jnp.max(listed_o)) == 0 and int(jnp.max(dense_o)) == 0
+    for a, b in ((dense_h.x, listed_h.x), (dense_h.y, listed_h.y), (dense_r.x, listed_r.x)):
         assert float(jnp.max(jnp.abs(a - b))) < 1e-2
 
 
 def test_gradients_flow_through_the_lists():
     """d(sum of forces)/d(positions) through the lists equals the dense one's (the cell
     choice is piecewise constant; the gathered positions carry the gradient)."""
-    env, params = crossing(64, "moussaid", "all")
-    grid_env, _ = crossing(64, "moussaid", "grid")
+    env, params = crossing("moussaid", "all")
+    grid = crowd_config("moussaid", "grid")
     _, state = env.reset(jax.random.key(4), params)
 
-    def total(e, x):
-        out = forces(e, state.replace(humans=state.humans.replace(x=x)), params)
+    def total(x, config, s, p):
+        out = forces(config, env.config.substeps, s.robots, s.humans.replace(x=x), p)
         return jnp.sum(out[0] ** 2 + out[1] ** 2)
 
-    x = state.humans.x
-    dense = jax.jit(jax.grad(lambda v: total(env, v)))(x)
-    listed = jax.jit(jax.grad(lambda v: total(grid_env, v)))(x)
+    # both gradients in one program
+    dense, listed = jax.jit(lambda x, s, p: (jax.grad(total)(x, env.config.humans, s, p),
+                                             jax.grad(total)(x, grid, s, p)))(
+        state.humans.x, state, params)
     assert bool(jnp.all(jnp.isfinite(listed)))
     np.testing.assert_allclose(np.asarray(listed), np.asarray(dense), rtol=1e-4, atol=1e-4)
 
@@ -177,17 +214,21 @@ def test_dense_pairs_without_a_range_are_every_other_present_body():
 def test_blocks_of_pedestrians_give_what_all_at_once_give():
     """The cell-list path runs pedestrians in blocks (``lax.map``, the last one padded):
     per-pedestrian outputs equal one block of all of them, for crowd sizes around the block."""
-    for num in (5, BLOCK - 1, BLOCK, BLOCK + 3):
-        x, y, present = random_bodies(jax.random.key(num), num + 4, 12.0, absent=0.0)
-        weight = present.astype(jnp.float32)
-        grid = covering_grid(jnp.zeros(2), (12.0, 12.0), RANGE / SPAN)
+    grid = covering_grid(jnp.zeros(2), (12.0, 12.0), RANGE / SPAN)
 
-        def count(pairs, a, b):
-            return (jnp.sum(pairs.weight, axis=1), a * 2.0)
+    def count(pairs, a, b):
+        return (jnp.sum(pairs.weight, axis=1), a * 2.0)
 
+    @functools.partial(jax.jit, static_argnums=0)  # one program per crowd size, both paths
+    def both(num, x, y, weight):
         (n_blocks, twice), _ = map_pairs(count, x[:num], y[:num], x, y, weight, (), RANGE,
                                          grid, 64)
         (n_all, _), _ = map_pairs(count, x[:num], y[:num], x, y, weight, (), RANGE, None, 0)
+        return n_blocks, twice, n_all
+
+    for num in (5, BLOCK - 1, BLOCK, BLOCK + 3):
+        x, y, present = random_bodies(jax.random.key(num), num + 4, 12.0, absent=0.0)
+        n_blocks, twice, n_all = both(num, x, y, present.astype(jnp.float32))
         np.testing.assert_array_equal(np.asarray(n_blocks), np.asarray(n_all))
         np.testing.assert_array_equal(np.asarray(twice), 2.0 * np.asarray(x[:num]))
 

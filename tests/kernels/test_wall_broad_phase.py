@@ -117,9 +117,11 @@ def test_rollouts_on_building_floors_equal_the_all_walls_rollouts(floor, humans)
     assert moved > 1.0  # the robots went somewhere
 
 
-def walled_crowd(model: str, wall_range: float | None, humans: int = 64, **options):
+def walled_crowd(model: str, wall_range: float | None, humans: int = 64, reset: bool = True,
+                 **options):
     """A pedestrian environment on a dense floor (600 random walls over a 30 m square, the
-    route through it) and a state whose pedestrians stand at random places among the walls."""
+    route through it) and (``reset``, else None) a state whose pedestrians stand at random
+    places among the walls."""
     rng = np.random.default_rng(5)
     start = rng.uniform(-15.0, 15.0, (600, 2))
     angle = rng.uniform(0.0, 2 * np.pi, 600)
@@ -133,6 +135,8 @@ def walled_crowd(model: str, wall_range: float | None, humans: int = 64, **optio
             "groups": [{"starts": [0, 1], "goals": [2, 3]}]}
     env, params = sgjax.make(parse_map(data, clearance=0.5), num_agents=2, num_humans=humans,
                              human_model=model, human_range=wall_range, **options)
+    if not reset:
+        return env, params, None
     _, state = env.reset(jax.random.key(0), params)
     h = state.humans
     x = jnp.asarray(rng.uniform(-15.0, 15.0, humans), jnp.float32)
@@ -169,12 +173,14 @@ def test_pedestrians_meet_the_walls_in_range_through_the_lists(model):
     assert scale > 0.1
     for a, b in zip(dense[:2], listed[:2], strict=True):
         np.testing.assert_allclose(np.asarray(b), np.asarray(a), atol=1e-5 * scale + 1e-5)
-    short_env, short_params, _ = walled_crowd(model, 1.5)
+    short_env, short_params, _ = walled_crowd(model, 1.5, reset=False)  # read at `state`
     short = pedestrian_forces(short_env, state, short_params)
     if model != "hsfm":  # HSFM's wall term is gone by 1.5 m (B = 0.08 m)
         assert float(jnp.max(jnp.abs(short[0] - dense[0]))) > 1e-3
-    free_env, free_params, _ = walled_crowd(model, None)
-    assert not uses_wall_lists(free_params.map, None)
+    # without a range the lists are not used, even on this map, whose lists cover 3 m (an
+    # environment made without a range: test_a_range_wider_than_the_floor_keeps_the_planners_
+    # lists, test_pysocialforce_wall_points_beyond_the_range_do_not_act)
+    assert not uses_wall_lists(m, None)
 
 
 @pytest.mark.slow
