@@ -543,13 +543,17 @@ def judge_worst(arms: Sequence[Arm], robots: int, worlds: int, alphas: Sequence[
 
 def worst_section(worst: Mapping[str, Any]) -> list[str]:
     """The worst-case table: per family, each arm's worst-alpha team success (mean over seeds
-    [95% percentile-bootstrap interval over seeds]) for every alpha."""
+    [95% percentile-bootstrap interval over seeds]) for every alpha; a family some arm has
+    played is listed, "pending" where another has not yet."""
     arms = worst["arms"]
     header = ["family", *(f"{name} worst {100 * float(a):g}%" for name in arms
                           for a in worst["alphas"])]
-    rows = [[family, *(_seed_cell([[v] for v in arms[name]["families"][family][a]])
-                       for name in arms for a in worst["alphas"])]
-            for family in FAMILIES if all(family in arms[n]["families"] for n in arms)]
+    def cell(name: str, family: str, alpha: str) -> str:
+        played = arms[name]["families"].get(family)
+        return "pending" if played is None else _seed_cell([[v] for v in played[alpha]])
+
+    rows = [[family, *(cell(name, family, a) for name in arms for a in worst["alphas"])]
+            for family in FAMILIES if any(family in arms[n]["families"] for n in arms)]
     return [f"## Worst case over {worst['worlds']:,} held-out worlds per family", "",
             "Each seed plays every world of the family's test split once (rollout key A) "
             "and the worst worlds again (rollout key B); its score is rollout B's team "
@@ -876,7 +880,7 @@ def parser() -> argparse.ArgumentParser:
     parser.add_argument("--worst-worlds", type=int, default=0, metavar="N",
                         help="also play N held-out worlds of every generated family twice per "
                              "seed of every arm and report the worst alpha%% (SFL's worst "
-                             "case; a compile per seed and family; default 0: off)")
+                             "case; one compile per family; default 0: off)")
     parser.add_argument("--alpha", type=float, nargs="+", default=[0.1],
                         help="the worst-case fractions (with --worst-worlds)")
     parser.add_argument("--sg2maps", default=str(SG2MAPS),

@@ -396,6 +396,10 @@ def test_the_worst_case_per_seed_is_kept_on_resume_and_tabled(arms, monkeypatch)
     text = transfer.tables(made)
     assert "## Worst case over 4 held-out worlds per family" in text
     assert "| family | a worst 50% | a worst 100% |" in text
+    # an arm still to play a family: its cells read "pending", the family's row stays
+    partial = {**worst, "arms": {**worst["arms"], "z": {"sha256": "", "families": {}}}}
+    rows = [line for line in transfer.worst_section(partial) if line.startswith("| open |")]
+    assert len(rows) == 1 and rows[0].endswith("| pending | pending |")
 
 
 RECORDINGS = SG2MAPS.parent / "pedestrians" / "eth_ucy"
