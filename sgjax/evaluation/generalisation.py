@@ -31,7 +31,7 @@ from sgjax.evaluation.policies import Policy, RecurrentPolicy, load_policy
 from sgjax.evaluation.report import markdown_table
 from sgjax.evaluation.runner import EpisodeRunner
 from sgjax.evaluation.statistics import summarize
-from sgjax.evaluation.trained import ActorSpec
+from sgjax.evaluation.trained import ActorSpec, check_observation_size
 from sgjax.maps.generated.families import PREFIX
 from sgjax.maps.generated.splits import TEST_SEEDS
 from sgjax.types import EnvParams, EnvState
@@ -197,9 +197,7 @@ def actor_world_players(env: SocialNavEnv, params: EnvParams, actor: ActorSpec,
     """:func:`world_players` of a trained actor whose weights are the runner's last argument
     (:class:`ActorWorldRunner`): pass ``args=(weights,)`` to :func:`play_worst`."""
     source = _world_source(env)
-    if env.observation_size != actor.obs_size:
-        raise ValueError(f"{env.config.scenario}: the trained policy reads observations of size "
-                         f"{actor.obs_size}, this environment gives {env.observation_size}")
+    check_observation_size(actor, env, str(env.config.scenario))
     runner = ActorWorldRunner(env, actor, deterministic, chunk, int(params.max_steps))
     return runner, jax.jit(jax.vmap(source.of_seed))
 

@@ -51,6 +51,14 @@ class ActorSpec(Hashable, Protocol):
         ...
 
 
+def check_observation_size(actor: ActorSpec, env: Any, where: str) -> None:
+    """Refuse an environment whose observations are not the size ``actor`` reads, naming
+    ``where`` (the scenario)."""
+    if env.observation_size != actor.obs_size:
+        raise ValueError(f"{where}: the trained policy reads observations of size "
+                         f"{actor.obs_size}, this environment gives {env.observation_size}")
+
+
 def _cached(build: Callable, *key: Any) -> Any:
     """``build(*key)``, kept for the process (and built again when ``key`` is unhashable)."""
     try:
@@ -136,10 +144,7 @@ class TrainedEvaluation:
         self.env, self.params = params_by_count(
             scenario, self.counts, options=options,
             max_agents=max_agents or options.robots.max_agents or max(self.counts))
-        if self.env.observation_size != actor.obs_size:
-            raise ValueError(f"{scenario}: the trained policy reads observations of size "
-                             f"{actor.obs_size}, this environment gives "
-                             f"{self.env.observation_size}")
+        check_observation_size(actor, self.env, scenario)
         self.modes = bool(modes) if isinstance(modes, bool | np.bool_) else tuple(
             bool(m) for m in modes)
         if self.modes == ():
