@@ -17,6 +17,7 @@ crowd runs as published (every body acts on every pedestrian) and with a neighbo
 
     python bench/crowd_scale.py
     python bench/crowd_scale.py --humans 1000 --models moussaid hsfm --rounds 3
+    python bench/crowd_scale.py --envs-factor 64 --peers jupedsim    # on a GPU
 
 agent-steps/s counts pedestrians and robots per environment step (sgjax: 0.1 s, the models'
 own sub-steps inside; JuPedSim: one 0.01 s iteration; PySocialForce: one 0.1 s step), as the
@@ -159,6 +160,8 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--peers", nargs="*", default=["jupedsim", "pysocialforce"])
+    parser.add_argument("--envs-factor", type=int, default=1,
+                        help="environments per crowd size times this (a GPU takes many more)")
     parser.add_argument("--psf-max", type=int, default=500,
                         help="largest crowd given to PySocialForce (all pairs in NumPy)")
     args = parser.parse_args()
@@ -166,7 +169,7 @@ def main() -> None:
           f"{args.robots} robots; {_load()}", flush=True)
     rows = []
     for humans in args.humans:
-        envs = ENVS.get(humans, max(1, 4000 // humans))
+        envs = args.envs_factor * ENVS.get(humans, max(1, 4000 // humans))
         for model in args.models:
             for search in (None, "auto", "grid"):
                 row = sgjax_row(humans, envs, model, search, args.rng, args.robots, args.steps)
