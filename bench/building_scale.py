@@ -116,6 +116,8 @@ def main() -> None:
                     "" if label == "as chosen" else " (forced)")
                 rows.append((name, walls, listed, path, envs,
                              prepare(env, p, args.robots, envs, args.steps)))
+                print(f"  compiled {name}, {path}, {envs} environments: "
+                      f"{rows[-1][-1][0]:.1f} s", flush=True)
     per_step = [float("inf")] * len(rows)
     for _ in range(args.rounds):
         for i, row in enumerate(rows):

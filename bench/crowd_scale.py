@@ -178,6 +178,8 @@ def main() -> None:
                 label = ("every body" if search is None else
                          f"{args.rng:g} m, " + ("cell lists" if row[4] else "dense"))
                 rows.append((humans, envs, model, search, label, row))
+                print(f"  compiled {model}, {humans} pedestrians, {label}, {envs} environments: "
+                      f"{row[0]:.1f} s", flush=True)
     per_step = [float("inf")] * len(rows)
     for _ in range(args.rounds):
         for i, row in enumerate(rows):

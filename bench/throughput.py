@@ -166,7 +166,9 @@ def staggered_states(env, params, num_envs: int):
     rollout's steady rate (``num_envs`` / limit per step, more where robots finish early)
     instead of all at once, or never within the timed steps."""
     keys = jax.random.split(jax.random.key(0), num_envs)
-    _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+    # jitted: run eagerly, the reset's primitives would each be compiled and dispatched on
+    # their own (minutes on a GPU before the first timed step)
+    _, state = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(keys, params)
     clocks = jax.random.randint(jax.random.key(2), (num_envs,), 0, params.max_steps)
     return state.replace(time=clocks.astype(state.time.dtype))
 
