@@ -11,12 +11,5 @@ for t in tables34-sgjax tables34-socialgym; do
   ls $R/$t/partial/*.evaluation.json > /dev/null 2>&1 && mkdir -p $D/release-0.5.0/$t/partial && cp $R/$t/partial/*.evaluation.json $D/release-0.5.0/$t/partial/
 done
 [ -d $R/table6 ] && mkdir -p $D/release-0.5.0/table6 && cp $R/table6/*.json $D/release-0.5.0/table6/ 2>/dev/null
-# the transfer judge
-J=/work/runs/transfer-judge
-[ -f $J/transfer.json ] && cp $J/transfer.{json,md} $D/transfer/
-# finished arms
-for a in /work/runs/acting/*.msgpack; do
-  name=$(basename $a .msgpack)
-  [ -f $D/transfer/arms/$name.msgpack ] || bash /work/runs-logs/keep_arm.sh $name
-done
+# the transfer judge and its arms: published in docs/results/transfer/ (2026-11-30)
 cd /work/main && git status --short docs/results-in-progress | head -30
