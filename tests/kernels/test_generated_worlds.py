@@ -5,12 +5,11 @@ checks fail on worlds built broken (a node in a wall, an edge through a wall, no
 
 from __future__ import annotations
 
-import os
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from long_runs import jit_for_long_runs
 
 from sgjax.maps.check import check_map
 from sgjax.maps.generated.checks import verdict
@@ -24,19 +23,11 @@ from sgjax.maps.schema import parse_map
 KEYS = 2048  # worlds per family in the property test
 RADIUS = 0.3  # m: the widest robot the checks are asked about
 # The families whose checks over KEYS worlds run far longer than they compile (many hubs, long
-# routes): compiled with XLA's backend optimisation on, which the suite turns off
-# (tests/conftest.py). Measured on the 2-core CPU: the floor plans' 2,048 worlds in 4.5 s of CPU
-# instead of 14 s, the open spaces' in 2 s instead of 3 s; the other families run about as long
-# as they compile, and compile faster unoptimised. SGJAX_TEST_FULL_OPTIMIZATION=1 compiles
-# everything as users do.
-OPTIMIZED = ({} if os.environ.get("SGJAX_TEST_FULL_OPTIMIZATION") == "1"
-             else {"xla_backend_optimization_level": 1})
+# routes): compiled with the backend optimised (tests/long_runs.py), which the suite turns off.
+# Measured on the 2-core CPU: the floor plans' 2,048 worlds in 4.5 s of CPU instead of 14 s,
+# the open spaces' in 2 s instead of 3 s; the other families run about as long as they compile,
+# and compile faster unoptimised.
 RUN_BOUND = ("open", "floorplan")
-
-
-def optimized(fn, *args):
-    """``jax.jit(fn)(*args)``, compiled with :data:`OPTIMIZED`."""
-    return jax.jit(fn).lower(*args).compile(OPTIMIZED)(*args)
 
 
 _BATCHES: dict[str, tuple] = {}  # family -> its KEYS worlds, once a test has made them
@@ -49,7 +40,7 @@ def batch(name: str, count: int = KEYS):
     Floyd-Warshall). Fewer than ``KEYS`` are sliced from the ``KEYS`` worlds where a test has
     made them already (the same keys, the same worlds). All ``KEYS`` worlds of the
     :data:`RUN_BOUND` families one at a time (``lax.map``: unbatched, the floor plans'
-    dilemma check, gathers and scatters per world, runs faster) and :func:`optimized`."""
+    dilemma check, gathers and scatters per world, runs faster) and :func:`jit_for_long_runs`."""
     if name in _BATCHES:  # sliced on the host (a slice per array in JAX is a compile each)
         return jax.tree.map(lambda x: np.asarray(x)[:count], _BATCHES[name])
     fam = FAMILIES[name]
@@ -66,7 +57,7 @@ def batch(name: str, count: int = KEYS):
     if count < KEYS or name not in RUN_BOUND:
         made = jax.jit(jax.vmap(one))(keys)
     else:
-        made = optimized(lambda keys: jax.lax.map(one, keys), keys)
+        made = jit_for_long_runs(lambda keys: jax.lax.map(one, keys))(keys)
     if count == KEYS:
         _BATCHES[name] = made
     return made
@@ -191,8 +182,8 @@ def test_a_floor_plans_own_routes_equal_floyd_warshall_and_walk_in_their_hops():
                 routes_fit(world, next_hop, route_nodes, hops))
 
     # a world at a time (Floyd-Warshall's dynamic slices stay slices, not batched gathers)
-    out = optimized(lambda *args: jax.lax.map(compare, args), worlds, arrays.node_gap,
-                    arrays.next_hop, hops)
+    out = jit_for_long_runs(lambda *args: jax.lax.map(compare, args))(
+        worlds, arrays.node_gap, arrays.next_hop, hops)
     generic, fits, walk_fits, by_hops = map(np.asarray, out)
     dist, hops = np.asarray(dist), np.asarray(hops)
     at, walked, steps = walk_routes(np.asarray(arrays.next_hop), np.asarray(arrays.node_gap),
